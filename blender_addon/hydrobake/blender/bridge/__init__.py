@@ -1,0 +1,1 @@
+"""Moves data between Blender and numpy/files: images, materials, meshes, volumes."""

@@ -1,0 +1,45 @@
+"""Baked image sequences as Blender images."""
+import os
+
+import bpy
+import numpy as np
+
+
+def load_sequence(folder, stream, frame_start, frame_count, name=None, colorspace="Non-Color"):
+    """An image datablock reading ``<folder>/<stream>_####.exr`` as a sequence. Reuses an
+    image of the same name, so re-baking refreshes rather than duplicates."""
+    first = os.path.join(folder, f"{stream}_{frame_start:04d}.exr")
+    name = name or f"HBK_{stream}"
+    img = bpy.data.images.get(name)
+    if img is None:
+        img = bpy.data.images.load(first, check_existing=False)
+        img.name = name
+    else:
+        img.filepath = first
+    img.source = "SEQUENCE"
+    img.colorspace_settings.name = colorspace
+    img.reload()
+    return img
+
+
+def configure_user(image_user, frame_start, frame_count):
+    """Makes a node's image user play the sequence in step with the scene."""
+    image_user.frame_start = frame_start
+    image_user.frame_offset = frame_start - 1
+    image_user.frame_duration = frame_count
+    image_user.use_auto_refresh = True
+    image_user.use_cyclic = False
+
+
+def pixels(img):
+    """An image's pixels as a (h, w, channels) float32 array, row 0 at the bottom."""
+    w, h = img.size
+    buf = np.empty(w * h * img.channels, dtype=np.float32)
+    img.pixels.foreach_get(buf)
+    return buf.reshape(h, w, img.channels)
+
+
+def set_pixels(img, arr):
+    """Writes a (h, w, channels) array into an image of that size."""
+    img.pixels.foreach_set(np.ascontiguousarray(arr, dtype=np.float32).ravel())
+    img.update()

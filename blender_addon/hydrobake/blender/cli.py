@@ -1,0 +1,159 @@
+"""Batch command line, run inside Blender in background mode:
+
+    blender -b shot.blend --python-exit-code 1 \
+        --python-expr "import hydrobake.blender.cli as c; c.main()" -- bake --frames 1-48
+
+(``build/hydrobake-batch shot.blend bake --frames 1-48`` says the same.)
+
+Commands:
+    list                          effects and objects in the file, and their bake state
+    bake  [--objects A,B] [--effects caustics,...] [--frames S-E] [--output DIR] [--threads N]
+    free  [--objects A,B] [--effects ...]
+Without --objects/--effects, every object with an enabled effect is used. Progress goes to
+stdout a line per frame; errors go to stderr and the exit code is 1.
+"""
+import argparse
+import sys
+import time
+
+import bpy
+
+from ..core import errors
+from . import effects, jobs
+
+
+def _argv():
+    argv = sys.argv
+    return argv[argv.index("--") + 1:] if "--" in argv else []
+
+
+def _frames(text):
+    try:
+        a, _, b = text.partition("-")
+        start, end = int(a), int(b or a)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--frames {text!r}: must be START-END, e.g. 1-48")
+    if start < 0 or end < start:
+        raise argparse.ArgumentTypeError(f"--frames {text!r}: need 0 <= START <= END")
+    return start, end
+
+
+def _csv(text):
+    return [t for t in text.split(",") if t]
+
+
+def parser():
+    p = argparse.ArgumentParser(prog="hydrobake", description="Hydrobake batch baking")
+    sub = p.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="show effects, objects and bake state")
+    for name in ("bake", "free"):
+        s = sub.add_parser(name, help=f"{name} bakes")
+        s.add_argument("--objects", type=_csv, help="comma-separated object names")
+        s.add_argument("--effects", type=_csv, help="comma-separated effect names")
+        if name == "bake":
+            s.add_argument("--frames", type=_frames, help="frame range START-END")
+            s.add_argument("--output", help="cache folder override (absolute path)")
+            s.add_argument("--threads", type=int, default=None,
+                           help="threads (0 = all cores); results do not depend on it")
+    return p
+
+
+def targets(objects=None, effect_names=None):
+    """(object, effect name) pairs: named ones, else every enabled effect."""
+    known = effects.load_all()
+    for name in effect_names or ():
+        if name not in known:
+            raise KeyError(f"--effects {name}: not an effect; known: {', '.join(sorted(known))}")
+    out = []
+    for obj_name in objects or [o.name for o in bpy.data.objects]:
+        obj = bpy.data.objects.get(obj_name)
+        if obj is None:
+            raise KeyError(f"--objects {obj_name}: no such object in {bpy.data.filepath}")
+        for name, beffect in known.items():
+            if effect_names and name not in effect_names:
+                continue
+            settings = getattr(obj, f"hydrobake_{name}", None)
+            if settings is None or not beffect.poll(obj):
+                continue
+            if settings.enabled or (objects and effect_names):
+                out.append((obj, name))
+    return out
+
+
+def _print_frame(job, t0):
+    def on_frame(state):
+        eta = state.eta()
+        print(f"hydrobake: {job.object_name}/{job.effect_name} frame {state.frame} "
+              f"({state.done}/{state.total}) elapsed {time.monotonic() - t0:.1f}s"
+              + (f" remaining {eta:.1f}s" if eta is not None else ""), flush=True)
+    return on_frame
+
+
+def bake(args):
+    failures = 0
+    pairs = targets(args.objects, args.effects)
+    if not pairs:
+        raise KeyError("nothing to bake: no object has an enabled Hydrobake effect "
+                       "(use --objects and --effects)")
+    for obj, name in pairs:
+        t0 = time.monotonic()
+        scene = obj.users_scene[0] if obj.users_scene else bpy.context.scene
+        job = jobs.Job(bpy.context, obj, name, frames=args.frames, folder_override=args.output,
+                       threads=args.threads, scene=scene)
+        job.runner.on_frame = _print_frame(job, t0)
+        jobs.ACTIVE[job.key] = job
+        try:
+            job.runner.run()
+        except Exception as exc:  # report every target, then fail
+            print(f"hydrobake: {obj.name}/{name} failed: {exc}", file=sys.stderr, flush=True)
+            failures += 1
+        finally:
+            job.finalize(bpy.context)
+        print(f"hydrobake: {obj.name}/{name} {job.runner.state.status.lower()} in "
+              f"{time.monotonic() - t0:.1f}s -> {job.folder}", flush=True)
+    if bpy.data.filepath and not failures:
+        bpy.ops.wm.save_mainfile()  # keeps is_baked and the wiring for renders
+    return 1 if failures else 0
+
+
+def free(args):
+    for obj, name in targets(args.objects, args.effects):
+        removed = jobs.free(bpy.context, obj, name)
+        print(f"hydrobake: {obj.name}/{name} freed {len(removed)} files", flush=True)
+    if bpy.data.filepath:
+        bpy.ops.wm.save_mainfile()
+    return 0
+
+
+def list_(args):
+    known = effects.load_all()
+    print(f"effects: {', '.join(sorted(known)) or 'none'}")
+    for obj in bpy.data.objects:
+        for name in known:
+            s = getattr(obj, f"hydrobake_{name}", None)
+            if s is not None and (s.enabled or s.is_baked):
+                print(f"{obj.name}/{name}: enabled={s.enabled} baked={s.is_baked} "
+                      f"folder={s.bake_folder or '-'}")
+    return 0
+
+
+def ensure_enabled():
+    import addon_utils
+    if "hydrobake" not in bpy.context.preferences.addons:
+        addon_utils.enable("hydrobake", default_set=False)
+
+
+def main(argv=None):
+    """Runs one command; exits Blender with 0 on success, 1 on any failure."""
+    try:
+        args = parser().parse_args(_argv() if argv is None else argv)
+    except SystemExit as exc:
+        sys.exit(2 if exc.code else 0)
+    try:
+        ensure_enabled()
+        code = {"bake": bake, "free": free, "list": list_}[args.command](args)
+    except (errors.HydrobakeError, KeyError, ValueError, OSError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"hydrobake: error: {msg}", file=sys.stderr, flush=True)
+        code = 1
+    sys.exit(code)

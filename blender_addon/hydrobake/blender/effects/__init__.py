@@ -1,0 +1,32 @@
+"""Blender halves of the effects: what each takes from the scene and how its bake is wired
+back into materials and objects. Each module defines one BlenderEffect subclass."""
+import importlib
+
+from ...core import effects as core_effects
+
+_MODULES = ("caustics",)
+BLENDER_EFFECTS = {}
+
+
+def register_effect(cls):
+    BLENDER_EFFECTS[cls.name] = cls
+    return cls
+
+
+def load_all():
+    """The Blender effects whose core effect exists in this build."""
+    core_effects.load_all()
+    for mod in _MODULES:
+        try:
+            importlib.import_module(f"{__name__}.{mod}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{mod}":
+                raise
+    return {n: c for n, c in BLENDER_EFFECTS.items() if n in core_effects.EFFECTS}
+
+
+def get(name):
+    effects = load_all()
+    if name not in effects:
+        raise KeyError(f"effect {name!r}: known effects are {', '.join(sorted(effects)) or 'none'}")
+    return effects[name]

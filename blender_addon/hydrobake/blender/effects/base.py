@@ -1,0 +1,42 @@
+"""The Blender half of an effect: scene inputs in, baked outputs wired back."""
+
+
+class BlenderEffect:
+    name = ""           # the core effect's name
+    label = ""          # shown in the UI
+    icon = "MOD_FLUIDSIM"
+    object_types = {"MESH"}
+    presets = {}        # preset name -> parameter dict (partial)
+    description = ""
+
+    @classmethod
+    def core_class(cls):
+        from ...core import effects
+        return effects.get(cls.name)
+
+    @classmethod
+    def poll(cls, obj):
+        return obj is not None and obj.type in cls.object_types
+
+    @classmethod
+    def gather_inputs(cls, context, obj, settings):
+        """Arrays the core effect needs, read from the scene on the main thread."""
+        return {}
+
+    @classmethod
+    def apply(cls, context, obj, settings, folder, manifest):
+        """Wires a finished (or partly finished) bake into the scene. Main thread."""
+
+    @classmethod
+    def remove(cls, context, obj, settings):
+        """Undoes ``apply`` (Free Bake). Main thread."""
+
+    @classmethod
+    def draw_settings(cls, layout, settings):
+        """Draws the effect's settings; the default draws every parameter in table order."""
+        from .. import properties
+        spec = cls.core_class().spec
+        col = layout.column()
+        for p in spec.params if spec else ():
+            if p.name not in properties.HIDDEN:
+                col.prop(settings, p.name)

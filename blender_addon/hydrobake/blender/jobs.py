@@ -1,0 +1,70 @@
+"""A bake of one object's effect, as the operators, the panels and the command line see it.
+
+Scene data is read on the main thread when the job is made; the worker thread then touches
+only the core (C and files); wiring the result back happens on the main thread again.
+Jobs are keyed by object and effect *names*, never by Python references to Blender data."""
+import bpy
+
+from ..core.bake import BakeRunner, BakeCache
+from . import effects, paths, properties
+
+ACTIVE = {}  # (object name, effect name) -> Job, while running or waiting to be finalized
+
+
+def settings_of(obj, effect_name):
+    return getattr(obj, f"hydrobake_{effect_name}")
+
+
+def frame_range(scene, settings):
+    if settings.use_scene_range:
+        return scene.frame_start, scene.frame_end
+    return settings.frame_start, settings.frame_end
+
+
+class Job:
+    def __init__(self, context, obj, effect_name, frames=None, folder_override=None,
+                 threads=None, scene=None):
+        scene = scene or context.scene
+        self.object_name, self.effect_name = obj.name, effect_name
+        self.beffect = effects.get(effect_name)
+        settings = settings_of(obj, effect_name)
+        spec = self.beffect.core_class().spec
+        params = properties.to_params(spec, settings)
+        if spec is not None and "threads" in spec.by_name:
+            params["threads"] = scene.hydrobake.threads if threads is None else threads
+        start, end = frames or frame_range(scene, settings)
+        self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
+        inputs = self.beffect.gather_inputs(context, obj, settings)
+        effect = self.beffect.core_class()(params, inputs)
+        self.runner = BakeRunner(effect, self.folder, start, end,
+                                 header={"object": obj.name, "blend": bpy.data.filepath})
+
+    @property
+    def key(self):
+        return (self.object_name, self.effect_name)
+
+    def finalize(self, context):
+        """Main thread, after the runner stopped: record the bake and wire what exists."""
+        ACTIVE.pop(self.key, None)
+        self.runner.effect.close()
+        obj = bpy.data.objects.get(self.object_name)
+        if obj is None:  # deleted while baking: the files stay, nothing to wire
+            return
+        settings = settings_of(obj, self.effect_name)
+        manifest = BakeCache(self.folder).read_manifest()
+        if manifest and manifest["frames"]:
+            settings.is_baked = True
+            settings.bake_folder = self.folder
+            self.beffect.apply(context, obj, settings, self.folder, manifest)
+
+
+def free(context, obj, effect_name):
+    """Removes the bake's files (and nothing else) and unwires it."""
+    settings = settings_of(obj, effect_name)
+    beffect = effects.get(effect_name)
+    folder = settings.bake_folder or paths.bake_folder(obj, effect_name, settings)
+    removed = BakeCache(folder).free()
+    beffect.remove(context, obj, settings)
+    settings.is_baked = False
+    settings.bake_folder = ""
+    return removed

@@ -1,0 +1,189 @@
+"""Thin operators: bake (modal with progress and Esc in the UI, blocking in background mode and
+from scripts), cancel, free, presets."""
+import traceback
+
+import bpy
+
+from ..core import errors
+from . import effects, jobs, paths, properties
+
+
+def _target(context, op):
+    obj = bpy.data.objects.get(op.object_name) if op.object_name else context.object
+    if obj is None:
+        op.report({"ERROR"}, f"No object named '{op.object_name}'" if op.object_name
+                  else "No active object")
+    return obj
+
+
+class _EffectTarget:
+    effect: bpy.props.StringProperty(name="Effect", description="Effect name, e.g. 'caustics'")
+    object_name: bpy.props.StringProperty(
+        name="Object", description="Object to bake; empty for the active object")
+
+
+class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
+    """Bake this effect over the frame range into the cache folder"""
+    bl_idname = "hydrobake.bake"
+    bl_label = "Bake"
+    bl_options = {"REGISTER"}
+
+    _job = None
+    _timer = None
+
+    def _make_job(self, context):
+        obj = _target(context, self)
+        if obj is None:
+            return None
+        try:
+            effects.get(self.effect)
+            if (obj.name, self.effect) in jobs.ACTIVE:
+                self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake is already running")
+                return None
+            return jobs.Job(context, obj, self.effect)
+        except (errors.HydrobakeError, paths.CacheFolderError, KeyError, ValueError) as exc:
+            self.report({"ERROR"}, f"{obj.name} {self.effect}: {exc}")
+            return None
+
+    def execute(self, context):
+        """Blocking bake: background mode, scripts and the command line."""
+        job = self._make_job(context)
+        if job is None:
+            return {"CANCELLED"}
+        jobs.ACTIVE[job.key] = job
+        try:
+            job.runner.run()
+        except errors.HydrobakeError:
+            pass  # the runner's state carries the message; _report shows it
+        except Exception:
+            traceback.print_exc()
+        finally:
+            job.finalize(context)
+        return self._report(job)
+
+    def _report(self, job):
+        s = job.runner.state
+        if s.status == "FINISHED":
+            self.report({"INFO"}, f"Baked {s.done} frames of {job.effect_name} to {job.folder}")
+            return {"FINISHED"}
+        if s.status == "CANCELLED":
+            self.report({"WARNING"}, f"Bake cancelled: frames {s.frame_start}-"
+                        f"{s.frame_start + s.done - 1} are kept" if s.done else "Bake cancelled")
+            return {"CANCELLED"}
+        self.report({"ERROR"}, f"{job.object_name} {job.effect_name}: {s.message}")
+        return {"CANCELLED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        job = self._make_job(context)
+        if job is None:
+            return {"CANCELLED"}
+        self._job = job
+        jobs.ACTIVE[job.key] = job
+        job.runner.start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 1000)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == "ESC" and event.value == "PRESS":
+            job.runner.cancel()
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        wm.progress_update(int(job.runner.poll_fraction() * 1000))
+        s = job.runner.state
+        if s.frame is not None:
+            context.workspace.status_text_set(
+                f"Hydrobake: {job.effect_name} frame {s.frame} of {s.frame_end} "
+                f"({job.runner.poll_fraction():.0%}) - Esc to cancel")
+        for area in context.screen.areas:
+            if area.type == "PROPERTIES":
+                area.tag_redraw()
+        if job.runner.is_alive():
+            return {"PASS_THROUGH"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        job.finalize(context)
+        return self._report(job)
+
+
+class HYDROBAKE_OT_cancel_bake(_EffectTarget, bpy.types.Operator):
+    """Stop the running bake; frames already baked are kept"""
+    bl_idname = "hydrobake.cancel_bake"
+    bl_label = "Cancel Bake"
+
+    def execute(self, context):
+        obj = _target(context, self)
+        job = obj and jobs.ACTIVE.get((obj.name, self.effect))
+        if job is None:
+            self.report({"WARNING"}, "No bake is running")
+            return {"CANCELLED"}
+        job.runner.cancel()
+        return {"FINISHED"}
+
+
+class HYDROBAKE_OT_free_bake(_EffectTarget, bpy.types.Operator):
+    """Delete this bake's files (only those) and unlock the settings"""
+    bl_idname = "hydrobake.free_bake"
+    bl_label = "Free Bake"
+    bl_options = {"REGISTER"}
+
+    def execute(self, context):
+        obj = _target(context, self)
+        if obj is None:
+            return {"CANCELLED"}
+        if (obj.name, self.effect) in jobs.ACTIVE:
+            self.report({"ERROR"}, "Cancel the running bake first")
+            return {"CANCELLED"}
+        try:
+            removed = jobs.free(context, obj, self.effect)
+        except (KeyError, paths.CacheFolderError, OSError, ValueError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Freed {len(removed)} files")
+        return {"FINISHED"}
+
+
+def _preset_items(self, context):
+    try:
+        return [(n, n, "") for n in effects.get(self.effect).presets] or [("", "None", "")]
+    except KeyError:
+        return [("", "None", "")]
+
+
+class HYDROBAKE_OT_apply_preset(_EffectTarget, bpy.types.Operator):
+    """Set this effect's parameters from a preset"""
+    bl_idname = "hydrobake.apply_preset"
+    bl_label = "Apply Preset"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: bpy.props.StringProperty(name="Preset")
+
+    def execute(self, context):
+        obj = _target(context, self)
+        if obj is None:
+            return {"CANCELLED"}
+        try:
+            beffect = effects.get(self.effect)
+            values = beffect.presets[self.preset]
+        except KeyError as exc:
+            self.report({"ERROR"}, f"preset = {self.preset!r}: not a preset of {self.effect}"
+                        if "preset" not in str(exc) else str(exc))
+            return {"CANCELLED"}
+        settings = jobs.settings_of(obj, self.effect)
+        if settings.is_baked:
+            self.report({"ERROR"}, "Free the bake before changing its settings")
+            return {"CANCELLED"}
+        spec = beffect.core_class().spec
+        properties.from_params(spec, settings, dict(spec.defaults(), **values))
+        return {"FINISHED"}
+
+
+CLASSES = (HYDROBAKE_OT_bake, HYDROBAKE_OT_cancel_bake, HYDROBAKE_OT_free_bake,
+           HYDROBAKE_OT_apply_preset)

@@ -1,0 +1,121 @@
+"""Blender properties built from the C parameter tables, one PropertyGroup per effect.
+
+Each effect's settings live on the object it applies to (``obj.hydrobake_<effect>``), beside
+the framework's own: enabled, cache folder, frame range and bake state."""
+import bpy
+
+from ..core import params as P
+
+# Parameters that are not artistic settings: the thread count is chosen per run
+# (scene setting / command line), never stored with the effect.
+HIDDEN = {"threads"}
+
+# C unit -> (Blender subtype, Blender unit). Units Blender has no subtype for stay NONE, and
+# the unit is spelled out in the tooltip.
+_UNITS = {
+    "m": ("DISTANCE", "LENGTH"),
+    "m/s": ("VELOCITY", "VELOCITY"),
+    "m/s^2": ("ACCELERATION", "ACCELERATION"),
+    "rad": ("ANGLE", "ROTATION"),
+    "s": ("TIME_ABSOLUTE", "TIME_ABSOLUTE"),
+    "degC": ("TEMPERATURE", "TEMPERATURE"),
+    "%": ("PERCENTAGE", "NONE"),
+    "1/m": ("NONE", "NONE"),
+}
+
+
+def label_of(name):
+    return name.replace("_", " ").title()
+
+
+def _tooltip(p):
+    unit = f" [{p.unit}]" if p.unit and p.unit != "1" else ""
+    return f"{p.description}{unit}. Range {p.min:g} to {p.max:g}"
+
+
+def property_for(p):
+    """The bpy property for one Param, with its range, unit and tooltip."""
+    common = dict(name=label_of(p.name), description=_tooltip(p))
+    if p.type == P.F32:
+        subtype, unit = _UNITS.get(p.unit, ("NONE", "NONE"))
+        rng = dict(min=p.min, max=p.max, soft_min=p.min, soft_max=p.max)
+        if p.count > 1:
+            vsub = {"m": "TRANSLATION", "m/s": "VELOCITY", "m/s^2": "ACCELERATION"}.get(
+                p.unit, "XYZ" if p.count == 3 else "NONE")
+            return bpy.props.FloatVectorProperty(size=p.count, default=p.default,
+                                                 subtype=vsub, unit=unit, **rng, **common)
+        return bpy.props.FloatProperty(default=p.default, subtype=subtype, unit=unit,
+                                       precision=4, **rng, **common)
+    if p.type == P.BOOL:
+        return bpy.props.BoolProperty(default=bool(p.default), **common)
+    if p.type == P.ENUM:
+        items = [(it.upper().replace(" ", "_"), it, "") for it in p.items]
+        return bpy.props.EnumProperty(items=items, default=items[int(p.default)][0], **common)
+    # I32 / U64: Blender ints are 32-bit signed, so u64 seeds are offered in [0, 2^31).
+    lo, hi = max(p.min, -2**31), min(p.max, 2**31 - 1)
+    return bpy.props.IntProperty(default=int(min(max(p.default, lo), hi)), min=int(lo),
+                                 max=int(hi), **common)
+
+
+def to_params(spec, settings):
+    """The dict of kernel parameters held by a settings PropertyGroup."""
+    out = {}
+    for p in spec.params if spec else ():
+        if p.name in HIDDEN:
+            continue
+        v = getattr(settings, p.name)
+        if p.type == P.ENUM:
+            v = [it.upper().replace(" ", "_") for it in p.items].index(v)
+        elif p.count > 1:
+            v = tuple(v)
+        out[p.name] = v
+    return out
+
+
+def from_params(spec, settings, values):
+    """Sets a PropertyGroup from a parameter dict (presets, manifests)."""
+    for name, v in values.items():
+        p = spec.by_name.get(name)
+        if p is None or name in HIDDEN:
+            continue
+        if p.type == P.ENUM and isinstance(v, int):
+            v = p.items[v].upper().replace(" ", "_")
+        setattr(settings, name, v)
+
+
+def make_settings_class(effect_name, spec):
+    """A PropertyGroup class: the kernel's parameters plus the framework's bake settings."""
+    ann = {p.name: property_for(p) for p in (spec.params if spec else ())
+           if p.name not in HIDDEN}
+    ann.update(
+        enabled=bpy.props.BoolProperty(
+            name="Enabled", default=False,
+            description=f"Bake the {label_of(effect_name)} effect for this object"),
+        cache_dir=bpy.props.StringProperty(
+            name="Cache Folder", subtype="DIR_PATH", default="//hydrobake_cache/",
+            description="Folder for baked files; '//' is relative to the .blend. Each .blend, "
+                        "object and effect gets its own subfolder"),
+        use_scene_range=bpy.props.BoolProperty(
+            name="Scene Frame Range", default=True,
+            description="Bake the scene's frame range instead of the range below"),
+        frame_start=bpy.props.IntProperty(name="Start", default=1, min=0, max=1048574,
+                                          description="First frame to bake"),
+        frame_end=bpy.props.IntProperty(name="End", default=50, min=0, max=1048574,
+                                        description="Last frame to bake"),
+        is_baked=bpy.props.BoolProperty(
+            name="Baked", default=False,
+            description="A bake exists; settings are locked until it is freed"),
+        bake_folder=bpy.props.StringProperty(
+            name="Bake Folder", subtype="DIR_PATH", default="",
+            description="Where the current bake was written"),
+    )
+    return type(f"HYDROBAKE_PG_{effect_name}", (bpy.types.PropertyGroup,),
+                {"__annotations__": ann, "__doc__": f"{label_of(effect_name)} settings"})
+
+
+class HydrobakeSceneSettings(bpy.types.PropertyGroup):
+    """Scene-wide settings: how many threads a bake uses (results do not depend on it)."""
+    threads: bpy.props.IntProperty(
+        name="Threads", default=0, min=0, max=256,
+        description="Threads for baking; 0 uses every core. Results are identical for any "
+                    "thread count")

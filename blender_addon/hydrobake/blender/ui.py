@@ -1,0 +1,67 @@
+"""Panels: one per effect in the Physics tab of the object it applies to, where Blender keeps
+its own simulations, with Bake / Free Bake, progress, presets and the settings (greyed out
+while a bake exists)."""
+import bpy
+
+from . import jobs
+
+
+def draw_effect(layout, context, beffect):
+    obj = context.object
+    settings = jobs.settings_of(obj, beffect.name)
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    job = jobs.ACTIVE.get((obj.name, beffect.name))
+
+    row = layout.row(align=True)
+    if job is not None:
+        s = job.runner.state
+        frame = s.frame if s.frame is not None else s.frame_start
+        row.label(text=f"Baking frame {frame} / {s.frame_end} "
+                       f"({job.runner.poll_fraction():.0%})", icon="TIME")
+        op = row.operator("hydrobake.cancel_bake", text="Cancel", icon="CANCEL")
+    elif settings.is_baked:
+        op = row.operator("hydrobake.free_bake", text="Free Bake", icon="TRASH")
+    else:
+        op = row.operator("hydrobake.bake", text="Bake", icon="RENDER_ANIMATION")
+    op.effect, op.object_name = beffect.name, obj.name
+    if settings.is_baked and job is None:
+        layout.label(text=f"Baked in {bpy.path.relpath(settings.bake_folder)}", icon="CHECKMARK")
+
+    locked = settings.is_baked or job is not None
+    col = layout.column()
+    col.enabled = not locked
+    col.prop(settings, "cache_dir")
+    col.prop(settings, "use_scene_range")
+    sub = col.column(align=True)
+    sub.active = not settings.use_scene_range
+    sub.prop(settings, "frame_start")
+    sub.prop(settings, "frame_end")
+    col.prop(context.scene.hydrobake, "threads")
+
+    if beffect.presets:
+        row = col.row(align=True)
+        row.label(text="Presets")
+        for name in beffect.presets:
+            op = row.operator("hydrobake.apply_preset", text=name)
+            op.effect, op.object_name, op.preset = beffect.name, obj.name, name
+    box = col.box()
+    beffect.draw_settings(box, settings)
+
+
+def make_panel(beffect):
+    def poll(cls, context):
+        return beffect.poll(context.object)
+
+    def draw_header(self, context):
+        self.layout.prop(jobs.settings_of(context.object, beffect.name), "enabled", text="")
+
+    def draw(self, context):
+        draw_effect(self.layout, context, beffect)
+
+    return type(f"HYDROBAKE_PT_{beffect.name}", (bpy.types.Panel,), {
+        "bl_label": f"Hydrobake {beffect.label}",
+        "bl_space_type": "PROPERTIES", "bl_region_type": "WINDOW", "bl_context": "physics",
+        "bl_options": {"DEFAULT_CLOSED"},
+        "poll": classmethod(poll), "draw_header": draw_header, "draw": draw,
+    })

@@ -1,0 +1,39 @@
+"""numpy arrays <-> C image views, checked before any call so a wrong dtype, shape or layout
+raises instead of corrupting memory."""
+import ctypes
+
+import numpy as np
+
+from . import errors
+from ._lib import Image
+
+FLOAT_PTR = ctypes.POINTER(ctypes.c_float)
+float_array = np.ctypeslib.ndpointer(np.float32, flags="C_CONTIGUOUS")
+
+
+def as_image(arr, name, channels=None, writable=False):
+    """A hbk_image_t over a float32 array of shape (h, w) or (h, w, c); row 0 = bottom.
+
+    The array must stay alive while the view is used (callers keep it referenced)."""
+    if not isinstance(arr, np.ndarray):
+        raise errors.InvalidArgument(f"{name}: must be a numpy array, got {type(arr).__name__}")
+    if arr.dtype != np.float32:
+        raise errors.InvalidArgument(f"{name}: dtype must be float32, got {arr.dtype}")
+    if arr.ndim not in (2, 3):
+        raise errors.InvalidArgument(f"{name}: must have shape (height, width[, channels]), got "
+                                     f"{arr.shape}")
+    c = 1 if arr.ndim == 2 else arr.shape[2]
+    if channels is not None and c not in ((channels,) if isinstance(channels, int) else channels):
+        raise errors.InvalidArgument(f"{name}: must have {channels} channel(s), got {c}")
+    if not arr.flags.c_contiguous:
+        raise errors.InvalidArgument(f"{name}: must be C-contiguous (use np.ascontiguousarray)")
+    if writable and not arr.flags.writeable:
+        raise errors.InvalidArgument(f"{name}: must be writable")
+    h, w = arr.shape[:2]
+    return Image(arr.ctypes.data_as(FLOAT_PTR), w, h, c, w * c)
+
+
+def empty(height, width, channels=1):
+    """A new zeroed float32 image buffer of the shape the kernels expect."""
+    shape = (height, width) if channels == 1 else (height, width, channels)
+    return np.zeros(shape, dtype=np.float32)

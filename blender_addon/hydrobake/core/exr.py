@@ -1,0 +1,120 @@
+"""EXR files through the library's OpenEXRCore writer and reader.
+
+Arrays are (height, width) float32 with row 0 at the bottom, as Blender's pixel buffers are.
+Writes are atomic: a temporary file in the same folder is renamed over the target only when
+complete, so a failed or interrupted write never leaves a partial file.
+"""
+import ctypes
+import os
+
+import numpy as np
+
+from . import _lib, errors
+from ._lib import ExrChannel, Message, P, check_message, check_handle, hbk_result_t
+
+COMPRESSION = {"NONE": 0, "ZIP": 1, "ZIPS": 2}
+
+
+class _Reader(ctypes.Structure):
+    pass
+
+
+_ReaderP = P(_Reader)
+
+_lib.declare([
+    ("hbk_exr_write", hbk_result_t,
+     [ctypes.c_char_p, ctypes.c_int32, ctypes.c_int32, P(ExrChannel), ctypes.c_int32,
+      ctypes.c_int32, P(Message)], check_message),
+    ("hbk_exr_open", hbk_result_t, [P(_ReaderP), ctypes.c_char_p, P(Message)], check_message),
+    ("hbk_exr_size", None, [_ReaderP, P(ctypes.c_int32), P(ctypes.c_int32)]),
+    ("hbk_exr_channel_count", ctypes.c_int32, [_ReaderP]),
+    ("hbk_exr_channel_name", ctypes.c_char_p, [_ReaderP, ctypes.c_int32]),
+    ("hbk_exr_channel_is_half", ctypes.c_int32, [_ReaderP, ctypes.c_int32]),
+    ("hbk_exr_message", ctypes.c_char_p, [_ReaderP]),
+    ("hbk_exr_close", None, [_ReaderP]),
+])
+_lib.declare([
+    ("hbk_exr_read_channel", hbk_result_t,
+     [_ReaderP, ctypes.c_char_p, _lib.P(ctypes.c_float), ctypes.c_size_t, ctypes.c_size_t],
+     check_handle(_lib.lib.hbk_exr_message)),
+])
+
+
+def write(path, channels, half=(), compression="ZIP"):
+    """Writes ``channels`` (name -> (h, w) float32 array, all the same size) to ``path``.
+
+    ``half``: names stored as 16-bit half (the rest as 32-bit float), or True for all."""
+    if not channels:
+        raise errors.InvalidArgument("channels: must name at least one channel")
+    if compression not in COMPRESSION:
+        raise errors.InvalidArgument(
+            f"compression = {compression!r}: must be one of {', '.join(COMPRESSION)}")
+    arrays, shape = [], None
+    for name, arr in channels.items():
+        arr = np.ascontiguousarray(arr, dtype=np.float32)
+        if arr.ndim != 2:
+            raise errors.InvalidArgument(f"channels[{name!r}]: must be 2-D (height, width), got "
+                                         f"shape {arr.shape}")
+        if shape is None:
+            shape = arr.shape
+        elif arr.shape != shape:
+            raise errors.InvalidArgument(f"channels[{name!r}]: shape {arr.shape} differs from "
+                                         f"{shape}")
+        arrays.append((name, arr))
+    table = (ExrChannel * len(arrays))()
+    for i, (name, arr) in enumerate(arrays):
+        table[i] = ExrChannel(name.encode(), arr.ctypes.data_as(P(ctypes.c_float)), 1,
+                              shape[1], int(half is True or name in half))
+    _lib.lib.hbk_exr_write(os.fsencode(path), shape[1], shape[0], table, len(arrays),
+                           COMPRESSION[compression], Message())
+
+
+def write_rgba(path, rgba, half=False, compression="ZIP"):
+    """Writes an (h, w, 3|4) array as R, G, B[, A] channels: what Blender loads from EXR."""
+    names = "RGBA"[:rgba.shape[2]]
+    write(path, {n: rgba[:, :, i] for i, n in enumerate(names)}, half=True if half else (),
+          compression=compression)
+
+
+class Reader:
+    """An open EXR file: ``size``, ``channels`` (name -> is_half), ``read(name)``.
+
+    Use as a context manager, or call close(); the file is closed when collected."""
+
+    def __init__(self, path):
+        import weakref
+        handle = _ReaderP()
+        _lib.lib.hbk_exr_open(ctypes.byref(handle), os.fsencode(path), Message())
+        self._h = handle
+        self._finalizer = weakref.finalize(self, _lib.lib.hbk_exr_close, handle)
+        w, h = ctypes.c_int32(), ctypes.c_int32()
+        _lib.lib.hbk_exr_size(handle, ctypes.byref(w), ctypes.byref(h))
+        self.size = (w.value, h.value)
+        n = _lib.lib.hbk_exr_channel_count(handle)
+        self.channels = {_lib.lib.hbk_exr_channel_name(handle, i).decode():
+                         bool(_lib.lib.hbk_exr_channel_is_half(handle, i) == 1) for i in range(n)}
+
+    def read(self, name):
+        """Channel ``name`` as a (h, w) float32 array, row 0 at the bottom."""
+        if not self._finalizer.alive:
+            raise errors.StateError("the EXR reader is closed")
+        w, h = self.size
+        out = np.empty((h, w), dtype=np.float32)
+        _lib.lib.hbk_exr_read_channel(self._h, name.encode(), out.ctypes.data_as(P(ctypes.c_float)),
+                                      1, w)
+        return out
+
+    def close(self):
+        self._finalizer()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def read(path):
+    """All channels of ``path`` as a dict name -> (h, w) float32 array."""
+    with Reader(path) as r:
+        return {name: r.read(name) for name in r.channels}

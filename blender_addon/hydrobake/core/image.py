@@ -1,0 +1,30 @@
+"""Shared image kernels: normal maps from height fields."""
+import ctypes
+
+import numpy as np
+
+from . import _lib, arrays
+from ._lib import Image, Message, P, check_message, hbk_result_t
+
+_lib.declare([
+    ("hbk_normal_map", hbk_result_t,
+     [P(Image), ctypes.c_float, ctypes.c_float, ctypes.c_float, ctypes.c_int32, ctypes.c_int32,
+      P(Image), P(Message)], check_message),
+])
+
+EDGES = {"CLAMP": 0, "WRAP": 1, "MIRROR": 2}
+
+
+def normal_map(height, texel_size=(1.0, 1.0), strength=1.0, edge="CLAMP", encode=False,
+               out=None):
+    """Tangent-space normals of a (h, w) float32 height field, as (h, w, 3) or into ``out``
+    ((h, w, 3|4)). ``encode`` maps to n * 0.5 + 0.5 for Blender's Normal Map node."""
+    if edge not in EDGES:
+        raise ValueError(f"edge = {edge!r}: must be one of {', '.join(EDGES)}")
+    if out is None:
+        out = np.empty(height.shape[:2] + (3,), dtype=np.float32)
+    src = arrays.as_image(height, "height", channels=1)
+    dst = arrays.as_image(out, "out", channels=(3, 4), writable=True)
+    _lib.lib.hbk_normal_map(src, texel_size[0], texel_size[1], strength, EDGES[edge],
+                            int(bool(encode)), dst, Message())
+    return out

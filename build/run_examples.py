@@ -1,0 +1,60 @@
+"""Inside Blender (build/main.sh): bake every enabled effect of every scene of the open .blend
+through the addon's batch path, then render one still per scene to <out>/<scene>.png.
+
+Arguments after '--': OUT_DIR [--samples N] [--resolution PERCENT]."""
+import argparse
+import os
+import sys
+import time
+
+import addon_utils
+import bpy
+
+argv = sys.argv[sys.argv.index("--") + 1:]
+ap = argparse.ArgumentParser()
+ap.add_argument("out")
+ap.add_argument("--samples", type=int, default=None)
+ap.add_argument("--resolution", type=int, default=None)
+args = ap.parse_args(argv)
+
+addon_utils.enable("hydrobake", default_set=False)
+from hydrobake.blender import effects, jobs  # noqa: E402
+
+known = effects.load_all()
+cache = os.path.join(os.path.abspath(args.out), "cache")
+failed = False
+for scene in bpy.data.scenes:
+    for obj in scene.objects:
+        for name in known:
+            settings = getattr(obj, f"hydrobake_{name}", None)
+            if settings is None or not settings.enabled:
+                continue
+            t0 = time.monotonic()
+            job = jobs.Job(bpy.context, obj, name, folder_override=cache, scene=scene)
+            jobs.ACTIVE[job.key] = job
+            try:
+                job.runner.run()
+            except Exception as exc:
+                print(f"run_examples: {scene.name}/{obj.name}/{name} failed: {exc}",
+                      file=sys.stderr)
+                failed = True
+            finally:
+                job.finalize(bpy.context)
+            s = job.runner.state
+            print(f"run_examples: baked {scene.name}/{obj.name}/{name}: {s.done} frames in "
+                  f"{time.monotonic() - t0:.1f}s", flush=True)
+    render = scene.render
+    scene.cycles.use_denoising = False  # Debian's Cycles has no denoiser
+    if args.samples:
+        scene.cycles.samples = args.samples
+    if args.resolution:
+        render.resolution_percentage = args.resolution
+    still = scene.get("hydrobake_still_frame", scene.frame_current)
+    scene.frame_set(int(still))
+    render.filepath = os.path.join(os.path.abspath(args.out), f"{bpy.path.clean_name(scene.name)}.png")
+    render.image_settings.file_format = "PNG"
+    t0 = time.monotonic()
+    bpy.ops.render.render(write_still=True, scene=scene.name)
+    print(f"run_examples: rendered {render.filepath} in {time.monotonic() - t0:.1f}s", flush=True)
+bpy.ops.wm.save_mainfile()
+sys.exit(1 if failed else 0)

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Installs what Hydrobake needs from Debian 12's packages (as root), or prints the exact
+# apt-get line and stops (otherwise). Safe to run again: installs only what is missing.
+set -euo pipefail
+PKGS=(blender python3-openvdb python3-numpy python3-pytest libopenexr-dev cmake gcc make
+      pkg-config)
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+line="apt-get install -y --no-install-recommends ${missing[*]}"
+if [ "$(id -u)" -ne 0 ]; then
+  echo "hydrobake setup: missing packages: ${missing[*]}" >&2
+  echo "run as root:  apt-get update && $line" >&2
+  exit 1
+fi
+echo "hydrobake setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

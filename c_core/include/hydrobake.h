@@ -1,0 +1,8 @@
+/* Hydrobake: water-and-weather effect kernels. The one header to include. */
+#ifndef HYDROBAKE_H
+#define HYDROBAKE_H
+#include "hbk_base.h"
+#include "hbk_rng.h"
+#include "hbk_image.h"
+#include "hbk_exr.h"
+#endif

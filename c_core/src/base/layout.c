@@ -1,0 +1,39 @@
+/* sizeof/offsetof of the public structs, for bindings to check their mirrors against. */
+#include "hydrobake.h"
+#include <string.h>
+
+typedef struct {
+    const char *type, *field;
+    size_t value;
+} layout_entry_t;
+
+#define SIZE(T) {#T, NULL, sizeof(T)}
+#define FIELD(T, f) {#T, #f, offsetof(T, f)}
+
+static const layout_entry_t k_layout[] = {
+    SIZE(hbk_message_t),
+    SIZE(hbk_progress_t), FIELD(hbk_progress_t, cancel), FIELD(hbk_progress_t, fraction),
+    SIZE(hbk_param_info_t), FIELD(hbk_param_info_t, name), FIELD(hbk_param_info_t, type),
+    FIELD(hbk_param_info_t, offset), FIELD(hbk_param_info_t, count),
+    FIELD(hbk_param_info_t, min), FIELD(hbk_param_info_t, max), FIELD(hbk_param_info_t, unit),
+    FIELD(hbk_param_info_t, items), FIELD(hbk_param_info_t, description),
+    SIZE(hbk_image_t), FIELD(hbk_image_t, data), FIELD(hbk_image_t, width),
+    FIELD(hbk_image_t, height), FIELD(hbk_image_t, channels), FIELD(hbk_image_t, row_stride),
+    SIZE(hbk_exr_channel_t), FIELD(hbk_exr_channel_t, name), FIELD(hbk_exr_channel_t, data),
+    FIELD(hbk_exr_channel_t, pixel_stride), FIELD(hbk_exr_channel_t, row_stride),
+    FIELD(hbk_exr_channel_t, half),
+};
+
+hbk_result_t hbk_layout(const char *struct_name, const char *field, size_t *out)
+{
+    if (!struct_name || !out) return HBK_ERR_INVALID_ARGUMENT;
+    for (size_t i = 0; i < sizeof k_layout / sizeof k_layout[0]; ++i) {
+        const layout_entry_t *e = &k_layout[i];
+        if (strcmp(e->type, struct_name)) continue;
+        if (field ? (e->field && !strcmp(e->field, field)) : !e->field) {
+            *out = e->value;
+            return HBK_OK;
+        }
+    }
+    return HBK_ERR_INVALID_ARGUMENT;
+}

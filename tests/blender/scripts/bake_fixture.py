@@ -1,0 +1,79 @@
+"""Bake, re-wire, cancel and free through the real operators, with the fixture effect."""
+import json
+import os
+import time
+
+import bpy
+
+import hbk_test
+import fixture_wave
+
+hbk_test.enable()
+fixture_wave.install()
+from hydrobake.blender import jobs  # noqa: E402
+from hydrobake.core.bake import BakeCache  # noqa: E402
+
+tmp = hbk_test.args()[0]
+obj = hbk_test.new_plane("Glass")
+scene = bpy.context.scene
+scene.frame_start, scene.frame_end = 1, 6
+
+# An unsaved file must not bake into a shared default folder.
+try:
+    bpy.ops.hydrobake.bake(effect="testwave", object_name="Glass")
+    raise AssertionError("baking an unsaved file must fail")
+except RuntimeError as exc:
+    assert "Save the .blend file first" in str(exc), exc
+
+blend = os.path.join(tmp, "shot.blend")
+bpy.ops.wm.save_as_mainfile(filepath=blend)
+obj = bpy.data.objects["Glass"]
+settings = obj.hydrobake_testwave
+assert bpy.ops.hydrobake.bake(effect="testwave", object_name="Glass") == {"FINISHED"}
+folder = os.path.join(tmp, "hydrobake_cache", "shot", "Glass_testwave")
+assert settings.is_baked and os.path.samefile(settings.bake_folder, folder)
+m = json.load(open(os.path.join(folder, "manifest.json")))
+assert m["complete"] and sorted(map(int, m["frames"])) == [1, 2, 3, 4, 5, 6]
+assert m["object"] == "Glass" and m["blend"] == blend
+assert sorted(os.listdir(folder)) == ["manifest.json"] + [f"wave_{i:04d}.exr" for i in range(1, 7)]
+
+# Wired: an image sequence that Blender itself reads, frame by frame.
+mat = obj.data.materials[0]
+tex = next(n for n in mat.node_tree.nodes if n.get("hydrobake") == "testwave.normal")
+assert tex.image.source == "SEQUENCE" and tex.image_user.frame_duration == 6
+scene.frame_set(4)
+tex.image_user.frame_current = 4
+img = bpy.data.images.load(os.path.join(folder, "wave_0004.exr"))
+assert tuple(img.size) == (32, 32) and img.channels == 4
+
+# Free removes the bake's files and unwires, nothing else.
+open(os.path.join(folder, "my_notes.txt"), "w").write("keep me")
+assert bpy.ops.hydrobake.free_bake(effect="testwave", object_name="Glass") == {"FINISHED"}
+assert os.listdir(folder) == ["my_notes.txt"] and not settings.is_baked
+assert not any(n.get("hydrobake") for n in mat.node_tree.nodes)
+os.remove(os.path.join(folder, "my_notes.txt"))
+
+# Cancel midway (the same runner thread the modal operator uses): earlier frames intact.
+fixture_wave.BlenderWave.delay = 0.2
+scene.frame_end = 40
+job = jobs.Job(bpy.context, obj, "testwave")
+jobs.ACTIVE[job.key] = job
+job.runner.start()
+while job.runner.state.done < 3:
+    time.sleep(0.01)
+t0 = time.monotonic()
+job.runner.cancel()
+assert job.runner.join(5.0)
+took = time.monotonic() - t0
+job.finalize(bpy.context)
+assert took < 0.5, took
+assert job.runner.state.status == "CANCELLED"
+cache = BakeCache(folder)
+done = cache.frames()
+assert done == list(range(1, len(done) + 1)) and 3 <= len(done) < 40, done
+assert cache.verify() == []
+assert sorted(os.listdir(folder)) == ["manifest.json"] + [f"wave_{i:04d}.exr" for i in done]
+assert settings.is_baked  # the kept frames are a bake: settings stay locked until freed
+assert bpy.ops.hydrobake.free_bake(effect="testwave", object_name="Glass") == {"FINISHED"}
+assert not os.path.exists(folder)
+print("BAKE FIXTURE OK", len(done), "frames kept after cancel")

@@ -1,0 +1,18 @@
+"""The bake framework inside real Blender, with the addon installed from its zip."""
+
+
+def test_install_from_zip_enable_and_disable(blender):
+    # The session fixture did it; run it again to check overwrite-install works too.
+    from hydrobake_paths import addon_zip
+    r = blender.run("install_addon.py", addon_zip())
+    assert "HYDROBAKE INSTALLED" in r.stdout
+
+
+def test_bake_wire_cancel_free(blender, tmp_path):
+    r = blender.run("bake_fixture.py", tmp_path)
+    assert "BAKE FIXTURE OK" in r.stdout
+
+
+def test_written_vdb_loads_as_a_volume_object(blender, tmp_path):
+    r = blender.run("vdb_volume.py", tmp_path)
+    assert "VDB VOLUME OK" in r.stdout

@@ -1,0 +1,65 @@
+/* Minimal test harness: one runner, a table of named tests, a name filter (libsoundio style). */
+#ifndef HBK_TEST_H
+#define HBK_TEST_H
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "hydrobake.h"
+
+extern int hbk_test_failed;
+
+#define CHECK(cond)                                                                  \
+    do {                                                                             \
+        if (!(cond)) {                                                               \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
+            hbk_test_failed = 1;                                                     \
+            return;                                                                  \
+        }                                                                            \
+    } while (0)
+
+#define CHECK_NEAR(a, b, tol)                                                          \
+    do {                                                                               \
+        double a_ = (double)(a), b_ = (double)(b);                                     \
+        if (!(fabs(a_ - b_) <= (tol))) {                                               \
+            fprintf(stderr, "%s:%d: CHECK_NEAR failed: %s = %.9g, %s = %.9g, tol %g\n", \
+                    __FILE__, __LINE__, #a, a_, #b, b_, (double)(tol));                \
+            hbk_test_failed = 1;                                                       \
+            return;                                                                    \
+        }                                                                              \
+    } while (0)
+
+#define CHECK_OK(expr)                                                                     \
+    do {                                                                                   \
+        hbk_result_t r_ = (expr);                                                          \
+        if (r_ != HBK_OK) {                                                                \
+            fprintf(stderr, "%s:%d: %s returned %d (%s)\n", __FILE__, __LINE__, #expr, r_, \
+                    hbk_result_string(r_));                                                \
+            hbk_test_failed = 1;                                                           \
+            return;                                                                        \
+        }                                                                                  \
+    } while (0)
+
+/* A scratch folder for files, made by the runner: HBK_TEST_TMP or /tmp. */
+const char *hbk_test_tmpdir(void);
+
+/* Every test, one line each: X(group, name). The runner and CMake both read this list. */
+#define HBK_TEST_LIST(X)                 \
+    X(base, result_strings)              \
+    X(base, params_validate)             \
+    X(rng, philox_known_answer)          \
+    X(rng, uniform_statistics)           \
+    X(rng, counter_independence)         \
+    X(image, sample_edges)               \
+    X(image, normal_map_plane)           \
+    X(image, normal_map_sphere)          \
+    X(image, normal_map_rejects)         \
+    X(exr, roundtrip_float_half)         \
+    X(exr, orientation_and_strides)      \
+    X(exr, atomic_failure_keeps_old)     \
+    X(exr, rejects_bad_input)            \
+    X(exr, read_missing_and_corrupt)
+
+#define HBK_DECLARE(g, n) void test_##g##_##n(void);
+HBK_TEST_LIST(HBK_DECLARE)
+#undef HBK_DECLARE
+#endif
