@@ -21,7 +21,7 @@ def test_environment_override_is_used(tmp_path):
     # A wrong override must fail clearly at import, naming the variable.
     code = "import hydrobake.core"
     env = dict(os.environ, HYDROBAKE_LIB=str(tmp_path / "nope.so"),
-               PYTHONPATH=os.path.dirname(os.path.dirname(core.__file__)))
+               PYTHONPATH=os.path.dirname(os.path.dirname(os.path.dirname(core.__file__))))
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert r.returncode != 0
     assert "HYDROBAKE_LIB" in r.stderr and "nope.so" in r.stderr
@@ -42,8 +42,7 @@ def test_struct_mirrors_match_the_library():
 def test_a_drifted_mirror_is_caught():
     class Wrong(ctypes.Structure):
         _fields_ = [("data", ctypes.c_void_p), ("width", ctypes.c_int32),
-                    ("height", ctypes.c_int32), ("channels", ctypes.c_int64),
-                    ("row_stride", ctypes.c_size_t)]
+                    ("height", ctypes.c_int32), ("row_stride", ctypes.c_size_t)]  # lost a field
     with pytest.raises(errors.VersionMismatch, match="hbk_image_t"):
         _lib.check_mirror(Wrong, "hbk_image_t")
 

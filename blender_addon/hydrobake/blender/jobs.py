@@ -28,10 +28,11 @@ class Job:
         self.object_name, self.effect_name = obj.name, effect_name
         self.beffect = effects.get(effect_name)
         settings = settings_of(obj, effect_name)
-        spec = self.beffect.core_class().spec
-        params = properties.to_params(spec, settings)
-        if spec is not None and "threads" in spec.by_name:
-            params["threads"] = scene.hydrobake.threads if threads is None else threads
+        groups = self.beffect.core_class().groups()
+        params = properties.to_params(groups, settings)
+        for g, spec in groups.items():
+            if "threads" in spec.by_name:
+                params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
         self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
         inputs = self.beffect.gather_inputs(context, obj, settings)

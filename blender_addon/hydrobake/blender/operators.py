@@ -180,8 +180,9 @@ class HYDROBAKE_OT_apply_preset(_EffectTarget, bpy.types.Operator):
         if settings.is_baked:
             self.report({"ERROR"}, "Free the bake before changing its settings")
             return {"CANCELLED"}
-        spec = beffect.core_class().spec
-        properties.from_params(spec, settings, dict(spec.defaults(), **values))
+        groups = beffect.core_class().groups()
+        properties.from_params(groups, settings, {
+            g: dict(spec.defaults(), **values.get(g, {})) for g, spec in groups.items()})
         return {"FINISHED"}
 
 

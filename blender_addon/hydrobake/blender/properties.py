@@ -57,13 +57,12 @@ def property_for(p):
                                  max=int(hi), **common)
 
 
-def to_params(spec, settings):
-    """The dict of kernel parameters held by a settings PropertyGroup."""
+def _group_to_dict(spec, pg):
     out = {}
-    for p in spec.params if spec else ():
+    for p in spec.params:
         if p.name in HIDDEN:
             continue
-        v = getattr(settings, p.name)
+        v = getattr(pg, p.name)
         if p.type == P.ENUM:
             v = [it.upper().replace(" ", "_") for it in p.items].index(v)
         elif p.count > 1:
@@ -72,21 +71,36 @@ def to_params(spec, settings):
     return out
 
 
-def from_params(spec, settings, values):
-    """Sets a PropertyGroup from a parameter dict (presets, manifests)."""
-    for name, v in values.items():
-        p = spec.by_name.get(name)
-        if p is None or name in HIDDEN:
-            continue
-        if p.type == P.ENUM and isinstance(v, int):
-            v = p.items[v].upper().replace(" ", "_")
-        setattr(settings, name, v)
+def to_params(groups, settings):
+    """{group: {param: value}} held by an effect's settings (groups: name -> ParamSpec)."""
+    return {g: _group_to_dict(spec, getattr(settings, g)) for g, spec in groups.items()}
 
 
-def make_settings_class(effect_name, spec):
-    """A PropertyGroup class: the kernel's parameters plus the framework's bake settings."""
-    ann = {p.name: property_for(p) for p in (spec.params if spec else ())
-           if p.name not in HIDDEN}
+def from_params(groups, settings, values):
+    """Sets an effect's settings from {group: {param: value}} (presets, manifests)."""
+    for g, group_values in values.items():
+        spec, pg = groups[g], getattr(settings, g)
+        for name, v in group_values.items():
+            p = spec.by_name.get(name)
+            if p is None or name in HIDDEN:
+                continue
+            if p.type == P.ENUM and isinstance(v, int):
+                v = p.items[v].upper().replace(" ", "_")
+            setattr(pg, name, v)
+
+
+def make_settings_classes(effect_name, groups):
+    """PropertyGroup classes for an effect, in registration order: one per parameter group
+    (built from its C table), then the effect's settings holding them plus the framework's
+    bake settings."""
+    classes, ann = [], {}
+    for g, spec in groups.items():
+        cls = type(f"HYDROBAKE_PG_{effect_name}_{g}", (bpy.types.PropertyGroup,), {
+            "__annotations__": {p.name: property_for(p) for p in spec.params
+                                if p.name not in HIDDEN},
+            "__doc__": f"{label_of(effect_name)} {g} parameters"})
+        classes.append(cls)
+        ann[g] = bpy.props.PointerProperty(type=cls)
     ann.update(
         enabled=bpy.props.BoolProperty(
             name="Enabled", default=False,
@@ -109,8 +123,10 @@ def make_settings_class(effect_name, spec):
             name="Bake Folder", subtype="DIR_PATH", default="",
             description="Where the current bake was written"),
     )
-    return type(f"HYDROBAKE_PG_{effect_name}", (bpy.types.PropertyGroup,),
-                {"__annotations__": ann, "__doc__": f"{label_of(effect_name)} settings"})
+    classes.append(type(f"HYDROBAKE_PG_{effect_name}", (bpy.types.PropertyGroup,),
+                        {"__annotations__": ann,
+                         "__doc__": f"{label_of(effect_name)} settings"}))
+    return classes
 
 
 class HydrobakeSceneSettings(bpy.types.PropertyGroup):

@@ -8,19 +8,19 @@ _object_props = []
 
 
 def register():
-    classes = [properties.HydrobakeSceneSettings, *operators.CLASSES]
+    classes, settings = [properties.HydrobakeSceneSettings, *operators.CLASSES], {}
     for name, beffect in effects.load_all().items():
-        classes.append(properties.make_settings_class(name, beffect.core_class().spec))
+        pgs = properties.make_settings_classes(name, beffect.core_class().groups())
+        classes.extend(pgs)
+        settings[name] = pgs[-1]  # the effect's own group comes last, after its parts
         classes.append(ui.make_panel(beffect))
     for cls in classes:
         bpy.utils.register_class(cls)
         _registered.append(cls)
     bpy.types.Scene.hydrobake = bpy.props.PointerProperty(type=properties.HydrobakeSceneSettings)
-    for cls in classes:
-        if cls.__name__.startswith("HYDROBAKE_PG_"):
-            attr = "hydrobake_" + cls.__name__[len("HYDROBAKE_PG_"):]
-            setattr(bpy.types.Object, attr, bpy.props.PointerProperty(type=cls))
-            _object_props.append(attr)
+    for name, cls in settings.items():
+        setattr(bpy.types.Object, f"hydrobake_{name}", bpy.props.PointerProperty(type=cls))
+        _object_props.append(f"hydrobake_{name}")
 
 
 def unregister():

@@ -43,7 +43,7 @@ def make_grid(name, array, voxel_size=1.0, origin=(0.0, 0.0, 0.0), vector_type=N
         raise errors.InvalidArgument(f"{name}: contains NaN or infinite values")
     if not voxel_size > 0:
         raise errors.InvalidArgument(f"voxel_size = {voxel_size}: must be > 0")
-    grid.copyFromArray(array, tolerance=tolerance)
+    grid.copyFromArray(array, tolerance=(tolerance,) * 3 if array.ndim == 4 else tolerance)
     grid.name = name
     grid.gridClass = getattr(vdb.GridClass, grid_class)
     xform = vdb.createLinearTransform(voxelSize=float(voxel_size))

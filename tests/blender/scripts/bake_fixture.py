@@ -5,16 +5,16 @@ import time
 
 import bpy
 
-import hbk_test
+import in_blender
 import fixture_wave
 
-hbk_test.enable()
+in_blender.enable()
 fixture_wave.install()
 from hydrobake.blender import jobs  # noqa: E402
 from hydrobake.core.bake import BakeCache  # noqa: E402
 
-tmp = hbk_test.args()[0]
-obj = hbk_test.new_plane("Glass")
+tmp = in_blender.args()[0]
+obj = in_blender.new_plane("Glass")
 scene = bpy.context.scene
 scene.frame_start, scene.frame_end = 1, 6
 

@@ -1,8 +1,8 @@
 """Runs the batch command line with the fixture effect registered."""
-import hbk_test
+import in_blender
 import fixture_wave
 
-hbk_test.enable()
+in_blender.enable()
 fixture_wave.install()
 from hydrobake.blender import cli  # noqa: E402
 

@@ -4,13 +4,13 @@ import os
 import bpy
 import numpy as np
 
-import hbk_test
+import in_blender
 
-hbk_test.enable()
+in_blender.enable()
 from hydrobake.core import vdb  # noqa: E402
 from hydrobake.blender.bridge import volumes  # noqa: E402
 
-tmp = hbk_test.args()[0]
+tmp = in_blender.args()[0]
 dens = np.zeros((16, 16, 16), np.float32)
 dens[4:12, 4:12, 4:12] = 1.0
 vel = np.zeros((16, 16, 16, 3), np.float32)
@@ -23,9 +23,12 @@ for frame in (1, 2):
         dict(name="uvw", array=uvw, voxel_size=0.05, vector_type="INVARIANT")])
 obj = volumes.load_volume_sequence(tmp, "fluid", 1, 2, "HBK_Fluid")
 assert obj.type == "VOLUME"
-grids = volumes.grid_names(obj.data)
+bpy.context.scene.frame_set(1)
+grids = volumes.grid_names(obj)
 assert grids == {"density": "FLOAT", "velocity": "VECTOR_FLOAT", "uvw": "VECTOR_FLOAT"}, grids
 assert obj.data.is_sequence and obj.data.frame_duration == 2
+bpy.context.scene.frame_set(2)
+assert volumes.grid_names(obj) == grids
 # The density's world extent follows the voxel size: 16 voxels of 5 cm.
 depsgraph = bpy.context.evaluated_depsgraph_get()
 bb = [obj.matrix_world @ __import__("mathutils").Vector(c) for c in

@@ -12,16 +12,21 @@ def load_volume_sequence(folder, stream, frame_start, frame_count, name, collect
     vol.is_sequence = frame_count > 1
     vol.frame_start = frame_start
     vol.frame_duration = frame_count
-    vol.frame_offset = frame_start - 1
+    vol.frame_offset = frame_start - 1  # scene frame N reads file number N
     vol.sequence_mode = "CLIP"
     obj = bpy.data.objects.get(name)
     if obj is None:
         obj = bpy.data.objects.new(name, vol)
         (collection or bpy.context.scene.collection).objects.link(obj)
-    vol.grids.load()
     return obj
 
 
-def grid_names(volume):
-    volume.grids.load()
-    return {g.name: g.data_type for g in volume.grids}
+def grid_names(obj, depsgraph=None):
+    """{grid name: data type} of a Volume object at the current frame. A sequence is read
+    through the evaluated object: the original volume does not follow the frame."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    vol = obj.evaluated_get(depsgraph).data
+    vol.grids.load()
+    if vol.grids.error_message:
+        raise OSError(f"{obj.name}: {vol.grids.error_message}")
+    return {g.name: g.data_type for g in vol.grids}

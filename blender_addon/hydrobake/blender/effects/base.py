@@ -35,8 +35,10 @@ class BlenderEffect:
     def draw_settings(cls, layout, settings):
         """Draws the effect's settings; the default draws every parameter in table order."""
         from .. import properties
-        spec = cls.core_class().spec
-        col = layout.column()
-        for p in spec.params if spec else ():
-            if p.name not in properties.HIDDEN:
-                col.prop(settings, p.name)
+        for g, spec in cls.core_class().groups().items():
+            col = layout.column()
+            col.label(text=properties.label_of(g))
+            pg = getattr(settings, g)
+            for p in spec.params:
+                if p.name not in properties.HIDDEN:
+                    col.prop(pg, p.name)

@@ -12,18 +12,33 @@ class Effect:
 
     name = ""
     streams = ()
-    spec = None  # ParamSpec of the kernel
+
+    @classmethod
+    def groups(cls):
+        """{group name: ParamSpec}: the kernels' parameter tables, e.g. {"water": ...,
+        "light": ...}. Parameters travel as {group: {name: value}}."""
+        return {}
 
     def __init__(self, params=None, inputs=None):
-        self.params = self.spec.to_struct(params or {}) if self.spec else None
+        params = params or {}
+        unknown = set(params) - set(self.groups())
+        if unknown:
+            from .. import errors
+            raise errors.InvalidArgument(f"{sorted(unknown)[0]}: not a parameter group of "
+                                         f"{self.name}; groups: {', '.join(self.groups())}")
+        # Validated structs per group (raises InvalidArgument naming the parameter).
+        self.params = {g: spec.to_struct(params.get(g, {})) for g, spec in self.groups().items()}
         self.inputs = dict(inputs or {})
 
     @property
     def seed(self):
-        return int(getattr(self.params, "seed", 0)) if self.params is not None else 0
+        for s in self.params.values():
+            if hasattr(s, "seed"):
+                return int(s.seed)
+        return 0
 
     def params_dict(self):
-        return self.spec.to_dict(self.params) if self.spec else {}
+        return {g: spec.to_dict(self.params[g]) for g, spec in self.groups().items()}
 
     def step(self, frame, progress):
         """Advances the simulation to ``frame``. ``progress`` is the hbk_progress_t to pass to

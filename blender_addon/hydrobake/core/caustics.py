@@ -1,0 +1,90 @@
+"""Caustic maps (hbk_caustics_*): light refracted by a height-field water surface onto the
+ground, exact-area rasterised, energy conserving. Stateless calls on numpy arrays."""
+import ctypes
+
+import numpy as np
+
+from . import _lib, arrays
+from ._lib import Image, Message, P, Progress, check_message, hbk_result_t
+from .params import ParamSpec
+
+
+class Stats(ctypes.Structure):
+    """Where the light went, per RGB channel, in W."""
+    _fields_ = [(n, ctypes.c_double * 3) for n in ("entered", "absorbed", "ground", "dry")]
+
+    def as_dict(self):
+        return {n: tuple(getattr(self, n)) for n, _ in self._fields_}
+
+
+_lib.declare([
+    ("hbk_caustics_render", hbk_result_t,
+     [ctypes.c_void_p, P(Image), P(Image), ctypes.c_float, P(Image), P(Stats), P(Progress),
+      P(Message)], check_message),
+    ("hbk_caustics_view", hbk_result_t,
+     [ctypes.c_void_p, P(Image), P(Image), ctypes.c_float, P(ctypes.c_float * 3), P(Image),
+      P(Image), P(Message)], check_message),
+    ("hbk_caustics_lit_ground", hbk_result_t,
+     [P(Image), P(Image), ctypes.c_int32, P(Image), P(Message)], check_message),
+])
+
+_spec = None
+
+
+def spec():
+    global _spec
+    if _spec is None:
+        _spec = ParamSpec("caustics")
+    return _spec
+
+
+def _struct(params):
+    return params if isinstance(params, spec().struct) else spec().to_struct(params or {})
+
+
+def render(water_height, ground_height, cell_size, size, params=None, progress=None,
+           out=None):
+    """The caustic map, (size[1], size[0], 4) float32 RGBA (A = 1), and the Stats.
+
+    ``water_height``/``ground_height``: (H, W) heights in m at cell centres."""
+    p = _struct(params)
+    wh = np.ascontiguousarray(water_height, dtype=np.float32)
+    gh = np.ascontiguousarray(ground_height, dtype=np.float32)
+    if out is None:
+        out = np.zeros((size[1], size[0], 4), np.float32)
+    stats = Stats()
+    _lib.lib.hbk_caustics_render(ctypes.byref(p), arrays.as_image(wh, "water_height", 1),
+                                 arrays.as_image(gh, "ground_height", 1), float(cell_size),
+                                 arrays.as_image(out, "out", (3, 4), writable=True), stats,
+                                 progress, Message())
+    return out, stats
+
+
+def view(water_height, ground_height, cell_size, camera, params=None, channels=4):
+    """View refraction: per surface sample (u, v[, path length, reflectance]) of the ground
+    hit, and the reflected view direction (H, W, 3)."""
+    p = _struct(params)
+    wh = np.ascontiguousarray(water_height, dtype=np.float32)
+    gh = np.ascontiguousarray(ground_height, dtype=np.float32)
+    uv = np.zeros(wh.shape + (channels,), np.float32)
+    refl = np.zeros(wh.shape + (3,), np.float32)
+    cam = (ctypes.c_float * 3)(*camera)
+    _lib.lib.hbk_caustics_view(ctypes.byref(p), arrays.as_image(wh, "water_height", 1),
+                               arrays.as_image(gh, "ground_height", 1), float(cell_size),
+                               cam, arrays.as_image(uv, "out_uv", (2, 3, 4), writable=True),
+                               arrays.as_image(refl, "out_reflect", 3, writable=True),
+                               Message())
+    return uv, refl
+
+
+def lit_ground(texture, caustic_map, edge="WRAP"):
+    """texture x caustic map, per channel (the paper's lit ground)."""
+    from .image import EDGES
+    tex = np.ascontiguousarray(texture, dtype=np.float32)
+    cm = np.ascontiguousarray(caustic_map, dtype=np.float32)
+    out = np.empty_like(tex)
+    _lib.lib.hbk_caustics_lit_ground(arrays.as_image(tex, "texture", (3, 4)),
+                                     arrays.as_image(cm, "caustics", (3, 4)), EDGES[edge],
+                                     arrays.as_image(out, "out", (3, 4), writable=True),
+                                     Message())
+    return out

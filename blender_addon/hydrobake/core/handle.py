@@ -1,0 +1,64 @@
+"""Base of the Python objects that own a C simulation handle (hbk_<x>_t)."""
+import ctypes
+import weakref
+
+from . import _lib, errors, params
+from ._lib import Message, P, check_handle, check_message, hbk_result_t
+
+
+class Handle:
+    """Owns one ``hbk_<prefix>_t``: created from a params dict, freed by close(), ``with`` or
+    garbage collection (weakref.finalize, never __del__)."""
+
+    prefix = ""
+    _specs = {}
+
+    @classmethod
+    def spec(cls):
+        """The kernel's ParamSpec (built once, checked against the library's layout)."""
+        if cls.prefix not in Handle._specs:
+            Handle._specs[cls.prefix] = params.ParamSpec(cls.prefix)
+        return Handle._specs[cls.prefix]
+
+    @classmethod
+    def declare(cls, prefix, table):
+        """Declares create/destroy/message for ``prefix`` plus the handle calls in ``table``:
+        rows (name, argtypes after the handle); all return hbk_result_t, checked against the
+        handle's own message."""
+        lib = _lib.lib
+        _lib.declare([
+            (f"hbk_{prefix}_create", hbk_result_t,
+             [P(ctypes.c_void_p), ctypes.c_void_p, P(Message)], check_message),
+            (f"hbk_{prefix}_destroy", None, [ctypes.c_void_p]),
+            (f"hbk_{prefix}_message", ctypes.c_char_p, [ctypes.c_void_p]),
+        ])
+        check = check_handle(getattr(lib, f"hbk_{prefix}_message"))
+        _lib.declare([(f"hbk_{prefix}_{name}", hbk_result_t, [ctypes.c_void_p, *args], check)
+                      for name, args in table])
+
+    def __init__(self, values=None):
+        self.params = self.spec().to_struct(values or {})
+        lib = _lib.lib
+        h = ctypes.c_void_p()
+        getattr(lib, f"hbk_{self.prefix}_create")(ctypes.byref(h), ctypes.byref(self.params),
+                                                  Message())
+        self._h = h
+        self._finalizer = weakref.finalize(self, getattr(lib, f"hbk_{self.prefix}_destroy"), h)
+
+    @property
+    def h(self):
+        if not self._finalizer.alive:
+            raise errors.StateError(f"the {self.prefix} handle is closed")
+        return self._h
+
+    def call(self, name, *args):
+        return getattr(_lib.lib, f"hbk_{self.prefix}_{name}")(self.h, *args)
+
+    def close(self):
+        self._finalizer()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
