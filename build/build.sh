@@ -3,8 +3,14 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 work="$root/build/_work"
-cmake -S "$root/c_core" -B "$work/cmake" -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build "$work/cmake" -j"$(nproc)" 2>&1 | grep -E "warning|error|Error" || true
-test -f "$work/cmake/libhydrobake.so"
+mkdir -p "$work"
+cmake -S "$root/c_core" -B "$work/cmake" -DCMAKE_BUILD_TYPE=Release >"$work/cmake.log" 2>&1 ||
+  { cat "$work/cmake.log"; exit 1; }
+if ! cmake --build "$work/cmake" -j"$(nproc)" >"$work/build.log" 2>&1; then
+  grep -E "error|Error" "$work/build.log" >&2 || cat "$work/build.log" >&2
+  echo "build failed: see $work/build.log" >&2
+  exit 1
+fi
+grep -E "warning" "$work/build.log" >&2 || true
 mkdir -p "$root/blender_addon/hydrobake/lib"
 cp "$work/cmake/libhydrobake.so" "$root/blender_addon/hydrobake/lib/libhydrobake.so"

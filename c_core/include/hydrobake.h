@@ -5,4 +5,7 @@
 #include "hbk_rng.h"
 #include "hbk_image.h"
 #include "hbk_exr.h"
+#include "hbk_snow.h"
+#include "hbk_water.h"
+#include "hbk_caustics.h"
 #endif

@@ -42,7 +42,8 @@ extern int hbk_test_failed;
 /* A scratch folder for files, made by the runner: HBK_TEST_TMP or /tmp. */
 const char *hbk_test_tmpdir(void);
 
-/* Every test, one line each: X(group, name). The runner and CMake both read this list. */
+/* Every test, one line each as X-macro entries of group and name; the runner and CMake
+ * (tests/c/CMakeLists.txt) both read this list. */
 #define HBK_TEST_LIST(X)                 \
     X(base, result_strings)              \
     X(base, params_validate)             \
@@ -57,7 +58,35 @@ const char *hbk_test_tmpdir(void);
     X(exr, orientation_and_strides)      \
     X(exr, atomic_failure_keeps_old)     \
     X(exr, rejects_bad_input)            \
-    X(exr, read_missing_and_corrupt)
+    X(exr, read_missing_and_corrupt)     \
+    X(water, params_rejects)             \
+    X(water, volume_conserved)           \
+    X(water, stable_large_dt)            \
+    X(water, wet_dry)                    \
+    X(water, wave_speed)                 \
+    X(water, flat_stays_flat)            \
+    X(water, periodic_seamless)          \
+    X(water, threads_identical)          \
+    X(water, state_roundtrip)            \
+    X(water, sources)                    \
+    X(water, footprint_displaces)        \
+    X(water, cancel)                     \
+    X(snow, formulas)                    \
+    X(snow, params)                      \
+    X(snow, sticking_statistics)         \
+    X(snow, stamp_formulas)              \
+    X(snow, stamp_scaling)               \
+    X(snow, melts_and_sheds)             \
+    X(snow, roof_shelter)                \
+    X(snow, depth_grows)                 \
+    X(snow, wind_windward)               \
+    X(snow, moving_mesh)                 \
+    X(snow, determinism_threads)         \
+    X(snow, state_roundtrip)             \
+    X(snow, cancel)                      \
+    X(snow, mesh_rejects)                \
+    X(snow, box_mode)                    \
+    X(snow, bvh_brute_force)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

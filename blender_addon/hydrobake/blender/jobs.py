@@ -35,7 +35,7 @@ class Job:
                 params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
         self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
-        inputs = self.beffect.gather_inputs(context, obj, settings)
+        params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
         effect = self.beffect.core_class()(params, inputs)
         self.runner = BakeRunner(effect, self.folder, start, end,
                                  header={"object": obj.name, "blend": bpy.data.filepath})

@@ -14,8 +14,8 @@ HIDDEN = {"threads"}
 # the unit is spelled out in the tooltip.
 _UNITS = {
     "m": ("DISTANCE", "LENGTH"),
-    "m/s": ("VELOCITY", "VELOCITY"),
-    "m/s^2": ("ACCELERATION", "ACCELERATION"),
+    "m/s": ("NONE", "VELOCITY"),
+    "m/s^2": ("NONE", "ACCELERATION"),
     "rad": ("ANGLE", "ROTATION"),
     "s": ("TIME_ABSOLUTE", "TIME_ABSOLUTE"),
     "degC": ("TEMPERATURE", "TEMPERATURE"),
@@ -89,7 +89,7 @@ def from_params(groups, settings, values):
             setattr(pg, name, v)
 
 
-def make_settings_classes(effect_name, groups):
+def make_settings_classes(effect_name, groups, extra=None):
     """PropertyGroup classes for an effect, in registration order: one per parameter group
     (built from its C table), then the effect's settings holding them plus the framework's
     bake settings."""
@@ -123,6 +123,7 @@ def make_settings_classes(effect_name, groups):
             name="Bake Folder", subtype="DIR_PATH", default="",
             description="Where the current bake was written"),
     )
+    ann.update(extra or {})  # the effect's own scene links (ground object, sun, ...)
     classes.append(type(f"HYDROBAKE_PG_{effect_name}", (bpy.types.PropertyGroup,),
                         {"__annotations__": ann,
                          "__doc__": f"{label_of(effect_name)} settings"}))

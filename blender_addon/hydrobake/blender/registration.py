@@ -10,7 +10,8 @@ _object_props = []
 def register():
     classes, settings = [properties.HydrobakeSceneSettings, *operators.CLASSES], {}
     for name, beffect in effects.load_all().items():
-        pgs = properties.make_settings_classes(name, beffect.core_class().groups())
+        pgs = properties.make_settings_classes(name, beffect.core_class().groups(),
+                                               beffect.extra_properties())
         classes.extend(pgs)
         settings[name] = pgs[-1]  # the effect's own group comes last, after its parts
         classes.append(ui.make_panel(beffect))

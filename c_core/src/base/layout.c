@@ -11,7 +11,7 @@ typedef struct {
 #define FIELD(T, f) {#T, #f, offsetof(T, f)}
 
 static const layout_entry_t k_layout[] = {
-    SIZE(hbk_message_t),
+    SIZE(hbk_message_t), FIELD(hbk_message_t, text),
     SIZE(hbk_progress_t), FIELD(hbk_progress_t, cancel), FIELD(hbk_progress_t, fraction),
     SIZE(hbk_param_info_t), FIELD(hbk_param_info_t, name), FIELD(hbk_param_info_t, type),
     FIELD(hbk_param_info_t, offset), FIELD(hbk_param_info_t, count),
@@ -22,6 +22,9 @@ static const layout_entry_t k_layout[] = {
     SIZE(hbk_exr_channel_t), FIELD(hbk_exr_channel_t, name), FIELD(hbk_exr_channel_t, data),
     FIELD(hbk_exr_channel_t, pixel_stride), FIELD(hbk_exr_channel_t, row_stride),
     FIELD(hbk_exr_channel_t, half),
+    SIZE(hbk_caustics_stats_t), FIELD(hbk_caustics_stats_t, entered),
+    FIELD(hbk_caustics_stats_t, absorbed), FIELD(hbk_caustics_stats_t, ground),
+    FIELD(hbk_caustics_stats_t, dry),
 };
 
 hbk_result_t hbk_layout(const char *struct_name, const char *field, size_t *out)

@@ -45,8 +45,8 @@ class BlenderWave(BlenderEffect):
     delay = 0.0
 
     @classmethod
-    def gather_inputs(cls, context, obj, settings):
-        return {"delay": float(os.environ.get("HBK_FIXTURE_DELAY", cls.delay))}
+    def prepare(cls, context, obj, settings, params, frames):
+        return params, {"delay": float(os.environ.get("HBK_FIXTURE_DELAY", cls.delay))}
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):

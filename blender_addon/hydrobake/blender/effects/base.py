@@ -19,9 +19,16 @@ class BlenderEffect:
         return obj is not None and obj.type in cls.object_types
 
     @classmethod
-    def gather_inputs(cls, context, obj, settings):
-        """Arrays the core effect needs, read from the scene on the main thread."""
+    def extra_properties(cls):
+        """Blender-only settings beside the kernels' parameters: {name: bpy property}."""
         return {}
+
+    @classmethod
+    def prepare(cls, context, obj, settings, params, frames):
+        """Main thread, before the bake: returns (params, inputs) for the core effect.
+        ``params`` ({group: {name: value}}) may be adjusted from the scene (e.g. the grid
+        size from the object's dimensions); ``inputs`` holds arrays read from the scene."""
+        return params, {}
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):

@@ -2,6 +2,9 @@
 on a C kernel; the Blender side (blender/effects/) feeds it inputs and wires its outputs."""
 
 
+from .. import errors
+
+
 class Effect:
     """One effect's simulation for one object.
 
@@ -23,11 +26,15 @@ class Effect:
         params = params or {}
         unknown = set(params) - set(self.groups())
         if unknown:
-            from .. import errors
             raise errors.InvalidArgument(f"{sorted(unknown)[0]}: not a parameter group of "
                                          f"{self.name}; groups: {', '.join(self.groups())}")
         # Validated structs per group (raises InvalidArgument naming the parameter).
-        self.params = {g: spec.to_struct(params.get(g, {})) for g, spec in self.groups().items()}
+        self.params = {}
+        for g, spec in self.groups().items():
+            try:
+                self.params[g] = spec.to_struct(params.get(g, {}))
+            except errors.InvalidArgument as exc:  # say which group: "light.ior[0] = 0.5: ..."
+                raise errors.InvalidArgument(f"{g}.{exc}") from None
         self.inputs = dict(inputs or {})
 
     @property

@@ -1,0 +1,54 @@
+"""Meshes as height fields: ray casts against evaluated objects in world space."""
+import bpy
+import numpy as np
+from mathutils import Vector
+from mathutils.bvhtree import BVHTree
+
+
+def world_bounds(obj):
+    """(min xyz, max xyz) of the object's bounding box in world space."""
+    pts = np.array([tuple(obj.matrix_world @ Vector(c)) for c in obj.bound_box])
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def _world_tree(obj, depsgraph):
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    try:
+        mesh.transform(obj.matrix_world)
+        verts = [tuple(v.co) for v in mesh.vertices]
+        polys = [tuple(p.vertices) for p in mesh.polygons]
+    finally:
+        ev.to_mesh_clear()
+    return BVHTree.FromPolygons(verts, polys, epsilon=0.0)
+
+
+def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=None,
+                   miss=np.nan):
+    """Heights (world z) where vertical rays through cell centres hit ``obj``.
+
+    Cell (i, j) has its centre at origin + ((i + 0.5) cell, (j + 0.5) cell). DOWN: the
+    topmost surface (ground); UP: the lowest surface (an object's underside). Rows are j."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    tree = _world_tree(obj, depsgraph)
+    lo, hi = world_bounds(obj)
+    h, w = shape
+    out = np.full(shape, miss, np.float32)
+    # Only cells inside the object's footprint can hit it.
+    i0 = max(int(np.floor((lo[0] - origin[0]) / cell_size - 0.5)), 0)
+    i1 = min(int(np.ceil((hi[0] - origin[0]) / cell_size + 0.5)), w - 1)
+    j0 = max(int(np.floor((lo[1] - origin[1]) / cell_size - 0.5)), 0)
+    j1 = min(int(np.ceil((hi[1] - origin[1]) / cell_size + 0.5)), h - 1)
+    if i1 < i0 or j1 < j0:
+        return out
+    down = direction == "DOWN"
+    z0 = hi[2] + 1.0 if down else lo[2] - 1.0
+    ray = Vector((0.0, 0.0, -1.0 if down else 1.0))
+    dist = (hi[2] - lo[2]) + 2.0
+    for j in range(j0, j1 + 1):
+        y = origin[1] + (j + 0.5) * cell_size
+        for i in range(i0, i1 + 1):
+            hit = tree.ray_cast(Vector((origin[0] + (i + 0.5) * cell_size, y, z0)), ray, dist)
+            if hit[0] is not None:
+                out[j, i] = hit[0].z
+    return out

@@ -1,0 +1,203 @@
+"""Caustics in Blender: the water object's plane is the simulation grid; the ground comes from
+a mesh; an object moving through the surface disturbs it; the caustic sequence is multiplied
+into the ground's material and the surface normals drive the water's material."""
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from ..bridge import images, materials, meshes
+from . import register_effect
+from .base import BlenderEffect
+
+
+@register_effect
+class CausticsBlender(BlenderEffect):
+    name = "caustics"
+    label = "Caustics"
+    icon = "MOD_OCEAN"
+    presets = {
+        "Calm Pool": {"water": {"rain_rate": 0.0, "substeps": 4, "implicitness": 0.55},
+                      "light": {"absorption": (0.0, 0.0, 0.0)}},
+        "Rainy Pond": {"water": {"rain_rate": 40.0, "rain_radius": 0.04, "rain_depth": 0.01,
+                                 "implicitness": 0.55},
+                       "light": {"absorption": (0.35, 0.06, 0.01)}},
+        "Dispersive": {"light": {"ior": (1.331, 1.333, 1.337),
+                                 "absorption": (0.35, 0.06, 0.01), "fresnel": 1}},
+    }
+
+    @classmethod
+    def extra_properties(cls):
+        mesh_only = lambda self, o: o.type == "MESH"  # noqa: E731
+        return dict(
+            ground_object=bpy.props.PointerProperty(
+                name="Ground", type=bpy.types.Object, poll=mesh_only,
+                description="Mesh under the water (pool floor, beach); its material gets the "
+                            "caustics. Empty: flat ground 1 m below the water"),
+            disturber_object=bpy.props.PointerProperty(
+                name="Disturber", type=bpy.types.Object, poll=mesh_only,
+                description="Object moving through the surface; its footprint pushes the water "
+                            "every frame"),
+            disturber_depth=bpy.props.FloatProperty(
+                name="Disturber Depth", default=0.1, min=0.0, max=5.0, subtype="DISTANCE",
+                unit="LENGTH", description="Deepest the disturber presses the surface down"),
+            sun_object=bpy.props.PointerProperty(
+                name="Sun", type=bpy.types.Object,
+                poll=lambda self, o: o.type == "LIGHT" and o.data.type == "SUN",
+                description="Sun lamp giving the light direction (else the Light parameters)"),
+            map_resolution=bpy.props.IntProperty(
+                name="Map Resolution", default=1024, min=16, max=8192,
+                description="Caustic map width in pixels (height follows the aspect)"),
+        )
+
+    @classmethod
+    def grid(cls, obj, width):
+        """World origin, cell size and (rows, columns) of the water grid over ``obj``."""
+        lo, hi = meshes.world_bounds(obj)
+        ex, ey = float(hi[0] - lo[0]), float(hi[1] - lo[1])
+        if ex <= 0 or ey <= 0:
+            raise ValueError(f"{obj.name}: the water object must be a horizontal plane with an "
+                             "extent in x and y")
+        cell = ex / width
+        rows = max(4, int(round(ey / cell)))
+        return (float(lo[0]), float(lo[1])), cell, (rows, width), float(hi[2])
+
+    @classmethod
+    def prepare(cls, context, obj, settings, params, frames):
+        scene = context.scene
+        origin, cell, shape, level = cls.grid(obj, params["water"]["width"])
+        params["water"].update(height=shape[0], cell_size=cell)
+        depsgraph = context.evaluated_depsgraph_get()
+        if settings.ground_object:
+            ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
+                                           "DOWN", depsgraph)
+            ground[np.isnan(ground)] = level - 1.0 if np.all(np.isnan(ground)) else \
+                np.nanmin(ground)
+        else:
+            ground = np.full(shape, level - 1.0, np.float32)
+        if settings.sun_object:
+            d = settings.sun_object.matrix_world.to_quaternion() @ Vector((0, 0, 1))
+            if d.z <= 0.01:
+                raise ValueError(f"{settings.sun_object.name}: the sun is below the horizon")
+            params["light"]["light_direction"] = tuple(d)
+        footprints = {}
+        if settings.disturber_object:
+            keep = scene.frame_current
+            try:
+                for f in range(frames[0], frames[1] + 1):
+                    scene.frame_set(f)
+                    under = meshes.sample_heights(settings.disturber_object, origin, cell,
+                                                  shape, "UP", context.evaluated_depsgraph_get())
+                    press = np.clip(level - np.nan_to_num(under, nan=level), 0.0,
+                                    settings.disturber_depth).astype(np.float32)
+                    footprints[f] = press if press.any() else None
+            finally:
+                scene.frame_set(keep)
+        w = settings.map_resolution
+        inputs = dict(ground=ground.astype(np.float32), level=level, footprints=footprints,
+                      map_size=(w, max(1, int(round(w * shape[0] / shape[1])))))
+        return params, inputs
+
+    # --- wiring -------------------------------------------------------------------------
+    @classmethod
+    def _mapping(cls, tree, obj, width, role, x):
+        """World position -> 0..1 over the water grid (the maps' extent)."""
+        origin, cell, shape, _ = cls.grid(obj, width)
+        geo = materials.add_node(tree, "ShaderNodeNewGeometry", f"{role}.position", (x, 300))
+        mp = materials.add_node(tree, "ShaderNodeMapping", f"{role}.mapping", (x + 200, 300))
+        sx, sy = 1.0 / (shape[1] * cell), 1.0 / (shape[0] * cell)
+        mp.inputs["Scale"].default_value = (sx, sy, 1.0)
+        mp.inputs["Location"].default_value = (-origin[0] * sx, -origin[1] * sy, 0.0)
+        tree.links.new(geo.outputs["Position"], mp.inputs["Vector"])
+        return mp
+
+    @classmethod
+    def apply(cls, context, obj, settings, folder, manifest):
+        frames = sorted(int(f) for f in manifest["frames"])
+        start, count = frames[0], len(frames)
+        width = manifest["params"]["water"]["width"]
+        ground = settings.ground_object
+        if ground is not None and ground.type == "MESH":
+            mat = materials.ensure_material(ground, f"HBK_{ground.name}_floor")
+            tree = mat.node_tree
+            bsdf = materials.principled(tree)
+            if bsdf is not None:
+                mp = cls._mapping(tree, obj, width, "caustics", bsdf.location.x - 900)
+                tex = materials.add_node(tree, "ShaderNodeTexImage", "caustics.map",
+                                         (bsdf.location.x - 500, 300))
+                tex.image = images.load_sequence(folder, "caustics", start, count,
+                                                 name=f"HBK_{obj.name}_caustics")
+                tex.extension = "EXTEND"
+                images.configure_user(tex.image_user, start, count)
+                tree.links.new(mp.outputs["Vector"], tex.inputs["Vector"])
+                mix = materials.add_node(tree, "ShaderNodeMixRGB", "caustics.multiply",
+                                         (bsdf.location.x - 250, 200))
+                mix.blend_type = "MULTIPLY"
+                mix.inputs["Fac"].default_value = 1.0
+                base = bsdf.inputs["Base Color"]
+                if base.is_linked and base.links[0].from_node is not mix:
+                    tree.links.new(base.links[0].from_socket, mix.inputs["Color1"])
+                elif not base.is_linked:
+                    mix.inputs["Color1"].default_value = base.default_value
+                tree.links.new(tex.outputs["Color"], mix.inputs["Color2"])
+                tree.links.new(mix.outputs["Color"], base)
+        # The water: a clear refracting material with the baked surface normals.
+        mat = materials.ensure_material(obj, f"HBK_{obj.name}_water")
+        tree = mat.node_tree
+        bsdf = materials.principled(tree)
+        if bsdf is not None:
+            if not mat.get("hydrobake_water_setup"):
+                bsdf.inputs["Transmission"].default_value = 1.0
+                bsdf.inputs["Roughness"].default_value = 0.0
+                bsdf.inputs["IOR"].default_value = 1.333
+                mat["hydrobake_water_setup"] = 1
+            mp = cls._mapping(tree, obj, width, "caustics.water", bsdf.location.x - 900)
+            tex = materials.add_node(tree, "ShaderNodeTexImage", "caustics.surface",
+                                     (bsdf.location.x - 500, 0))
+            tex.image = images.load_sequence(folder, "surface", start, count,
+                                             name=f"HBK_{obj.name}_surface")
+            tex.extension = "EXTEND"
+            images.configure_user(tex.image_user, start, count)
+            tree.links.new(mp.outputs["Vector"], tex.inputs["Vector"])
+            nm = materials.add_node(tree, "ShaderNodeNormalMap", "caustics.normal",
+                                    (bsdf.location.x - 200, -100))
+            nm.space = "WORLD"
+            tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+            tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+        # Light reaches the floor through the caustic map, not through the glass: the water
+        # casts no shadow (restored by Free Bake).
+        if "hydrobake_shadow" not in obj:
+            obj["hydrobake_shadow"] = int(obj.visible_shadow)
+        obj.visible_shadow = False
+
+    @classmethod
+    def remove(cls, context, obj, settings):
+        mats = [s.material for s in obj.material_slots if s.material]
+        if settings.ground_object:
+            mats += [s.material for s in settings.ground_object.material_slots if s.material]
+        for mat in mats:
+            if not mat.node_tree:
+                continue
+            tree = mat.node_tree
+            mix = materials.tagged(tree, "caustics.multiply")
+            bsdf = materials.principled(tree)
+            if mix is not None and bsdf is not None:
+                c1 = mix.inputs["Color1"]
+                if c1.is_linked:
+                    tree.links.new(c1.links[0].from_socket, bsdf.inputs["Base Color"])
+                else:
+                    bsdf.inputs["Base Color"].default_value = c1.default_value
+            materials.remove_tagged(tree, "caustics.")
+        if "hydrobake_shadow" in obj:
+            obj.visible_shadow = bool(obj["hydrobake_shadow"])
+            del obj["hydrobake_shadow"]
+
+    @classmethod
+    def draw_settings(cls, layout, settings):
+        col = layout.column()
+        for name in ("ground_object", "disturber_object", "disturber_depth", "sun_object",
+                     "map_resolution"):
+            col.prop(settings, name)
+        super().draw_settings(layout, settings)
+
+

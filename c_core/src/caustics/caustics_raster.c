@@ -1,0 +1,497 @@
+/* Exact-coverage rasterisation of the ground images into the caustic map.
+ *
+ * Every ground triangle is a polygon of constant value w (its power over its area). Instead of
+ * clipping triangles against pixels, each polygon edge deposits, per scanline it crosses, the
+ * signed coverage it adds to all pixels on its right (the accumulation scheme of font
+ * rasterisers such as font-rs); a prefix sum along each row then yields, for every pixel, the
+ * exact area-weighted sum of all polygons over it. Because the scheme is linear, an edge shared
+ * by two mesh triangles is drawn once with the difference of their values, and a folded
+ * triangle (negative signed area) with negative coverage times negative value adds like any
+ * other. Periodic maps wrap: a piece of edge one period to the right is drawn at its wrapped
+ * position plus a constant for the whole row (derivation: the tile sums coverage over all
+ * periods, see `region`).
+ *
+ * Determinism: the map is cut into bands of HBK_CAUSTICS_BAND rows with a double accumulator
+ * each (in cache, and no float rounding streaks next to bright tiny triangles). Items (edges and
+ * loose triangles) come in a fixed order, in groups of HBK_GROUP neighbours binned to the bands
+ * their rows touch; every row's contribution is computed from the item alone, so the per-pixel
+ * summation order is the item order whatever thread runs the band. */
+#include "internal_caustics.h"
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { IT_H, IT_V, IT_D, IT_LOOSE };
+enum { HBK_GROUP = 32 };
+
+/* HBK_GROUP consecutive items (pass g, kind, mesh row j, columns i0 .. i0 + n - 1; loose
+ * triangles i0 .. i0 + n - 1) and the map rows [lo, hi) they touch, unwrapped. */
+typedef struct {
+    int32_t g, kind, j, i0, n;
+    int64_t lo, hi;
+} group_t;
+
+typedef struct {
+    const hbk_caustics_ctx_t *c;
+    double *buf;      /* BAND rows of (MW + 2) pixels x ps channels */
+    size_t rowlen;
+    int32_t B0, B1;   /* rows of this band */
+} band_t;
+
+#define TRIW(c, g, cell, t, ch) \
+    ((double)(c)->triw[g][((size_t)(cell) * 2 + (t)) * (size_t)(c)->nch + (size_t)(ch)])
+
+static void kind_dims(const hbk_caustics_ctx_t *c, int kind, int32_t *cols, int32_t *rows)
+{
+    *cols = kind == IT_V ? c->nvx : kind == IT_LOOSE ? (int32_t)c->nloose : c->ncx;
+    *rows = kind == IT_H ? c->nvy : kind == IT_LOOSE ? 1 : c->ncy;
+}
+
+/* The two vertices of edge (kind, j, i): H (i, j) -> (i+1, j), V (i, j) -> (i, j+1),
+ * D (i, j) -> (i+1, j+1). */
+static inline void edge_verts(const hbk_caustics_ctx_t *c, int kind, int32_t j, int32_t i,
+                              size_t *v0, size_t *v1)
+{
+    *v0 = (size_t)j * (size_t)c->nvx + (size_t)i;
+    *v1 = *v0 + (kind == IT_H ? 1 : kind == IT_V ? (size_t)c->nvx : (size_t)c->nvx + 1);
+}
+
+/* The edge's weight: the value of the triangle on its left minus that on its right (cell (i, j)
+ * has T0 = (00, 10, 11) and T1 = (00, 11, 01), both counter-clockwise). Returns 0 if all zero. */
+static inline int edge_weights(const hbk_caustics_ctx_t *c, int g, int kind, int32_t j,
+                               int32_t i, double *w)
+{
+    const size_t ci = (size_t)j * (size_t)c->ncx + (size_t)i;
+    int any = 0;
+    for (int ch = 0; ch < c->nch; ++ch) {
+        if (kind == IT_H) /* +T0(i, j), -T1(i, j-1) */
+            w[ch] = (j < c->ncy ? TRIW(c, g, ci, 0, ch) : 0.0) -
+                    (j > 0 ? TRIW(c, g, ci - (size_t)c->ncx, 1, ch) : 0.0);
+        else if (kind == IT_V) /* +T0(i-1, j), -T1(i, j) */
+            w[ch] = (i > 0 ? TRIW(c, g, ci - 1, 0, ch) : 0.0) -
+                    (i < c->ncx ? TRIW(c, g, ci, 1, ch) : 0.0);
+        else /* +T1(i, j), -T0(i, j) */
+            w[ch] = TRIW(c, g, ci, 1, ch) - TRIW(c, g, ci, 0, ch);
+        any |= w[ch] != 0.0;
+    }
+    return any;
+}
+
+/* floor for |x| < 2^62, inline (libm's floor is a call without SSE4.1). */
+static inline double ffloor(double x)
+{
+    const double t = (double)(int64_t)x;
+    return t > x ? t - 1.0 : t;
+}
+
+static inline int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+/* Rows [lo, hi) of a loose triangle (one row for a splat). */
+static void loose_rows(const hbk_loose_tri_t *lt, int g, double *lo, double *hi)
+{
+    if (lt->splat[g]) {
+        *lo = ffloor((lt->py[g][0] + lt->py[g][1] + lt->py[g][2]) / 3.0);
+        *hi = *lo + 1.0;
+        return;
+    }
+    double a = lt->py[g][0], b = a;
+    for (int k = 1; k < 3; ++k) {
+        a = lt->py[g][k] < a ? lt->py[g][k] : a;
+        b = lt->py[g][k] > b ? lt->py[g][k] : b;
+    }
+    *lo = ffloor(a);
+    *hi = -ffloor(-b);
+}
+
+/* Band ranges [r[k][0], r[k][1]] covering rows [lo, hi); returns how many (0..2). */
+static int row_bands(const hbk_caustics_ctx_t *c, int32_t nb, int64_t lo, int64_t hi, int32_t r[2][2])
+{
+    const int64_t BH = HBK_CAUSTICS_BAND, MH = c->MH;
+    if (!(hi > lo)) return 0;
+    if (!c->periodic) {
+        if (lo < 0) lo = 0;
+        if (hi > MH) hi = MH;
+        if (!(hi > lo)) return 0;
+        r[0][0] = (int32_t)(lo / BH);
+        r[0][1] = (int32_t)((hi - 1) / BH);
+        return 1;
+    }
+    const int64_t n = hi - lo;
+    if (n >= MH) {
+        r[0][0] = 0;
+        r[0][1] = nb - 1;
+        return 1;
+    }
+    const int64_t a = lo - floor_div(lo, MH) * MH, e = a + n - 1;
+    r[0][0] = (int32_t)(a / BH);
+    if (e < MH) {
+        r[0][1] = (int32_t)(e / BH);
+        return 1;
+    }
+    r[0][1] = nb - 1;
+    r[1][0] = 0;
+    r[1][1] = (int32_t)((e - MH) / BH);
+    if (r[1][1] >= r[0][0]) { /* the two ends meet in one band: every band, once */
+        r[0][0] = 0;
+        return 1;
+    }
+    return 2;
+}
+
+/* Periods k whose copy of band [B0, B1) meets rows [rlo, rhi); empty when *kmin > *kmax. */
+static inline void band_periods(const band_t *b, int64_t rlo, int64_t rhi, int64_t *kmin,
+                                int64_t *kmax)
+{
+    const int64_t MH = b->c->MH;
+    if (!b->c->periodic || (rlo >= 0 && rhi <= MH)) {
+        const int hit = rhi > b->B0 && rlo < b->B1;
+        *kmin = 0;
+        *kmax = hit ? 0 : -1;
+        return;
+    }
+    *kmin = floor_div(rlo - b->B1, MH) + 1;
+    *kmax = -floor_div(b->B0 - rhi, MH) - 1;
+}
+
+/* Adds v * w to pixel x of a row (NCH channels from ch0, PS accumulator channels per pixel).
+ * NCH and PS are constants where inlined. */
+#define HBK_PUT(row, x, v)                                                   \
+    do {                                                                     \
+        double *px_ = (row) + (size_t)PS * (size_t)(x) + (size_t)ch0;        \
+        const double v_ = (v);                                               \
+        for (int k_ = 0; k_ < NCH; ++k_) px_[k_] += v_ * w[k_];              \
+    } while (0)
+
+/* Coverage of a piece of edge within one row, x in [0, MW], signed height dv: pixel k gets
+ * dv * c_k, c_k = E[clamp(k + 1 - x, 0, 1)] with x uniform over the piece (0 left of it, 1 right
+ * of it), stored as differences c_k - c_(k-1) for the prefix sum. `ds` is dv / (x1 - x0), the
+ * same for every row piece of an edge (dir * |dy/dx|), so no row divides. */
+static inline __attribute__((always_inline)) void
+accumulate(double *row, double xa, double xb, double dv, double ds, const double *w, int ch0,
+           const int NCH, const int PS)
+{
+    const double x0 = xa < xb ? xa : xb, x1 = xa < xb ? xb : xa;
+    const double f0 = ffloor(x0);
+    const int32_t i0 = (int32_t)f0;
+    if (x1 <= f0 + 1.0) { /* within one pixel column */
+        const double xm = 0.5 * (x0 + x1) - f0;
+        HBK_PUT(row, i0, dv * (1.0 - xm));
+        HBK_PUT(row, i0 + 1, dv * xm);
+        return;
+    }
+    const double x0f = 1.0 - (x0 - f0);
+    const double h = 0.5 * ds;
+    if (x1 <= f0 + 2.0) { /* pixels i0 and i0 + 1 */
+        const double x1f = x1 - f0 - 1.0, a0 = h * x0f * x0f, am = h * x1f * x1f;
+        HBK_PUT(row, i0, a0);
+        HBK_PUT(row, i0 + 1, dv - a0 - am);
+        HBK_PUT(row, i0 + 2, am);
+        return;
+    }
+    const int32_t i1 = (int32_t)-ffloor(-x1);
+    const double x1f = x1 - (double)(i1 - 1);
+    const double a0 = h * x0f * x0f;        /* dv x coverage of pixel i0 */
+    const double am = h * x1f * x1f;        /* dv x (1 - coverage of pixel i1-1) */
+    const double a1 = ds * (x0f + 0.5);     /* dv x coverage of pixel i0+1 */
+    HBK_PUT(row, i0, a0);
+    HBK_PUT(row, i0 + 1, a1 - a0);
+    for (int32_t k = i0 + 2; k < i1 - 1; ++k) HBK_PUT(row, k, ds);
+    const double a2 = a1 + (double)(i1 - i0 - 3) * ds; /* dv x coverage of pixel i1-2 */
+    HBK_PUT(row, i1 - 1, dv - a2 - am);
+    HBK_PUT(row, i1, am);
+}
+
+/* A piece lying in period m (x in [m MW, (m+1) MW]). A tile sums the coverage over all periods;
+ * per piece that is its wrapped coverage minus m times its height for every pixel of the row
+ * (the terms common to all periods cancel over a closed polygon). Without wrapping, pieces left
+ * of the map cover the whole row and pieces right of it nothing. */
+static void region(const hbk_caustics_ctx_t *c, double *row, double xa, double xb, double dv,
+                   double ds, int64_t m, const double *w, int ch0, int nch)
+{
+    const double MW = c->MW;
+    const int NCH = nch, PS = c->ps;
+    if (c->periodic) {
+        if (m) {
+            xa -= (double)m * MW;
+            xb -= (double)m * MW;
+            HBK_PUT(row, 0, -(double)m * dv);
+        }
+    } else if (m < 0) {
+        HBK_PUT(row, 0, dv);
+        return;
+    } else if (m > 0) {
+        return;
+    }
+    xa = xa < 0.0 ? 0.0 : xa > MW ? MW : xa;
+    xb = xb < 0.0 ? 0.0 : xb > MW ? MW : xb;
+    accumulate(row, xa, xb, dv, ds, w, ch0, NCH, PS);
+}
+
+/* One row's piece of an edge that leaves the map: split where it crosses period boundaries. */
+static void row_piece(const hbk_caustics_ctx_t *c, double *row, double xa, double xb, double dv,
+                      double ds, const double *w, int ch0, int nch)
+{
+    const double MW = c->MW;
+    const double lo = xa < xb ? xa : xb, hi = xa < xb ? xb : xa;
+    const int64_t m0 = (int64_t)ffloor(lo / MW);
+    int64_t m1 = (int64_t)ffloor(hi / MW);
+    if (m1 > m0 && hi == (double)m1 * MW) --m1; /* ends exactly on a boundary */
+    if (m0 == m1) {
+        region(c, row, xa, xb, dv, ds, m0, w, ch0, nch);
+        return;
+    }
+    /* Walk from xa to xb; each sub-piece carries its share of the height (linear in x). */
+    const int up = xb > xa;
+    const double span = xb - xa;
+    double prev = xa;
+    for (int64_t k = up ? m0 + 1 : m1; up ? k <= m1 : k > m0; k += up ? 1 : -1) {
+        const double X = (double)k * MW;
+        if (X == prev) continue;
+        region(c, row, prev, X, dv * (X - prev) / span, ds, up ? k - 1 : k, w, ch0, nch);
+        prev = X;
+    }
+    if (xb != prev) region(c, row, prev, xb, dv * (xb - prev) / span, ds, up ? m1 : m0, w, ch0, nch);
+}
+
+/* Draws the rows of edge (x0, y0) -> (x1, y1) that fall in the band (rows [rlo, rhi), periods
+ * kmin..kmax, from band_periods). A downward edge adds coverage to its right, so counter-
+ * clockwise polygons come out positive. Every row's piece is computed from the edge alone,
+ * never carried over from the previous row, so a row gets the same bytes whichever band (and
+ * thread) draws it. */
+static inline __attribute__((always_inline)) void
+edge_n(const band_t *b, double x0, double y0, double x1, double y1, int64_t rlo, int64_t rhi,
+       int64_t kmin, int64_t kmax, const double *w, int ch0, const int NCH, const int PS)
+{
+    const hbk_caustics_ctx_t *c = b->c;
+    const double dir = y0 > y1 ? 1.0 : -1.0;
+    const double ylo = y0 < y1 ? y0 : y1, yhi = y0 < y1 ? y1 : y0;
+    const double dxdy = (x1 - x0) / (y1 - y0);
+    const double ds = x1 != x0 ? dir * fabs((y1 - y0) / (x1 - x0)) : 0.0;
+    const int inside = (x0 < x1 ? x0 : x1) >= 0.0 && (x0 < x1 ? x1 : x0) <= (double)c->MW;
+    const int64_t MH = c->MH;
+    for (int64_t k = kmin; k <= kmax; ++k) {
+        const int64_t r0 = rlo > b->B0 + k * MH ? rlo : b->B0 + k * MH;
+        const int64_t r1 = rhi < b->B1 + k * MH ? rhi : b->B1 + k * MH;
+        double *row = b->buf + (size_t)(r0 - k * MH - b->B0) * b->rowlen;
+        for (int64_t r = r0; r < r1; ++r, row += b->rowlen) {
+            const double ya = ylo > (double)r ? ylo : (double)r;
+            const double yb = yhi < (double)(r + 1) ? yhi : (double)(r + 1);
+            if (!(yb > ya)) continue;
+            const double xa = x0 + (ya - y0) * dxdy, xb = x0 + (yb - y0) * dxdy;
+            if (inside) accumulate(row, xa, xb, dir * (yb - ya), ds, w, ch0, NCH, PS);
+            else row_piece(c, row, xa, xb, dir * (yb - ya), ds, w, ch0, NCH);
+        }
+    }
+}
+
+/* Draws an edge if it meets the band and has weight; w is computed only then. */
+static inline __attribute__((always_inline)) void
+edge_item(const band_t *b, double x0, double y0, double x1, double y1, const double *w_in,
+          int g, int kind, int32_t j, int32_t i, int ch0, const int NCH, const int PS)
+{
+    if (y0 == y1) return; /* horizontal: covers nothing */
+    const double ylo = y0 < y1 ? y0 : y1, yhi = y0 < y1 ? y1 : y0;
+    if (!(ylo > -1e9 && yhi < 1e9 && fabs(x0) < 1e9 && fabs(x1) < 1e9)) return;
+    const int64_t rlo = (int64_t)ffloor(ylo), rhi = (int64_t)-ffloor(-yhi);
+    int64_t kmin, kmax;
+    band_periods(b, rlo, rhi, &kmin, &kmax);
+    if (kmin > kmax) return;
+    double wv[3];
+    const double *w = w_in;
+    if (!w) {
+        if (!edge_weights(b->c, g, kind, j, i, wv)) return;
+        w = wv;
+    }
+    edge_n(b, x0, y0, x1, y1, rlo, rhi, kmin, kmax, w, ch0, NCH, PS);
+}
+
+/* Draws the items of group `gr` that meet band b. */
+static inline __attribute__((always_inline)) void
+draw_group_n(const band_t *b, const group_t *gr, const int NCH, const int PS)
+{
+    const hbk_caustics_ctx_t *c = b->c;
+    const int g = gr->g, ch0 = c->ng == 1 ? 0 : g;
+    if (gr->kind != IT_LOOSE) {
+        const double *px = c->ipx[g], *py = c->ipy[g];
+        for (int32_t i = gr->i0; i < gr->i0 + gr->n; ++i) {
+            size_t v0, v1;
+            edge_verts(c, gr->kind, gr->j, i, &v0, &v1);
+            edge_item(b, px[v0], py[v0], px[v1], py[v1], NULL, g, gr->kind, gr->j, i, ch0, NCH, PS);
+        }
+        return;
+    }
+    for (int32_t i = gr->i0; i < gr->i0 + gr->n; ++i) {
+        const hbk_loose_tri_t *lt = &c->loose[i];
+        if (!lt->used[g]) continue;
+        double w[3];
+        for (int ch = 0; ch < NCH; ++ch) w[ch] = lt->w[g][ch];
+        if (!lt->splat[g]) {
+            for (int k = 0; k < 3; ++k)
+                edge_item(b, lt->px[g][k], lt->py[g][k], lt->px[g][(k + 1) % 3],
+                          lt->py[g][(k + 1) % 3], w, g, IT_LOOSE, 0, 0, ch0, NCH, PS);
+            continue;
+        }
+        /* A degenerate image: all its light into the pixel of its centroid. */
+        double cx = ffloor((lt->px[g][0] + lt->px[g][1] + lt->px[g][2]) / 3.0);
+        double cy = ffloor((lt->py[g][0] + lt->py[g][1] + lt->py[g][2]) / 3.0);
+        if (!(fabs(cx) < 1e9 && fabs(cy) < 1e9)) continue;
+        if (c->periodic) {
+            cx -= ffloor(cx / c->MW) * c->MW;
+            cy -= ffloor(cy / c->MH) * c->MH;
+        } else if (cx < 0 || cy < 0 || cx >= c->MW || cy >= c->MH) {
+            continue;
+        }
+        if (cy < b->B0 || cy >= b->B1) continue;
+        double *row = b->buf + (size_t)((int32_t)cy - b->B0) * b->rowlen;
+        HBK_PUT(row, (int32_t)cx, 1.0);
+        HBK_PUT(row, (int32_t)cx + 1, -1.0);
+    }
+}
+
+static void draw_group(const band_t *b, const group_t *gr)
+{
+    if (b->c->nch == 3) draw_group_n(b, gr, 3, 3);
+    else if (b->c->ps == 3) draw_group_n(b, gr, 1, 3);
+    else draw_group_n(b, gr, 1, 1);
+}
+
+/* Rows of every item of the group, unwrapped. */
+static void group_rows(const hbk_caustics_ctx_t *c, group_t *gr)
+{
+    double lo = INFINITY, hi = -INFINITY;
+    const int g = gr->g;
+    for (int32_t i = gr->i0; i < gr->i0 + gr->n; ++i) {
+        double a, b;
+        if (gr->kind == IT_LOOSE) {
+            if (!c->loose[i].used[g]) continue;
+            loose_rows(&c->loose[i], g, &a, &b);
+        } else {
+            size_t v0, v1;
+            edge_verts(c, gr->kind, gr->j, i, &v0, &v1);
+            const double y0 = c->ipy[g][v0], y1 = c->ipy[g][v1];
+            if (y0 == y1) continue;
+            a = ffloor(y0 < y1 ? y0 : y1);
+            b = -ffloor(-(y0 < y1 ? y1 : y0));
+        }
+        lo = a < lo ? a : lo;
+        hi = b > hi ? b : hi;
+    }
+    if (!(lo > -1e9 && hi < 1e9)) lo = hi = 0.0; /* empty, or absurd coordinates */
+    gr->lo = (int64_t)lo;
+    gr->hi = (int64_t)hi;
+}
+
+hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
+                                    hbk_progress_t *progress)
+{
+    const int32_t BH = HBK_CAUSTICS_BAND, nb = (c->MH + BH - 1) / BH;
+    const int T = c->threads;
+    /* The groups, in drawing order: per pass, H edges, V edges, D edges, loose triangles. */
+    size_t ngroups = 0;
+    for (int kind = 0; kind < 4; ++kind) {
+        int32_t cols, rows;
+        kind_dims(c, kind, &cols, &rows);
+        ngroups += (size_t)rows * (size_t)((cols + HBK_GROUP - 1) / HBK_GROUP);
+    }
+    ngroups *= (size_t)c->ng;
+    group_t *groups = malloc((ngroups ? ngroups : 1) * sizeof *groups);
+    size_t *start = calloc((size_t)nb + 1, sizeof *start), *fillat = calloc((size_t)nb, sizeof *fillat);
+    uint32_t *list = NULL;
+    double *bufs = NULL;
+    hbk_result_t res = HBK_OK;
+    if (!groups || !start || !fillat) {
+        res = HBK_ERR_OUT_OF_MEMORY;
+        goto done;
+    }
+    size_t n = 0;
+    for (int g = 0; g < c->ng; ++g)
+        for (int kind = 0; kind < 4; ++kind) {
+            int32_t cols, rows;
+            kind_dims(c, kind, &cols, &rows);
+            for (int32_t j = 0; j < rows; ++j)
+                for (int32_t i = 0; i < cols; i += HBK_GROUP)
+                    groups[n++] = (group_t){g, kind, j, i, cols - i < HBK_GROUP ? cols - i : HBK_GROUP, 0, 0};
+        }
+#pragma omp parallel for num_threads(T) schedule(static)
+    for (size_t k = 0; k < ngroups; ++k) group_rows(c, &groups[k]);
+    /* Bin the groups to bands, keeping their order within every band. */
+    for (int fill = 0; fill < 2; ++fill) {
+        for (size_t k = 0; k < ngroups; ++k) {
+            int32_t r[2][2];
+            const int m = row_bands(c, nb, groups[k].lo, groups[k].hi, r);
+            for (int q = 0; q < m; ++q)
+                for (int32_t bb = r[q][0]; bb <= r[q][1]; ++bb) {
+                    if (fill) list[fillat[bb]++] = (uint32_t)k;
+                    else start[bb + 1]++;
+                }
+        }
+        if (fill) break;
+        for (int32_t bb = 0; bb < nb; ++bb) {
+            start[bb + 1] += start[bb];
+            fillat[bb] = start[bb];
+        }
+        if (ngroups > UINT32_MAX || !(list = malloc((start[nb] ? start[nb] : 1) * sizeof *list))) {
+            res = HBK_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
+    }
+    if (hbk_cancelled(progress)) {
+        res = HBK_ERR_CANCELLED;
+        goto done;
+    }
+    const size_t rowlen = (size_t)c->ps * ((size_t)c->MW + 2);
+    bufs = malloc((size_t)T * (size_t)BH * rowlen * sizeof *bufs);
+    if (!bufs) {
+        res = HBK_ERR_OUT_OF_MEMORY;
+        goto done;
+    }
+    int cancelled = 0;
+    const int nc = out->channels;
+#pragma omp parallel for num_threads(T) schedule(dynamic, 1)
+    for (int32_t bb = 0; bb < nb; ++bb) {
+        if (cancelled || hbk_cancelled(progress)) {
+            cancelled = 1;
+            continue;
+        }
+        band_t b = {c, bufs + (size_t)omp_get_thread_num() * (size_t)BH * rowlen, rowlen,
+                    bb * BH, bb * BH + BH < c->MH ? bb * BH + BH : c->MH};
+        memset(b.buf, 0, (size_t)BH * rowlen * sizeof *b.buf);
+        for (size_t k = start[bb]; k < start[bb + 1]; ++k) draw_group(&b, &groups[list[k]]);
+        const double e0 = c->escale[0], e1 = c->escale[1], e2 = c->escale[2];
+        for (int32_t y = b.B0; y < b.B1; ++y) {
+            const double *a = b.buf + (size_t)(y - b.B0) * rowlen;
+            float *px = out->data + (size_t)y * out->row_stride;
+            double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+            if (c->ps == 1) {
+                for (int32_t x = 0; x < c->MW; ++x, ++a, px += nc) {
+                    s0 += a[0];
+                    const double v = s0 > 0.0 ? s0 : 0.0; /* below 0 only by rounding */
+                    px[0] = (float)(v * e0);
+                    px[1] = (float)(v * e1);
+                    px[2] = (float)(v * e2);
+                    if (nc == 4) px[3] = 1.0f;
+                }
+                continue;
+            }
+            for (int32_t x = 0; x < c->MW; ++x, a += 3, px += nc) {
+                s0 += a[0];
+                s1 += a[1];
+                s2 += a[2];
+                px[0] = s0 > 0.0 ? (float)s0 : 0.0f;
+                px[1] = s1 > 0.0 ? (float)s1 : 0.0f;
+                px[2] = s2 > 0.0 ? (float)s2 : 0.0f;
+                if (nc == 4) px[3] = 1.0f;
+            }
+        }
+        if (omp_get_thread_num() == 0) hbk_report(progress, 0.5f + 0.5f * (float)(bb + 1) / (float)nb);
+    }
+    if (cancelled) res = HBK_ERR_CANCELLED;
+done:
+    free(groups);
+    free(start);
+    free(fillat);
+    free(list);
+    free(bufs);
+    return res;
+}

@@ -1,0 +1,67 @@
+"""The caustics effect through the real addon on examples.blend: bake a short range, check the
+files and the wiring into the floor and water materials, render, then free and check the
+materials are as they were."""
+import json
+import os
+
+import bpy
+
+import in_blender
+
+in_blender.enable()
+tmp = in_blender.args()[0]
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "pool.blend"))
+scene = bpy.data.scenes["Caustics"]
+water, floor = bpy.data.objects["Water"], bpy.data.objects["Pool Floor"]
+s = water.hydrobake_caustics
+assert s.enabled and s.ground_object == floor
+s.use_scene_range = False
+s.frame_start, s.frame_end = 1, 3
+s.water.width = 64
+s.map_resolution = 256
+floor_tree = floor.data.materials[0].node_tree
+bsdf = next(n for n in floor_tree.nodes if n.type == "BSDF_PRINCIPLED")
+orig_from = bsdf.inputs["Base Color"].links[0].from_node.name
+
+with bpy.context.temp_override(scene=scene):
+    assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Water") == {"FINISHED"}
+folder = s.bake_folder
+m = json.load(open(os.path.join(folder, "manifest.json")))
+assert m["complete"] and sorted(map(int, m["frames"])) == [1, 2, 3]
+assert m["params"]["water"]["width"] == 64 and m["params"]["water"]["height"] == 64
+names = sorted(os.listdir(folder))
+assert names == sorted(["manifest.json"] + [f"{st}_{i:04d}.exr" for i in (1, 2, 3)
+                                            for st in ("caustics", "surface", "water")]), names
+
+# Wired: floor base colour = original texture x caustic sequence; water has the normal map.
+link = bsdf.inputs["Base Color"].links[0]
+assert link.from_node.get("hydrobake") == "caustics.multiply"
+mix = link.from_node
+assert mix.inputs["Color1"].links[0].from_node.name == orig_from
+tex = mix.inputs["Color2"].links[0].from_node
+assert tex.image.source == "SEQUENCE" and tex.image_user.frame_duration == 3
+wtree = water.data.materials[0].node_tree
+wbsdf = next(n for n in wtree.nodes if n.type == "BSDF_PRINCIPLED")
+assert wbsdf.inputs["Normal"].links[0].from_node.get("hydrobake") == "caustics.normal"
+assert not water.visible_shadow
+
+# A small render: the caustic texture is found (no magenta 'missing image').
+scene.render.resolution_x, scene.render.resolution_y = 64, 36
+scene.render.resolution_percentage = 100
+scene.cycles.samples = 2
+scene.frame_set(2)
+scene.render.filepath = os.path.join(tmp, "pool.png")
+bpy.ops.render.render(write_still=True, scene=scene.name)
+img = bpy.data.images.load(scene.render.filepath)
+px = list(img.pixels)
+magenta = sum(1 for i in range(0, len(px), 4) if px[i] > 0.9 and px[i + 1] < 0.1 and px[i + 2] > 0.9)
+assert magenta == 0, magenta
+
+# Free: files gone, floor link restored, water casts shadows again.
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Water") == {"FINISHED"}
+assert not os.path.exists(folder)
+assert bsdf.inputs["Base Color"].links[0].from_node.name == orig_from
+assert not any(n.get("hydrobake") for n in floor_tree.nodes)
+assert not any(n.get("hydrobake") for n in wtree.nodes)
+assert water.visible_shadow and not s.is_baked
+print("CAUSTICS BLENDER OK")

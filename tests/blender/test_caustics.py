@@ -1,0 +1,9 @@
+"""The caustics effect in real Blender with the installed addon."""
+import os
+
+from hydrobake_paths import ROOT
+
+
+def test_bake_wire_render_free_on_examples(blender, tmp_path):
+    r = blender.run("bake_caustics.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
+    assert "CAUSTICS BLENDER OK" in r.stdout

@@ -1,0 +1,102 @@
+"""Water and caustics through the binding: parameter tables, physics and contracts."""
+import numpy as np
+import pytest
+
+from hydrobake.core import _lib, caustics, errors
+from hydrobake.core.bake import BakeRunner
+from hydrobake.core.effects import get
+from hydrobake.core.water import Water
+
+
+def test_parameter_tables_are_complete():
+    for spec in (Water.spec(), caustics.spec()):
+        assert spec.params
+        for p in spec.params:
+            assert p.description and p.min <= p.max, p
+            lo = np.atleast_1d(p.default)
+            assert np.all(lo >= p.min) and np.all(lo <= p.max), p  # defaults are in range
+        spec.to_struct({})  # the defaults pass the library's own checks
+
+
+def test_bad_parameters_name_themselves():
+    with pytest.raises(errors.InvalidArgument, match=r"^cell_size = -1: must be in \["):
+        Water({"cell_size": -1})
+    with pytest.raises(errors.InvalidArgument, match="substeps = 2.5: must be a whole number"):
+        Water({"substeps": 2.5})
+    with pytest.raises(errors.InvalidArgument, match="^wind_speed: not a parameter of water"):
+        Water({"wind_speed": 3})
+    with pytest.raises(errors.InvalidArgument, match=r"^ior\[0\] = 0.5"):
+        caustics.render(np.zeros((8, 8)), np.full((8, 8), -1.0), 0.1, (8, 8),
+                        {"ior": (0.5, 1.333, 1.333)})
+    with pytest.raises(errors.InvalidArgument, match="light_direction"):
+        caustics.render(np.zeros((8, 8)), np.full((8, 8), -1.0), 0.1, (8, 8),
+                        {"light_direction": (0, 0, -1)})
+    with pytest.raises(errors.InvalidArgument, match=r"^light\.nope: not a parameter of caustics"):
+        get("caustics")({"light": {"nope": 1}})
+    with pytest.raises(errors.InvalidArgument, match=r"^water\.dt = 0: must be in"):
+        get("caustics")({"water": {"dt": 0}})
+    with pytest.raises(errors.InvalidArgument, match="^sky: not a parameter group of caustics"):
+        get("caustics")({"sky": {}})
+
+
+def test_flat_water_gives_the_analytic_map():
+    # Overhead sun, flat water 1 m deep, absorption a: E = exp(-a * 1).
+    wh, gh = np.zeros((32, 32), np.float32), np.full((32, 32), -1.0, np.float32)
+    m, stats = caustics.render(wh, gh, 0.05, (64, 64),
+                               {"absorption": (0.5, 0.1, 0.0), "periodic": 1})
+    for c, a in enumerate((0.5, 0.1, 0.0)):
+        np.testing.assert_allclose(m[..., c], np.exp(-a), rtol=1e-5)
+    np.testing.assert_allclose(stats.entered, [1.6 * 1.6] * 3, rtol=1e-6)  # E x area (float cells)
+
+
+def test_volume_is_conserved_and_depth_never_negative():
+    with Water({"width": 48, "height": 40, "cell_size": 0.05, "dt": 0.1, "substeps": 2}) as w:
+        y, x = np.mgrid[0:40, 0:48]
+        ground = (0.02 * x - 0.5).astype(np.float32)  # a slope: part of it stays dry
+        w.set_ground(ground)
+        w.set_surface(np.where((x - 10) ** 2 + (y - 20) ** 2 < 30, 0.1, 0.0).astype(np.float32))
+        v0 = w.volume()
+        for _ in range(300):
+            w.step()
+        assert w.volume() == pytest.approx(v0, rel=1e-9)
+        assert w.depth().min() >= 0.0
+        assert np.all(np.isfinite(w.surface()))
+
+
+def test_cancel_leaves_the_state_as_it_was():
+    with Water({"width": 32, "height": 32, "rain_rate": 200.0}) as w:
+        w.set_level(0.5)
+        w.step()
+        before, n = w.save_state(), w.step_count()
+        prog = _lib.Progress()
+        prog.cancel = 1
+        with pytest.raises(errors.Cancelled):
+            w.step(prog)
+        assert w.step_count() == n and w.save_state() == before
+
+
+def test_checkpoint_resumes_bit_for_bit():
+    params = {"width": 32, "height": 32, "rain_rate": 100.0, "seed": 7}
+    with Water(params) as a, Water(params) as b:
+        a.set_level(0.5)
+        for _ in range(5):
+            a.step()
+        b.load_state(a.save_state())
+        for _ in range(5):
+            a.step()
+            b.step()
+        assert a.surface().tobytes() == b.surface().tobytes()
+
+
+def test_effect_bytes_do_not_depend_on_threads(tmp_path):
+    files = {}
+    for threads in (1, 2):
+        e = get("caustics")({"water": {"width": 48, "height": 48, "rain_rate": 60.0,
+                                       "threads": threads},
+                             "light": {"threads": threads, "light_direction": (0.2, 0.1, 1)}},
+                            {"map_size": (96, 96)})
+        BakeRunner(e, tmp_path / str(threads), 1, 4).run()
+        e.close()
+        files[threads] = [(tmp_path / str(threads) / f"caustics_{i:04d}.exr").read_bytes()
+                          for i in range(1, 5)]
+    assert files[1] == files[2]
