@@ -29,7 +29,10 @@ typedef struct hbk_exr_channel {
 
 /* Writes `count` channels (1..64) of width x height (1..65536) pixels to `path`.
  * Returns HBK_ERR_INVALID_ARGUMENT (bad size, name, stride, compression), HBK_ERR_IO
- * (cannot create, write or rename), HBK_ERR_OUT_OF_MEMORY. */
+ * (cannot create, write or rename; also when OpenEXRCore dropped chunks, which its
+ * exr_finish does not report), HBK_ERR_OUT_OF_MEMORY, HBK_ERR_INTERNAL (OpenEXRCore reported
+ * something unexpected; the message has its words). Memory: one 16-row block of all channels
+ * as float, e.g. 1 MB for 4096-wide RGBA. POSIX rename semantics. */
 HBK_EXPORT hbk_result_t hbk_exr_write(const char *path, int32_t width, int32_t height,
                                       const hbk_exr_channel_t *channels, int32_t count,
                                       int32_t compression, hbk_message_t *msg);
@@ -37,7 +40,8 @@ HBK_EXPORT hbk_result_t hbk_exr_write(const char *path, int32_t width, int32_t h
 /* Reading: open, ask the size and channels, read channels into caller buffers, close. */
 typedef struct hbk_exr_reader hbk_exr_reader_t;
 
-/* HBK_ERR_IO (cannot open), HBK_ERR_FORMAT (not a scanline EXR we can read). */
+/* HBK_ERR_IO (cannot open), HBK_ERR_FORMAT (not a single-part scanline EXR, subsampled
+ * channels), HBK_ERR_INVALID_ARGUMENT (NULL out or path), HBK_ERR_OUT_OF_MEMORY. */
 HBK_EXPORT hbk_result_t hbk_exr_open(hbk_exr_reader_t **out, const char *path,
                                      hbk_message_t *msg);
 /* Never fails. */
@@ -47,8 +51,10 @@ HBK_EXPORT int32_t hbk_exr_channel_count(const hbk_exr_reader_t *r);
 HBK_EXPORT const char *hbk_exr_channel_name(const hbk_exr_reader_t *r, int32_t i);
 /* 1 if channel i is stored as half, 0 if float (or other), -1 if out of range. */
 HBK_EXPORT int32_t hbk_exr_channel_is_half(const hbk_exr_reader_t *r, int32_t i);
-/* Reads channel `name` as float into dst (pixel (0,0) bottom-left), with the given strides.
- * HBK_ERR_INVALID_ARGUMENT (no such channel, bad stride), HBK_ERR_FORMAT (corrupt data). */
+/* Reads channel `name` as float into dst (pixel (0,0) bottom-left), with the given strides;
+ * half and unsigned-int channels are converted exactly. HBK_ERR_INVALID_ARGUMENT (no such
+ * channel, bad stride), HBK_ERR_FORMAT (corrupt data), HBK_ERR_IO (read error),
+ * HBK_ERR_OUT_OF_MEMORY. The reader's message is cleared at the start of each read. */
 HBK_EXPORT hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *dst,
                                              size_t pixel_stride, size_t row_stride);
 /* Detail message of the reader's last failure ("" if none). Never NULL. */

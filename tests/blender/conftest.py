@@ -33,6 +33,18 @@ class Blender:
                         f"--- stderr\n{r.stderr[-6000:]}")
         return r
 
+    def run_ui(self, script, *args, timeout=180):
+        """Runs ``script`` in Blender's real UI on a virtual X display, with simulated events
+        (--enable-event-simulate: the window takes only events the script sends)."""
+        cmd = ["xvfb-run", "-a", "-s", "-screen 0 1024x700x24", BLENDER, "--factory-startup",
+               "--enable-event-simulate", "--python-exit-code", "1",
+               "--python", os.path.join(SCRIPTS, script), "--", *map(str, args)]
+        r = subprocess.run(cmd, env=self.env, capture_output=True, text=True, timeout=timeout)
+        if r.returncode != 0:
+            pytest.fail(f"{script} (UI) exited {r.returncode}\n--- stdout\n{r.stdout[-6000:]}"
+                        f"\n--- stderr\n{r.stderr[-6000:]}")
+        return r
+
     def popen(self, script, *args, blend=None):
         cmd = [BLENDER, "-b"] + ([blend] if blend else []) + [
             "--factory-startup", "--python-exit-code", "1",

@@ -16,3 +16,8 @@ def test_bake_wire_cancel_free(blender, tmp_path):
 def test_written_vdb_loads_as_a_volume_object(blender, tmp_path):
     r = blender.run("vdb_volume.py", tmp_path)
     assert "VDB VOLUME OK" in r.stdout
+
+
+def test_ui_bake_is_modal_and_esc_cancels(blender, tmp_path):
+    r = blender.run_ui("ui_modal_cancel.py", tmp_path)
+    assert "UI MODAL CANCEL OK" in r.stdout
