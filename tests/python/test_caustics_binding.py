@@ -100,3 +100,10 @@ def test_effect_bytes_do_not_depend_on_threads(tmp_path):
         files[threads] = [(tmp_path / str(threads) / f"caustics_{i:04d}.exr").read_bytes()
                           for i in range(1, 5)]
     assert files[1] == files[2]
+
+
+def test_a_closed_handle_refuses_calls():
+    w = Water()
+    w.close()
+    with pytest.raises(errors.StateError, match="closed"):
+        w.step()

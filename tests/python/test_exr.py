@@ -53,3 +53,12 @@ def test_errors_name_the_problem(tmp_path):
     (tmp_path / "junk.exr").write_bytes(b"not an exr at all" * 10)
     with pytest.raises((errors.FormatError, errors.FileIOError)):
         exr.Reader(tmp_path / "junk.exr")
+
+
+def test_a_closed_reader_refuses_to_read(tmp_path):
+    exr.write(tmp_path / "c.exr", {"A": np.zeros((2, 2))})
+    r = exr.Reader(tmp_path / "c.exr")
+    r.close()
+    r.close()  # twice is harmless
+    with pytest.raises(errors.StateError, match="closed"):
+        r.read("A")

@@ -69,3 +69,12 @@ def free(context, obj, effect_name):
     settings.is_baked = False
     settings.bake_folder = ""
     return removed
+
+
+def cancel_all(timeout=5.0):
+    """Cancels every running bake and waits for the threads (their frames stay valid)."""
+    for job in list(ACTIVE.values()):
+        job.runner.cancel()
+        if job.runner.join(timeout):  # never free a handle a live thread still uses
+            job.runner.effect.close()
+    ACTIVE.clear()

@@ -7,6 +7,13 @@ _registered = []
 _object_props = []
 
 
+@bpy.app.handlers.persistent
+def _cancel_on_load(*_args):
+    """Loading another file ends modal operators; stop their bakes too (frames kept)."""
+    from . import jobs
+    jobs.cancel_all()
+
+
 def register():
     classes, settings = [properties.HydrobakeSceneSettings, *operators.CLASSES], {}
     for name, beffect in effects.load_all().items():
@@ -22,14 +29,14 @@ def register():
     for name, cls in settings.items():
         setattr(bpy.types.Object, f"hydrobake_{name}", bpy.props.PointerProperty(type=cls))
         _object_props.append(f"hydrobake_{name}")
+    bpy.app.handlers.load_pre.append(_cancel_on_load)
 
 
 def unregister():
     from . import jobs
-    for job in list(jobs.ACTIVE.values()):
-        job.runner.cancel()
-        job.runner.join(5.0)
-    jobs.ACTIVE.clear()
+    jobs.cancel_all()
+    if _cancel_on_load in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.remove(_cancel_on_load)
     for attr in _object_props:
         delattr(bpy.types.Object, attr)
     _object_props.clear()

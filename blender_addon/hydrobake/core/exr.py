@@ -11,6 +11,7 @@ import numpy as np
 
 from . import _lib, errors
 from ._lib import ExrChannel, Message, P, check_message, check_handle, hbk_result_t
+from .handle import Owner
 
 COMPRESSION = {"NONE": 0, "ZIP": 1, "ZIPS": 2}
 
@@ -76,17 +77,15 @@ def write_rgba(path, rgba, half=False, compression="ZIP"):
           compression=compression)
 
 
-class Reader:
+class Reader(Owner):
     """An open EXR file: ``size``, ``channels`` (name -> is_half), ``read(name)``.
 
     Use as a context manager, or call close(); the file is closed when collected."""
 
     def __init__(self, path):
-        import weakref
         handle = _ReaderP()
         _lib.lib.hbk_exr_open(ctypes.byref(handle), os.fsencode(path), Message())
-        self._h = handle
-        self._finalizer = weakref.finalize(self, _lib.lib.hbk_exr_close, handle)
+        self._own(handle, _lib.lib.hbk_exr_close)
         w, h = ctypes.c_int32(), ctypes.c_int32()
         _lib.lib.hbk_exr_size(handle, ctypes.byref(w), ctypes.byref(h))
         self.size = (w.value, h.value)
@@ -96,22 +95,11 @@ class Reader:
 
     def read(self, name):
         """Channel ``name`` as a (h, w) float32 array, row 0 at the bottom."""
-        if not self._finalizer.alive:
-            raise errors.StateError("the EXR reader is closed")
         w, h = self.size
         out = np.empty((h, w), dtype=np.float32)
-        _lib.lib.hbk_exr_read_channel(self._h, name.encode(), out.ctypes.data_as(P(ctypes.c_float)),
+        _lib.lib.hbk_exr_read_channel(self.h, name.encode(), out.ctypes.data_as(P(ctypes.c_float)),
                                       1, w)
         return out
-
-    def close(self):
-        self._finalizer()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
 
 def read(path):

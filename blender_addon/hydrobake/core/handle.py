@@ -6,7 +6,31 @@ from . import _lib, errors, params
 from ._lib import Message, P, check_handle, check_message, hbk_result_t
 
 
-class Handle:
+class Owner:
+    """close(), ``with`` and a weakref.finalize that frees the C object (never __del__).
+    Subclasses call ``_own(handle, free)`` once the C object exists."""
+
+    def _own(self, handle, free):
+        self._h = handle
+        self._finalizer = weakref.finalize(self, free, handle)
+
+    @property
+    def h(self):
+        if not self._finalizer.alive:
+            raise errors.StateError(f"{type(self).__name__} is closed")
+        return self._h
+
+    def close(self):
+        self._finalizer()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class Handle(Owner):
     """Owns one ``hbk_<prefix>_t``: created from a params dict, freed by close(), ``with`` or
     garbage collection (weakref.finalize, never __del__)."""
 
@@ -42,23 +66,7 @@ class Handle:
         h = ctypes.c_void_p()
         getattr(lib, f"hbk_{self.prefix}_create")(ctypes.byref(h), ctypes.byref(self.params),
                                                   Message())
-        self._h = h
-        self._finalizer = weakref.finalize(self, getattr(lib, f"hbk_{self.prefix}_destroy"), h)
-
-    @property
-    def h(self):
-        if not self._finalizer.alive:
-            raise errors.StateError(f"the {self.prefix} handle is closed")
-        return self._h
+        self._own(h, getattr(lib, f"hbk_{self.prefix}_destroy"))
 
     def call(self, name, *args):
         return getattr(_lib.lib, f"hbk_{self.prefix}_{name}")(self.h, *args)
-
-    def close(self):
-        self._finalizer()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()

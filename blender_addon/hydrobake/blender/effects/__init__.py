@@ -1,7 +1,5 @@
 """Blender halves of the effects: what each takes from the scene and how its bake is wired
 back into materials and objects. Each module defines one BlenderEffect subclass."""
-import importlib
-
 from ...core import effects as core_effects
 
 _MODULES = ("caustics",)
@@ -16,12 +14,7 @@ def register_effect(cls):
 def load_all():
     """The Blender effects whose core effect exists in this build."""
     core_effects.load_all()
-    for mod in _MODULES:
-        try:
-            importlib.import_module(f"{__name__}.{mod}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"{__name__}.{mod}":
-                raise
+    core_effects.import_present(__name__, _MODULES)
     return {n: c for n, c in BLENDER_EFFECTS.items() if n in core_effects.EFFECTS}
 
 

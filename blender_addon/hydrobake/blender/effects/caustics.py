@@ -100,21 +100,28 @@ class CausticsBlender(BlenderEffect):
 
     # --- wiring -------------------------------------------------------------------------
     @classmethod
-    def _mapping(cls, tree, obj, width, role, x):
-        """World position -> 0..1 over the water grid (the maps' extent)."""
+    def _sequence_texture(cls, tree, obj, width, role, folder, stream, frames, location):
+        """An image node playing ``stream``'s sequence, looked up by world position over the
+        water grid (0..1 across the maps' extent)."""
         origin, cell, shape, _ = cls.grid(obj, width)
-        geo = materials.add_node(tree, "ShaderNodeNewGeometry", f"{role}.position", (x, 300))
-        mp = materials.add_node(tree, "ShaderNodeMapping", f"{role}.mapping", (x + 200, 300))
+        x, y = location
+        geo = materials.add_node(tree, "ShaderNodeNewGeometry", f"{role}.position", (x - 400, y))
+        mp = materials.add_node(tree, "ShaderNodeMapping", f"{role}.mapping", (x - 200, y))
         sx, sy = 1.0 / (shape[1] * cell), 1.0 / (shape[0] * cell)
         mp.inputs["Scale"].default_value = (sx, sy, 1.0)
         mp.inputs["Location"].default_value = (-origin[0] * sx, -origin[1] * sy, 0.0)
         tree.links.new(geo.outputs["Position"], mp.inputs["Vector"])
-        return mp
+        tex = materials.add_node(tree, "ShaderNodeTexImage", role, (x, y))
+        tex.image = images.load_sequence(folder, stream, frames[0], len(frames),
+                                         name=f"HBK_{obj.name}_{stream}")
+        tex.extension = "EXTEND"
+        images.configure_user(tex.image_user, frames[0], len(frames))
+        tree.links.new(mp.outputs["Vector"], tex.inputs["Vector"])
+        return tex
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
         frames = sorted(int(f) for f in manifest["frames"])
-        start, count = frames[0], len(frames)
         width = manifest["params"]["water"]["width"]
         ground = settings.ground_object
         if ground is not None and ground.type == "MESH":
@@ -122,14 +129,8 @@ class CausticsBlender(BlenderEffect):
             tree = mat.node_tree
             bsdf = materials.principled(tree)
             if bsdf is not None:
-                mp = cls._mapping(tree, obj, width, "caustics", bsdf.location.x - 900)
-                tex = materials.add_node(tree, "ShaderNodeTexImage", "caustics.map",
-                                         (bsdf.location.x - 500, 300))
-                tex.image = images.load_sequence(folder, "caustics", start, count,
-                                                 name=f"HBK_{obj.name}_caustics")
-                tex.extension = "EXTEND"
-                images.configure_user(tex.image_user, start, count)
-                tree.links.new(mp.outputs["Vector"], tex.inputs["Vector"])
+                tex = cls._sequence_texture(tree, obj, width, "caustics.map", folder,
+                                            "caustics", frames, (bsdf.location.x - 500, 300))
                 mix = materials.add_node(tree, "ShaderNodeMixRGB", "caustics.multiply",
                                          (bsdf.location.x - 250, 200))
                 mix.blend_type = "MULTIPLY"
@@ -151,14 +152,8 @@ class CausticsBlender(BlenderEffect):
                 bsdf.inputs["Roughness"].default_value = 0.0
                 bsdf.inputs["IOR"].default_value = 1.333
                 mat["hydrobake_water_setup"] = 1
-            mp = cls._mapping(tree, obj, width, "caustics.water", bsdf.location.x - 900)
-            tex = materials.add_node(tree, "ShaderNodeTexImage", "caustics.surface",
-                                     (bsdf.location.x - 500, 0))
-            tex.image = images.load_sequence(folder, "surface", start, count,
-                                             name=f"HBK_{obj.name}_surface")
-            tex.extension = "EXTEND"
-            images.configure_user(tex.image_user, start, count)
-            tree.links.new(mp.outputs["Vector"], tex.inputs["Vector"])
+            tex = cls._sequence_texture(tree, obj, width, "caustics.surface", folder,
+                                        "surface", frames, (bsdf.location.x - 500, 0))
             nm = materials.add_node(tree, "ShaderNodeNormalMap", "caustics.normal",
                                     (bsdf.location.x - 200, -100))
             nm.space = "WORLD"

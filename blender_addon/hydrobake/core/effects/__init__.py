@@ -13,14 +13,19 @@ def register(cls):
     return cls
 
 
-def load_all():
-    """Imports every shipped effect module whose kernel this library has."""
-    for mod in _MODULES:
+def import_present(package, modules):
+    """Imports ``package.<m>`` for each m that exists; an error inside a module propagates."""
+    for mod in modules:
         try:
-            importlib.import_module(f"{__name__}.{mod}")
+            importlib.import_module(f"{package}.{mod}")
         except ModuleNotFoundError as exc:
-            if exc.name != f"{__name__}.{mod}":
+            if exc.name != f"{package}.{mod}":
                 raise
+
+
+def load_all():
+    """Imports every shipped effect module."""
+    import_present(__name__, _MODULES)
     return dict(EFFECTS)
 
 
