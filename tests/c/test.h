@@ -71,6 +71,18 @@ const char *hbk_test_tmpdir(void);
     X(water, sources)                    \
     X(water, footprint_displaces)        \
     X(water, cancel)                     \
+    X(caustics, params_rejects)          \
+    X(caustics, flat_uniform)            \
+    X(caustics, energy_conserved)        \
+    X(caustics, lens_focus)              \
+    X(caustics, photon_reference)        \
+    X(caustics, threads_identical)       \
+    X(caustics, periodic_seamless)       \
+    X(caustics, shoreline)               \
+    X(caustics, point_light)             \
+    X(caustics, view_uv)                 \
+    X(caustics, lit_ground)              \
+    X(caustics, cancel)                  \
     X(snow, formulas)                    \
     X(snow, params)                      \
     X(snow, sticking_statistics)         \

@@ -8,6 +8,7 @@
 Commands:
     list                          effects and objects in the file, and their bake state
     bake  [--objects A,B] [--effects caustics,...] [--frames S-E] [--output DIR] [--threads N]
+    resume  (the same options) continue interrupted bakes from their last good checkpoint
     free  [--objects A,B] [--effects ...]
 Without --objects/--effects, every object with an enabled effect is used. Progress goes to
 stdout a line per frame; errors go to stderr and the exit code is 1.
@@ -46,11 +47,11 @@ def parser():
     p = argparse.ArgumentParser(prog="hydrobake", description="Hydrobake batch baking")
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="show effects, objects and bake state")
-    for name in ("bake", "free"):
+    for name in ("bake", "resume", "free"):
         s = sub.add_parser(name, help=f"{name} bakes")
         s.add_argument("--objects", type=_csv, help="comma-separated object names")
         s.add_argument("--effects", type=_csv, help="comma-separated effect names")
-        if name == "bake":
+        if name in ("bake", "resume"):
             s.add_argument("--frames", type=_frames, help="frame range START-END")
             s.add_argument("--output", help="cache folder override (absolute path)")
             s.add_argument("--threads", type=int, default=None,
@@ -89,7 +90,7 @@ def _print_frame(job, t0):
     return on_frame
 
 
-def bake(args):
+def bake(args, resume=False):
     failures = 0
     pairs = targets(args.objects, args.effects)
     if not pairs:
@@ -99,7 +100,7 @@ def bake(args):
         t0 = time.monotonic()
         scene = obj.users_scene[0] if obj.users_scene else bpy.context.scene
         job = jobs.Job(bpy.context, obj, name, frames=args.frames, folder_override=args.output,
-                       threads=args.threads, scene=scene)
+                       threads=args.threads, scene=scene, resume=resume)
         job.runner.on_frame = _print_frame(job, t0)
         jobs.ACTIVE[job.key] = job
         try:
@@ -109,6 +110,9 @@ def bake(args):
             failures += 1
         finally:
             job.finalize(bpy.context)
+        if job.runner.resumed_from is not None:
+            print(f"hydrobake: {obj.name}/{name} resumed after frame {job.runner.resumed_from}",
+                  flush=True)
         print(f"hydrobake: {obj.name}/{name} {job.runner.state.status.lower()} in "
               f"{time.monotonic() - t0:.1f}s -> {job.folder}", flush=True)
     if bpy.data.filepath and not failures:
@@ -151,7 +155,9 @@ def main(argv=None):
         sys.exit(2 if exc.code else 0)
     try:
         ensure_enabled()
-        code = {"bake": bake, "free": free, "list": list_}[args.command](args)
+        commands = {"bake": bake, "resume": lambda a: bake(a, resume=True), "free": free,
+                    "list": list_}
+        code = commands[args.command](args)
     except (errors.HydrobakeError, KeyError, ValueError, OSError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"hydrobake: error: {msg}", file=sys.stderr, flush=True)

@@ -23,7 +23,7 @@ def frame_range(scene, settings):
 
 class Job:
     def __init__(self, context, obj, effect_name, frames=None, folder_override=None,
-                 threads=None, scene=None):
+                 threads=None, scene=None, resume=False):
         scene = scene or context.scene
         self.object_name, self.effect_name = obj.name, effect_name
         self.beffect = effects.get(effect_name)
@@ -37,7 +37,9 @@ class Job:
         self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
         params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
         effect = self.beffect.core_class()(params, inputs)
-        self.runner = BakeRunner(effect, self.folder, start, end,
+        if resume and settings.bake_folder and not folder_override:
+            self.folder = settings.bake_folder  # continue where the bake actually is
+        self.runner = BakeRunner(effect, self.folder, start, end, resume=resume,
                                  header={"object": obj.name, "blend": bpy.data.filepath})
 
     @property
@@ -57,6 +59,20 @@ class Job:
             settings.is_baked = True
             settings.bake_folder = self.folder
             self.beffect.apply(context, obj, settings, self.folder, manifest)
+
+
+def bake_state(obj, effect_name):
+    """'NONE', 'PARTIAL' (cancelled, killed or damaged: can be resumed) or 'COMPLETE'."""
+    settings = settings_of(obj, effect_name)
+    if not settings.bake_folder:
+        return "NONE"
+    try:
+        m = BakeCache(settings.bake_folder).read_manifest()
+    except ValueError:
+        return "PARTIAL"
+    if not m or not m["frames"]:
+        return "NONE"
+    return "COMPLETE" if m.get("complete") else "PARTIAL"
 
 
 def free(context, obj, effect_name):

@@ -28,6 +28,12 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
     bl_label = "Bake"
     bl_options = {"REGISTER"}
 
+    resume: bpy.props.BoolProperty(
+        name="Resume", default=False,
+        description="Continue an interrupted bake from its last good checkpoint (frames that "
+                    "fail their checksum are baked again); the result equals an uninterrupted "
+                    "bake")
+
     _job = None
     _timer = None
 
@@ -40,7 +46,7 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
             if (obj.name, self.effect) in jobs.ACTIVE:
                 self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake is already running")
                 return None
-            return jobs.Job(context, obj, self.effect)
+            return jobs.Job(context, obj, self.effect, resume=self.resume)
         except (errors.HydrobakeError, paths.CacheFolderError, KeyError, ValueError) as exc:
             self.report({"ERROR"}, f"{obj.name} {self.effect}: {exc}")
             return None

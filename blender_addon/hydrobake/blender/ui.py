@@ -21,6 +21,9 @@ def draw_effect(layout, context, beffect):
                        f"({job.runner.poll_fraction():.0%})", icon="TIME")
         op = row.operator("hydrobake.cancel_bake", text="Cancel", icon="CANCEL")
     elif settings.is_baked:
+        if jobs.bake_state(obj, beffect.name) == "PARTIAL":
+            op = row.operator("hydrobake.bake", text="Resume", icon="PLAY")
+            op.effect, op.object_name, op.resume = beffect.name, obj.name, True
         op = row.operator("hydrobake.free_bake", text="Free Bake", icon="TRASH")
     else:
         op = row.operator("hydrobake.bake", text="Bake", icon="RENDER_ANIMATION")

@@ -17,6 +17,7 @@ class Stats(ctypes.Structure):
         return {n: tuple(getattr(self, n)) for n, _ in self._fields_}
 
 
+_lib.check_mirror(Stats, "hbk_caustics_stats_t")
 _lib.declare([
     ("hbk_caustics_render", hbk_result_t,
      [ctypes.c_void_p, P(Image), P(Image), ctypes.c_float, P(Image), P(Stats), P(Progress),

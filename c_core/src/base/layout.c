@@ -25,6 +25,13 @@ static const layout_entry_t k_layout[] = {
     SIZE(hbk_caustics_stats_t), FIELD(hbk_caustics_stats_t, entered),
     FIELD(hbk_caustics_stats_t, absorbed), FIELD(hbk_caustics_stats_t, ground),
     FIELD(hbk_caustics_stats_t, dry),
+    SIZE(hbk_snow_material_t), FIELD(hbk_snow_material_t, catch_chance),
+    FIELD(hbk_snow_material_t, melts), FIELD(hbk_snow_material_t, sheds),
+    SIZE(hbk_snow_stats_t), FIELD(hbk_snow_stats_t, substeps),
+    FIELD(hbk_snow_stats_t, flake_steps), FIELD(hbk_snow_stats_t, hits),
+    FIELD(hbk_snow_stats_t, stuck), FIELD(hbk_snow_stats_t, bounced),
+    FIELD(hbk_snow_stats_t, melted), FIELD(hbk_snow_stats_t, shed),
+    FIELD(hbk_snow_stats_t, fell),
 };
 
 hbk_result_t hbk_layout(const char *struct_name, const char *field, size_t *out)

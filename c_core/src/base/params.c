@@ -26,6 +26,10 @@ hbk_result_t hbk_params_validate(const void *params, size_t expected_size,
             case HBK_PARAM_F32: {
                 float f;
                 memcpy(&f, at + 4 * k, 4);
+                if (!isfinite(f) && p->count > 1)
+                    return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "%s[%u] = %g: must be a "
+                                    "finite number in [%g, %g] %s", p->name, k, (double)f,
+                                    p->min, p->max, p->unit);
                 if (!isfinite(f))
                     return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "%s = %g: must be a finite "
                                     "number in [%g, %g] %s", p->name, (double)f, p->min, p->max,

@@ -30,8 +30,9 @@ m = json.load(open(os.path.join(folder, "manifest.json")))
 assert m["complete"] and sorted(map(int, m["frames"])) == [1, 2, 3]
 assert m["params"]["water"]["width"] == 64 and m["params"]["water"]["height"] == 64
 names = sorted(os.listdir(folder))
-assert names == sorted(["manifest.json"] + [f"{st}_{i:04d}.exr" for i in (1, 2, 3)
-                                            for st in ("caustics", "surface", "water")]), names
+assert names == sorted(["manifest.json", "checkpoint_0001.bin", "checkpoint_0003.bin"] +
+                      [f"{st}_{i:04d}.exr" for i in (1, 2, 3)
+                       for st in ("caustics", "surface", "water")]), names
 
 # Wired: floor base colour = original texture x caustic sequence; water has the normal map.
 link = bsdf.inputs["Base Color"].links[0]

@@ -2,8 +2,10 @@
 
 Layout of a cache folder (one per .blend, object and effect):
     manifest.json          what was baked: version, effect, parameters, seed, frame range,
-                           and for every completed frame its files with their SHA-256
+                           for every completed frame its files with their SHA-256, and the
+                           checkpoints a resume can start from
     <stream>_0001.exr      one file per output stream and frame
+    checkpoint_0010.bin    simulation state after a frame (every N frames and the latest)
 Every file is written under a temporary name in the same folder and renamed when complete,
 so a crash or cancel never leaves a partial file, and frames finished earlier stay valid.
 """
@@ -133,6 +135,14 @@ class BakeCache:
     def path(self, name):
         return os.path.join(self.folder, name)
 
+    def check_file(self, name, digest):
+        p = self.path(name)
+        return os.path.isfile(p) and file_checksum(p) == digest
+
+    def remove(self, name):
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(self.path(name))
+
     # --- free -----------------------------------------------------------------------------
     def free(self):
         """Removes the bake's files (those in the manifest, leftovers of interrupted writes of
@@ -145,9 +155,10 @@ class BakeCache:
         except ValueError:
             m = None
         names = set()
-        streams = set((m or {}).get("streams", []))
+        streams = set((m or {}).get("streams", [])) | {"checkpoint"}
         for files in (m or {}).get("frames", {}).values():
             names.update(files)
+        names.update(c["file"] for c in (m or {}).get("checkpoints", {}).values())
         for entry in os.listdir(self.folder):
             # Temporaries: ".<final name>.tmp-<pid>-<n>", ours when the final name is ours.
             mt = re.match(r"^\.(.+)" + re.escape(_TMP_MARK) + r"\d+-\d+$", entry)

@@ -4,6 +4,7 @@ An effect (see core/effects/base.py) advances one frame per ``step`` and hands b
 outputs; the runner names, writes and records them. Cancel is honoured between frames and,
 through the shared hbk_progress_t, inside long C calls.
 """
+import json
 import os
 import threading
 import time
@@ -65,7 +66,8 @@ class BakeRunner:
     ``run()`` blocks; ``start()`` runs it in a thread; ``cancel()`` may be called from any
     thread and takes effect within one C progress poll."""
 
-    def __init__(self, effect, folder, frame_start, frame_end, header=None, on_frame=None):
+    def __init__(self, effect, folder, frame_start, frame_end, header=None, on_frame=None,
+                 resume=False, checkpoint_every=10):
         if frame_end < frame_start:
             raise errors.InvalidArgument(
                 f"frame_end = {frame_end}: must be >= frame_start = {frame_start}")
@@ -76,6 +78,11 @@ class BakeRunner:
         self.state = BakeState(frame_start, frame_end)
         self.header = dict(header or {})
         self.on_frame = on_frame
+        self.resume = resume
+        if checkpoint_every < 1:
+            raise errors.InvalidArgument(f"checkpoint_every = {checkpoint_every}: must be >= 1")
+        self.checkpoint_every = checkpoint_every
+        self.resumed_from = None   # frame whose checkpoint a resume started from
         self._progress = _lib.Progress()
         self._cancel = threading.Event()
         self._thread = None
@@ -116,16 +123,74 @@ class BakeRunner:
         except BaseException:  # state carries the error; the thread must not die loudly
             pass
 
+    def _header(self):
+        s = self.state
+        return dict(self.header, effect=self.effect.name, streams=list(self.effect.streams),
+                    frame_start=s.frame_start, frame_end=s.frame_end,
+                    params=self.effect.params_dict(), seed=self.effect.seed,
+                    hydrobake=_lib.version)
+
+    def _resume_point(self, header):
+        """(manifest, first frame to bake) continuing an earlier bake in the folder: from the
+        last checkpoint up to which every frame is present and passes its checksum."""
+        s = self.state
+        m = self.cache.read_manifest()
+        if m is None:
+            return self.cache.start(header), s.frame_start
+        for key in ("effect", "frame_start", "params"):
+            if _comparable(m.get(key)) != _comparable(header[key]):
+                raise errors.StateError(
+                    f"cannot resume: {key} differs from the bake in {self.cache.folder} "
+                    f"({_normal(m.get(key))!r} there); free it or bake anew")
+        bad = set(self.cache.verify())
+        last = s.frame_start - 1  # last frame of the unbroken run of good frames
+        while str(last + 1) in m["frames"] and last + 1 not in bad and last + 1 <= s.frame_end:
+            last += 1
+        stateless = self.effect.save_state() is None
+        if stateless:
+            start_at = last
+        else:
+            good = [int(f) for f, c in m.get("checkpoints", {}).items()
+                    if int(f) <= last and self.cache.check_file(c["file"], c["sha256"])]
+            start_at = max(good, default=s.frame_start - 1)
+            if start_at >= s.frame_start:
+                with open(self.cache.path(m["checkpoints"][str(start_at)]["file"]), "rb") as f:
+                    self.effect.load_state(f.read())
+        if start_at < s.frame_start:
+            return self.cache.start(header), s.frame_start
+        m["frames"] = {f: v for f, v in m["frames"].items() if int(f) <= start_at}
+        m["checkpoints"] = {f: v for f, v in m.get("checkpoints", {}).items()
+                            if int(f) <= start_at}
+        m.update(frame_end=s.frame_end, complete=False)
+        self.cache.write_manifest(m)
+        self.resumed_from = start_at
+        return m, start_at + 1
+
+    def _checkpoint(self, manifest, frame):
+        """Keeps the simulation state after ``frame``: every ``checkpoint_every`` frames, and
+        always the latest (the one before it goes unless it is a kept interval)."""
+        state = self.effect.save_state()
+        if state is None:
+            return
+        name = cache_mod.frame_name("checkpoint", frame, "bin")
+        cache_mod.write_bytes_atomic(self.cache.path(name), state)
+        cps = manifest.setdefault("checkpoints", {})
+        for f in [f for f in cps if (int(f) - self.state.frame_start) % self.checkpoint_every]:
+            if int(f) != frame:
+                self.cache.remove(cps.pop(f)["file"])
+        cps[str(frame)] = {"file": name, "sha256": cache_mod.file_checksum(self.cache.path(name))}
+
     def run(self):
         s = self.state
         s.status, s.started = "RUNNING", time.monotonic()
         try:
-            header = dict(self.header, effect=self.effect.name, streams=self.effect.streams,
-                          frame_start=s.frame_start, frame_end=s.frame_end,
-                          params=self.effect.params_dict(), seed=self.effect.seed,
-                          hydrobake=_lib.version)
-            manifest = self.cache.start(header)
-            for frame in range(s.frame_start, s.frame_end + 1):
+            header = self._header()
+            if self.resume:
+                manifest, first = self._resume_point(header)
+            else:
+                manifest, first = self.cache.start(header), s.frame_start
+            s.done = first - s.frame_start
+            for frame in range(first, s.frame_end + 1):
                 if self._cancel.is_set():
                     raise errors.Cancelled("bake cancelled")
                 s.frame = frame
@@ -135,13 +200,14 @@ class BakeRunner:
                     raise errors.Cancelled("bake cancelled")
                 files = [write_output(self.cache.folder, stream, frame, out)
                          for stream, out in self.effect.outputs(frame).items()]
+                self._checkpoint(manifest, frame)
                 self.cache.add_frame(manifest, frame, files)
                 s.done += 1
                 s.fraction = s.done / s.total
                 if self.on_frame:
                     self.on_frame(s)
             self.cache.finish(manifest)
-            s.status = "FINISHED"
+            s.status, s.fraction = "FINISHED", 1.0
         except errors.Cancelled as exc:
             s.status, s.message, self.error = "CANCELLED", str(exc), exc
             raise
@@ -150,3 +216,17 @@ class BakeRunner:
             raise
         finally:
             s.ended = time.monotonic()
+
+
+def _normal(value):
+    """JSON's view of a value (tuples become lists), for comparing with a manifest."""
+    return json.loads(json.dumps(value))
+
+
+def _comparable(value):
+    """A manifest value without what may differ between runs of the same bake: the thread
+    count (results never depend on it)."""
+    value = _normal(value)
+    if isinstance(value, dict):
+        return {k: _comparable(v) for k, v in value.items() if k != "threads"}
+    return value

@@ -58,5 +58,14 @@ class Effect:
         "npz" (payload: name -> array)."""
         raise NotImplementedError
 
+    def save_state(self):
+        """The simulation state after the last step, as bytes, for checkpoints; None for an
+        effect whose frames do not depend on earlier ones."""
+        return None
+
+    def load_state(self, data):
+        """Restores a state from save_state(); the next step continues bit for bit."""
+        raise NotImplementedError
+
     def close(self):
         """Frees the C handles; calling it twice is harmless."""

@@ -1,0 +1,103 @@
+"""Resume: a cancelled or damaged bake continues from its last good checkpoint and ends
+bit-identical to a bake that never stopped."""
+import os
+import shutil
+
+import pytest
+
+from hydrobake.core import errors
+from hydrobake.core.bake import BakeCache, BakeRunner
+from hydrobake.core.effects import get
+
+PARAMS = {"water": {"width": 40, "height": 32, "rain_rate": 80.0, "seed": 3},
+          "light": {"light_direction": (0.3, 0.2, 1.0)}}
+INPUTS = {"map_size": (80, 64)}
+
+
+def effect(params=PARAMS):
+    return get("caustics")(params, INPUTS)
+
+
+def files(folder):
+    return {n: (folder / n).read_bytes() for n in sorted(os.listdir(folder))
+            if n.endswith(".exr")}
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("ref") / "bake"
+    e = effect()
+    BakeRunner(e, folder, 1, 12, checkpoint_every=4).run()
+    e.close()
+    return folder
+
+
+def test_checkpoints_kept_every_n_frames_and_the_latest(reference):
+    m = BakeCache(reference).read_manifest()
+    assert sorted(map(int, m["checkpoints"])) == [1, 5, 9, 12]
+    assert sorted(n for n in os.listdir(reference) if n.startswith("checkpoint")) == [
+        "checkpoint_0001.bin", "checkpoint_0005.bin", "checkpoint_0009.bin",
+        "checkpoint_0012.bin"]
+
+
+def test_cancelled_bake_resumes_bit_identical(reference, tmp_path):
+    folder = tmp_path / "bake"
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4,
+                   on_frame=lambda s: s.frame == 7 and r.cancel())
+    with pytest.raises(errors.Cancelled):
+        r.run()
+    e.close()
+    assert BakeCache(folder).frames() == list(range(1, 8))
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
+    r.run()
+    e.close()
+    assert r.resumed_from == 7 and r.state.status == "FINISHED"
+    assert files(folder) == files(reference)
+    assert BakeCache(folder).read_manifest()["complete"]
+
+
+def test_a_damaged_frame_is_baked_again(reference, tmp_path):
+    folder = tmp_path / "bake"
+    shutil.copytree(reference, folder)
+    damaged = folder / "caustics_0007.exr"
+    damaged.write_bytes(damaged.read_bytes()[:-20] + b"\0" * 20)
+    (folder / "water_0010.exr").unlink()
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
+    r.run()
+    e.close()
+    assert r.resumed_from == 5  # the last checkpoint before the first bad frame
+    assert files(folder) == files(reference)
+    assert BakeCache(folder).verify() == []
+
+
+def test_resume_extends_a_finished_bake(reference, tmp_path):
+    folder = tmp_path / "bake"
+    e = effect()
+    BakeRunner(e, folder, 1, 9, checkpoint_every=4).run()
+    e.close()
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
+    r.run()
+    e.close()
+    assert r.resumed_from == 9 and files(folder) == files(reference)
+
+
+def test_resume_refuses_changed_settings(reference, tmp_path):
+    folder = tmp_path / "bake"
+    shutil.copytree(reference, folder)
+    changed = {"water": dict(PARAMS["water"], rain_rate=10.0), "light": PARAMS["light"]}
+    e = effect(changed)
+    with pytest.raises(errors.StateError, match="cannot resume: params differs"):
+        BakeRunner(e, folder, 1, 12, resume=True).run()
+    e.close()
+    assert files(folder) == files(reference)  # nothing was touched
+
+
+def test_free_removes_checkpoints_too(reference, tmp_path):
+    folder = tmp_path / "bake"
+    shutil.copytree(reference, folder)
+    BakeCache(folder).free()
+    assert not folder.exists()
