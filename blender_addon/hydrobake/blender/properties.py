@@ -40,8 +40,9 @@ def property_for(p):
         subtype, unit = _UNITS.get(p.unit, ("NONE", "NONE"))
         rng = dict(min=p.min, max=p.max, soft_min=p.min, soft_max=p.max)
         if p.count > 1:
+            # Spatial vectors get their subtype (and X/Y/Z labels); lists of values do not.
             vsub = {"m": "TRANSLATION", "m/s": "VELOCITY", "m/s^2": "ACCELERATION"}.get(
-                p.unit, "XYZ" if p.count == 3 else "NONE")
+                p.unit, "NONE") if p.count == 3 else "NONE"
             return bpy.props.FloatVectorProperty(size=p.count, default=p.default,
                                                  subtype=vsub, unit=unit, **rng, **common)
         return bpy.props.FloatProperty(default=p.default, subtype=subtype, unit=unit,

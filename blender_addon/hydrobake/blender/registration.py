@@ -29,6 +29,7 @@ def register():
     for name, cls in settings.items():
         setattr(bpy.types.Object, f"hydrobake_{name}", bpy.props.PointerProperty(type=cls))
         _object_props.append(f"hydrobake_{name}")
+        effects.BLENDER_EFFECTS[name].register_extra()
     bpy.app.handlers.load_pre.append(_cancel_on_load)
 
 
@@ -39,6 +40,7 @@ def unregister():
         bpy.app.handlers.load_pre.remove(_cancel_on_load)
     for attr in _object_props:
         delattr(bpy.types.Object, attr)
+        effects.BLENDER_EFFECTS[attr[len("hydrobake_"):]].unregister_extra()
     _object_props.clear()
     del bpy.types.Scene.hydrobake
     for cls in reversed(_registered):

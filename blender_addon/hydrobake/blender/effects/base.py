@@ -19,6 +19,14 @@ class BlenderEffect:
         return obj is not None and obj.type in cls.object_types
 
     @classmethod
+    def register_extra(cls):
+        """Registers what the effect keeps elsewhere (e.g. per-material settings)."""
+
+    @classmethod
+    def unregister_extra(cls):
+        """Undoes register_extra."""
+
+    @classmethod
     def extra_properties(cls):
         """Blender-only settings beside the kernels' parameters: {name: bpy property}."""
         return {}

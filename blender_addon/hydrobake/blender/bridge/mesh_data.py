@@ -1,0 +1,35 @@
+"""Evaluated meshes as numpy arrays: triangles, per-corner UVs, material slots."""
+import bpy
+import numpy as np
+
+
+def triangles(obj, depsgraph=None, world=True, uv_name=None):
+    """(positions (V, 3), triangles (T, 3), uvs (T, 3, 2) or None, material_index (T,)) of
+    the evaluated object; positions in world space unless ``world`` is False."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        nv, nt = len(mesh.vertices), len(mesh.loop_triangles)
+        pos = np.empty(nv * 3, np.float32)
+        mesh.vertices.foreach_get("co", pos)
+        pos = pos.reshape(nv, 3)
+        if world:
+            m = np.array(obj.matrix_world, np.float64)
+            pos = (pos @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+        tris = np.empty(nt * 3, np.int32)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+        loops = np.empty(nt * 3, np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        mi = np.empty(nt, np.int32)
+        mesh.loop_triangles.foreach_get("material_index", mi)
+        uvs = None
+        layer = (mesh.uv_layers.get(uv_name) if uv_name else mesh.uv_layers.active)
+        if layer is not None:
+            per_loop = np.empty(len(mesh.loops) * 2, np.float32)
+            layer.data.foreach_get("uv", per_loop)
+            uvs = per_loop.reshape(-1, 2)[loops].reshape(nt, 3, 2)
+        return pos, tris.reshape(nt, 3), uvs, mi
+    finally:
+        ev.to_mesh_clear()

@@ -1,0 +1,93 @@
+"""Snow attachment on one mesh: flakes fall through the snow volume for ``substeps`` steps per
+frame and stick by temperature, water content and material.
+
+Inputs:
+    positions      (V, 3) float32 world-space vertices (the mesh at rest)
+    triangles      (T, 3) int32
+    uvs            (T, 3, 2) float32 UV per triangle corner (TRIANGLES mode)
+    material_index (T,) int32 material slot per triangle
+    materials      [(catch_chance, melts, sheds)] per slot
+    transforms     {frame: (4, 4) matrix} rigid motion applied to positions (optional)
+    substeps       solver steps per frame (default 1)
+    flakes         True to also write the falling flakes as points per frame
+
+Streams per frame:
+    coverage_####.exr  RGBA: white snow (RGB 1) over transparent, A = coverage. Half.
+    depth_####.exr     R = G = B = snow depth in m (for displacement), A = 1. Float.
+    flakes_####.npz    "positions": (N, 3) flake positions (only with flakes=True)
+"""
+import numpy as np
+
+from .. import errors
+from ..snow import Snow
+from . import register
+from .base import Effect
+
+
+@register
+class SnowEffect(Effect):
+    name = "snow"
+    streams = ("coverage", "depth", "flakes")
+
+    @classmethod
+    def groups(cls):
+        return {"snow": Snow.spec()}
+
+    def __init__(self, params=None, inputs=None):
+        super().__init__(params, inputs)
+        inp = self.inputs
+        for key in ("positions", "triangles"):
+            if inp.get(key) is None:
+                raise errors.InvalidArgument(f"{key}: the snow effect needs a mesh")
+        self.snow = Snow(self.params_dict()["snow"])
+        try:
+            self.positions = np.ascontiguousarray(inp["positions"], np.float32).reshape(-1, 3)
+            self.triangles = np.ascontiguousarray(inp["triangles"], np.int32).reshape(-1, 3)
+            self.substeps = int(inp.get("substeps", 1))
+            if not 1 <= self.substeps <= 100000:
+                raise errors.InvalidArgument(f"substeps = {self.substeps}: must be in "
+                                             "[1, 100000]")
+            self.snow.set_materials(inp.get("materials") or [(0.0, False, False)])
+            self.transforms = inp.get("transforms") or {}
+            self._set_mesh(None)
+        except BaseException:
+            self.snow.close()
+            raise
+        self.with_flakes = bool(inp.get("flakes", False))
+        if not self.with_flakes:
+            self.streams = ("coverage", "depth")
+
+    def _set_mesh(self, frame):
+        pos = self.positions
+        m = self.transforms.get(frame)
+        if m is not None:
+            m = np.asarray(m, np.float64)
+            pos = (pos.astype(np.float64) @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+        self.snow.set_mesh(pos, self.triangles, self.inputs.get("uvs"),
+                           self.inputs.get("material_index"))
+
+    def step(self, frame, progress):
+        if frame in self.transforms:
+            self._set_mesh(frame)
+        self.snow.step(self.substeps, progress)
+
+    def outputs(self, frame):
+        cov = self.snow.coverage()
+        depth = self.snow.depth()
+        out = {
+            "coverage": ("exr", {c: cov[..., i] for i, c in enumerate("RGBA")}, {"half": True}),
+            "depth": ("exr", {"R": depth, "G": depth, "B": depth,
+                              "A": np.ones_like(depth)}, {}),
+        }
+        if self.with_flakes:
+            out["flakes"] = ("npz", {"positions": self.snow.flakes()}, {})
+        return out
+
+    def save_state(self):
+        return self.snow.save_state()
+
+    def load_state(self, data):
+        self.snow.load_state(data)
+
+    def close(self):
+        self.snow.close()
