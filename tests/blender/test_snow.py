@@ -1,0 +1,9 @@
+"""The snow effect in real Blender with the installed addon."""
+import os
+
+from hydrobake_paths import ROOT
+
+
+def test_bake_person_wire_free_on_examples(blender, tmp_path):
+    r = blender.run("bake_snow.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
+    assert "SNOW BLENDER OK" in r.stdout
