@@ -294,5 +294,6 @@ def snow_scene():
 
 clear()
 scenes = [caustics_scene(), snow_scene()]
+bpy.context.preferences.filepaths.save_version = 0  # no examples.blend1 beside it
 bpy.ops.wm.save_as_mainfile(filepath=out, compress=True)
 print("examples written:", out, [s.name for s in scenes])
