@@ -10,6 +10,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
 
 typedef struct {
     const float *h;  /* W x H surface heights at cell centres, row-major, periodic */
@@ -19,6 +20,7 @@ typedef struct {
     double L[3];     /* unit vector towards the sun */
     double E;        /* irradiance facing the sun */
     double ground;   /* z of the flat ground */
+    float *normals;  /* 3 per sample, filled by photon_prepare (or NULL: computed each time) */
 } photon_scene_t;
 
 static inline double ph_h(const photon_scene_t *s, int i, int j)
@@ -32,12 +34,39 @@ static inline double ph_h(const photon_scene_t *s, int i, int j)
 
 static inline void ph_vnormal(const photon_scene_t *s, int i, int j, double n[3])
 {
+    if (s->normals) {
+        i %= s->W;
+        j %= s->H;
+        if (i < 0) i += s->W;
+        if (j < 0) j += s->H;
+        const float *q = s->normals + 3 * ((size_t)j * (size_t)s->W + (size_t)i);
+        n[0] = q[0];
+        n[1] = q[1];
+        n[2] = q[2];
+        return;
+    }
     const double gx = (ph_h(s, i + 1, j) - ph_h(s, i - 1, j)) / (2.0 * s->dx);
     const double gy = (ph_h(s, i, j + 1) - ph_h(s, i, j - 1)) / (2.0 * s->dx);
     const double l = sqrt(gx * gx + gy * gy + 1.0);
     n[0] = -gx / l;
     n[1] = -gy / l;
     n[2] = 1.0 / l;
+}
+
+/* Caches the vertex normals (malloc'd; free s->normals). Returns 0 without memory. */
+static inline int photon_prepare(photon_scene_t *s)
+{
+    float *nr = (float *)malloc(sizeof(float) * 3 * (size_t)s->W * (size_t)s->H);
+    if (!nr) return 0;
+    s->normals = NULL;
+    for (int j = 0; j < s->H; ++j)
+        for (int i = 0; i < s->W; ++i) {
+            double n[3];
+            ph_vnormal(s, i, j, n);
+            for (int c = 0; c < 3; ++c) nr[3 * ((size_t)j * (size_t)s->W + (size_t)i) + c] = (float)n[c];
+        }
+    s->normals = nr;
+    return 1;
 }
 
 /* Surface height and interpolated normal at (x, y): the mesh of triangles (00, 10, 11) and
@@ -96,7 +125,7 @@ static void photon_trace(const photon_scene_t *s, uint64_t seed, size_t n, doubl
         for (int it = 0; it < 30; ++it) {
             z = ph_surface(s, x0 - t * s->L[0], y0 - t * s->L[1], nrm);
             const double tn = (ztop - z) / s->L[2];
-            if (fabs(tn - t) < 1e-12) break;
+            if (fabs(tn - t) < 1e-10) break;
             t = tn;
         }
         const double px = x0 - t * s->L[0], py = y0 - t * s->L[1];

@@ -309,9 +309,11 @@ void test_caustics_photon_reference(void)
     grid_t w = waves(W, H, 0.0f, 0.008, 0, 0), g = grid_new(W, H, 1), out = grid_new(MW, MH, 3);
     grid_fill(&g, -0.9f);
     const double L[3] = {0.2 / sqrt(1.05), 0.1 / sqrt(1.05), 1.0 / sqrt(1.05)};
-    photon_scene_t sc = {w.v, W, H, dx, 1.333, {L[0], L[1], L[2]}, 1.0, -0.9};
+    photon_scene_t sc = {w.v, W, H, dx, 1.333, {L[0], L[1], L[2]}, 1.0, -0.9, NULL};
     double *ref = calloc((size_t)MW * MH, sizeof *ref);
+    CHECK(photon_prepare(&sc));
     photon_trace(&sc, 12345, 4000000, ref, MW, MH);
+    free(sc.normals);
     double err[2];
     for (int k = 0; k < 2; ++k) {
         hbk_caustics_params_t p = sun(0.2, 0.1);
@@ -370,7 +372,7 @@ static grid_t beach(int32_t W, int32_t H, double dx)
 
 void test_caustics_threads_identical(void)
 {
-    const int32_t W = 70, H = 50;
+    const int32_t W = 80, H = 60; /* big enough for the renderer to use threads */
     const double dx = 0.025;
     grid_t w = waves(W, H, 0.0f, 0.01, 0, 0), g = grid_new(W, H, 1);
     grid_fill(&g, -0.6f);
@@ -444,8 +446,7 @@ void test_caustics_shoreline(void)
     CHECK_OK(hbk_caustics_render(&p, &w.img, &g.img, (float)dx, &out.img, &st, NULL, NULL));
     CHECK(st.dry[0] == 0.0);
     CHECK_NEAR(out.v[3 * (50 * 150 + 10)], want, 1e-5);  /* under water */
-    fprintf(stderr, "DBG %g\n", out.v[3 * (50 * 150 + 140)]);
-    CHECK(out.v[3 * (50 * 150 + 140)] == 0.0f);           /* dry sand */
+    CHECK(out.v[3 * (50 * 150 + 140)] < 1e-12f);          /* dry sand (0 up to rounding) */
 
     /* Rough ground with islands, lagoons and diagonal waterline cells (Fig. 3) in a periodic
      * tile, overhead sun over calm water: the wet and dry polygons tile every cell exactly, so

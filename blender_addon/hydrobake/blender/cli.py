@@ -8,12 +8,20 @@
 Commands:
     list                          effects and objects in the file, and their bake state
     bake  [--objects A,B] [--effects caustics,...] [--frames S-E] [--output DIR] [--threads N]
+          [--overrides FILE.json] [--no-save]
     resume  (the same options) continue interrupted bakes from their last good checkpoint
     free  [--objects A,B] [--effects ...]
+    regress --golden DIR [--existing DIR] [--report DIR] [--tolerances FILE.json]
+          (and the bake options): bake (or take an existing bake) and compare it with a golden
+          bake; exit 1 on a regression (see hydrobake.core.regress)
+--overrides sets parameters for this run only, e.g.
+    {"Water/caustics": {"map_resolution": 128, "water": {"width": 48}}, "*/snow": {...}}
 Without --objects/--effects, every object with an enabled effect is used. Progress goes to
 stdout a line per frame; errors go to stderr and the exit code is 1.
 """
 import argparse
+import json
+import os
 import sys
 import time
 
@@ -47,15 +55,23 @@ def parser():
     p = argparse.ArgumentParser(prog="hydrobake", description="Hydrobake batch baking")
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="show effects, objects and bake state")
-    for name in ("bake", "resume", "free"):
+    for name in ("bake", "resume", "free", "regress"):
         s = sub.add_parser(name, help=f"{name} bakes")
         s.add_argument("--objects", type=_csv, help="comma-separated object names")
         s.add_argument("--effects", type=_csv, help="comma-separated effect names")
-        if name in ("bake", "resume"):
+        if name != "free":
             s.add_argument("--frames", type=_frames, help="frame range START-END")
             s.add_argument("--output", help="cache folder override (absolute path)")
             s.add_argument("--threads", type=int, default=None,
                            help="threads (0 = all cores); results do not depend on it")
+            s.add_argument("--overrides", help="JSON file of parameters for this run only")
+            s.add_argument("--no-save", action="store_true",
+                           help="do not save the .blend after baking")
+        if name == "regress":
+            s.add_argument("--golden", required=True, help="folder of the golden bake")
+            s.add_argument("--existing", help="compare this bake folder instead of baking")
+            s.add_argument("--report", help="folder for report.json and report.html")
+            s.add_argument("--tolerances", help="JSON file of tolerances per effect/stream")
     return p
 
 
@@ -90,9 +106,32 @@ def _print_frame(job, t0):
     return on_frame
 
 
+def apply_overrides(pairs, path):
+    """Sets parameters from a JSON file {"Object/effect" or "*/effect": {...}} (in memory)."""
+    if not path:
+        return
+    with open(path) as f:
+        table = json.load(f)
+    for obj, name in pairs:
+        for key in (f"*/{name}", f"{obj.name}/{name}"):  # the object's own entry wins
+            for attr, value in table.get(key, {}).items():
+                settings = jobs.settings_of(obj, name)
+                if isinstance(value, dict):
+                    group = getattr(settings, attr)
+                    for k, v in value.items():
+                        if not hasattr(group, k):
+                            raise KeyError(f"--overrides {key}: {attr}.{k} is not a parameter")
+                        setattr(group, k, v)
+                elif hasattr(settings, attr):
+                    setattr(settings, attr, value)
+                else:
+                    raise KeyError(f"--overrides {key}: {attr} is not a setting")
+
+
 def bake(args, resume=False):
     failures = 0
     pairs = targets(args.objects, args.effects)
+    apply_overrides(pairs, getattr(args, "overrides", None))
     if not pairs:
         raise KeyError("nothing to bake: no object has an enabled Hydrobake effect "
                        "(use --objects and --effects)")
@@ -115,9 +154,32 @@ def bake(args, resume=False):
                   flush=True)
         print(f"hydrobake: {obj.name}/{name} {job.runner.state.status.lower()} in "
               f"{time.monotonic() - t0:.1f}s -> {job.folder}", flush=True)
-    if bpy.data.filepath and not failures:
+    if bpy.data.filepath and not failures and not getattr(args, "no_save", False):
         bpy.ops.wm.save_mainfile()  # keeps is_baked and the wiring for renders
     return 1 if failures else 0
+
+
+def regress(args):
+    from ..core import regress as rg
+    if args.existing:
+        new = args.existing
+    else:
+        out = args.output or os.path.join(args.report or bpy.app.tempdir, "bake")
+        args.output, args.no_save = out, True
+        if bake(args):
+            return 1
+        # Bakes land in <output>/<blend name>/<object>_<effect>, the golden set's layout.
+        stem = os.path.splitext(os.path.basename(bpy.data.filepath))[0] or "untitled"
+        new = os.path.join(out, bpy.path.clean_name(stem))
+    report = rg.compare(new, args.golden, rg.load_tolerances(args.tolerances))
+    print(rg.summary(report), flush=True)
+    if args.report:
+        rg.write_report(report, args.report)
+        print(f"hydrobake: report {os.path.join(args.report, 'report.html')}", flush=True)
+    if not report["passed"]:
+        print(f"hydrobake: {report['regressions']} regressions against {args.golden}",
+              file=sys.stderr, flush=True)
+    return 0 if report["passed"] else 1
 
 
 def free(args):
@@ -156,7 +218,7 @@ def main(argv=None):
     try:
         ensure_enabled()
         commands = {"bake": bake, "resume": lambda a: bake(a, resume=True), "free": free,
-                    "list": list_}
+                    "list": list_, "regress": regress}
         code = commands[args.command](args)
     except (errors.HydrobakeError, KeyError, ValueError, OSError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc

@@ -1,0 +1,40 @@
+"""The shipped golden set of examples.blend, checked by the regress command in Blender."""
+import json
+import os
+import shutil
+
+from hydrobake_paths import ROOT
+
+GOLDEN = os.path.join(ROOT, "tests", "golden")
+
+
+def _regress(blender, tmp_path, overrides, name):
+    blend = tmp_path / "examples.blend"  # the golden set's folder is named after the file
+    if not blend.exists():
+        shutil.copy(os.path.join(ROOT, "examples.blend"), blend)
+    report = tmp_path / f"report_{name}"
+    return blender.run("cli.py", "regress", "--golden", os.path.join(GOLDEN, "examples"),
+                       "--frames", "1-2", "--overrides", overrides, "--tolerances",
+                       os.path.join(GOLDEN, "tolerances.json"), "--report", report,
+                       "--output", tmp_path / f"bake_{name}", blend=str(blend), check=False), \
+        report
+
+
+def test_examples_match_the_golden_set(blender, tmp_path):
+    r, report = _regress(blender, tmp_path, os.path.join(GOLDEN, "overrides.json"), "same")
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
+    assert "0 regressions" in r.stdout
+    rep = json.loads((report / "report.json").read_text())
+    assert rep["passed"] and len(rep["files"]) == 2 * (3 + 2 * 3)  # caustics 3, snow 2 x 3
+
+
+def test_a_changed_setting_is_caught(blender, tmp_path):
+    table = json.load(open(os.path.join(GOLDEN, "overrides.json")))
+    table["Water/caustics"]["light"] = {"absorption": [0.9, 0.2, 0.05]}
+    changed = tmp_path / "changed.json"
+    changed.write_text(json.dumps(table))
+    r, report = _regress(blender, tmp_path, changed, "changed")
+    assert r.returncode == 1 and "regressions against" in r.stderr
+    assert "FAIL Water_caustics/caustics_0001.exr" in r.stdout
+    assert "FAIL Water_caustics/water_0001.exr" not in r.stdout  # absorption is light only
+    assert "Water_caustics" in (report / "report.html").read_text()

@@ -1,0 +1,91 @@
+"""Regression of bakes against a golden bake: metrics, tolerances, reports, exit codes."""
+import json
+import math
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from hydrobake.core import exr, regress, vdb
+from hydrobake.core.bake import BakeCache, BakeRunner
+from fixture_effect import WaveEffect
+
+
+@pytest.fixture
+def golden(tmp_path):
+    g = tmp_path / "golden" / "shot" / "Plane_testwave"
+    BakeRunner(WaveEffect(), g, 1, 3).run()
+    return tmp_path / "golden"
+
+
+def test_metrics_are_right():
+    a = np.zeros((4, 4), np.float32)
+    b = a.copy()
+    b[0, 0] = 2.0
+    m = regress.image_metrics(b, a + 0)
+    assert m["max_abs"] == 2.0 and m["mean_abs"] == pytest.approx(2 / 16)
+    g = np.full((4, 4), 4.0, np.float32)
+    m = regress.image_metrics(g + 0.04, g)  # mse 0.0016, peak 4: PSNR = 10 log10(16/0.0016)
+    assert m["psnr"] == pytest.approx(40.0, abs=1e-3)
+    assert regress.image_metrics(g, g)["psnr"] == math.inf
+
+
+def test_identical_bake_passes(golden, tmp_path, capsys):
+    new = tmp_path / "new" / "shot" / "Plane_testwave"
+    BakeRunner(WaveEffect(), new, 1, 3).run()
+    assert regress.main([str(tmp_path / "new"), str(golden), "--report",
+                         str(tmp_path / "rep")]) == 0
+    out = capsys.readouterr().out
+    assert "3 files match, 0 regressions" in out
+    rep = json.loads((tmp_path / "rep" / "report.json").read_text())
+    assert rep["passed"] and all(c["max_abs"] == 0 for e in rep["files"]
+                                 for c in e["channels"].values())
+    assert "PASSED" in (tmp_path / "rep" / "report.html").read_text()
+
+
+def test_a_changed_bake_fails_with_the_channel_and_a_picture(golden, tmp_path, capsys):
+    new = tmp_path / "new"
+    shutil.copytree(golden, new)
+    p = new / "shot" / "Plane_testwave" / "wave_0002.exr"
+    ch = exr.read(p)
+    ch["height"] = ch["height"] + 0.01
+    exr.write(p, ch, half=("R", "G", "B"))
+    os.remove(new / "shot" / "Plane_testwave" / "wave_0003.exr")
+    rep_dir = tmp_path / "rep"
+    assert regress.main([str(new), str(golden), "--report", str(rep_dir)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL shot/Plane_testwave/wave_0002.exr" in out and "height: max |diff|" in out
+    assert "wave_0003.exr" in out and "missing in the new bake" in out
+    page = (rep_dir / "report.html").read_text()
+    assert "FAILED" in page and "_golden.png" in page and "_diff.png" in page
+    assert any(n.endswith("_diff.png") for n in os.listdir(rep_dir))
+
+
+def test_tolerances_per_effect_and_stream(golden, tmp_path):
+    new = tmp_path / "new"
+    shutil.copytree(golden, new)
+    p = new / "shot" / "Plane_testwave" / "wave_0001.exr"
+    ch = exr.read(p)
+    ch["height"] = ch["height"] + 1e-3
+    exr.write(p, ch, half=("R", "G", "B"))
+    loose = {"testwave": {"wave": {"max_abs": 1e-2}}}
+    assert regress.compare(new, golden, loose)["passed"]
+    strict = {"testwave": {"wave": {"max_abs": 1e-4}}}
+    assert not regress.compare(new, golden, strict)["passed"]
+
+
+def test_vdb_grids_compare_voxels_and_values(tmp_path):
+    for name, shift in (("golden", 0.0), ("new", 0.5)):
+        folder = tmp_path / name / "b"
+        folder.mkdir(parents=True)
+        d = np.zeros((8, 8, 8), np.float32)
+        d[2:5, 2:5, 2:5] = 1.0 + shift
+        vdb.write(str(folder / "fluid_0001.vdb"), [dict(name="density", array=d)])
+        c = BakeCache(folder)
+        m = c.start({"effect": "fluid", "streams": ["fluid"]})
+        c.add_frame(m, 1, ["fluid_0001.vdb"])
+    rep = regress.compare(tmp_path / "new", tmp_path / "golden")
+    ch = rep["files"][0]["channels"]["density"]
+    assert ch["voxels"] == 27 and ch["voxel_delta"] == 0 and ch["max_abs"] == 0.5
+    assert not rep["passed"]
