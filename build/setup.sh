@@ -3,7 +3,7 @@
 # apt-get line and stops (otherwise). Safe to run again: installs only what is missing.
 set -euo pipefail
 PKGS=(blender python3-openvdb python3-numpy python3-pytest libopenexr-dev cmake gcc make
-      pkg-config xvfb xauth python3-pil)
+      pkg-config xvfb xauth python3-pil nodejs)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

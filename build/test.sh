@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Sets up, builds, packages, then runs every test: C units (ctest), the binding from plain
-# Python (pytest), and real Blender in background mode with the packaged addon (pytest).
+# Sets up, builds, packages, then runs every test: C units (ctest), the Flamenco job type
+# (node), the binding from plain Python (pytest), and real Blender in background mode and in
+# its UI with the packaged addon (pytest).
 # Ends with one line "N passed, N failed"; exits non-zero if anything failed.
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -12,6 +13,9 @@ rm -f "$work"/junit-*.xml
 
 echo "== C unit tests (ctest)"
 (cd "$work/cmake" && ctest --output-on-failure --output-junit "$work/junit-ctest.xml" -j2)
+
+echo "== Flamenco job type (node --test)"
+"$root/farm/run_tests.sh" "$work/junit-node.xml" | tail -n 12
 
 echo "== binding and Blender tests (pytest)"
 cd "$root"

@@ -198,7 +198,10 @@ class SnowBlender(BlenderEffect):
             tree.links.new(cov.outputs["Alpha"], mix.inputs["Fac"])
             tree.links.new(white.outputs["BSDF"], mix.inputs[2])
             tree.links.new(mix.outputs["Shader"], out.inputs["Surface"])
-            if settings.use_displacement and not out.inputs["Displacement"].is_linked:
+            disp_in = out.inputs["Displacement"]
+            ours = disp_in.is_linked and disp_in.links[0].from_node.get(materials.TAG) == \
+                "snow.displacement"
+            if settings.use_displacement and (ours or not disp_in.is_linked):  # re-bakes too
                 dep = materials.add_node(tree, "ShaderNodeTexImage", "snow.depth",
                                          (x - 700, y - 600))
                 dep.image = images.load_sequence(folder, "depth", frames[0], len(frames),

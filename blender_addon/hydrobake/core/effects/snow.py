@@ -13,7 +13,7 @@ Inputs:
 
 Streams per frame:
     coverage_####.exr  RGBA: white snow (RGB 1) over transparent, A = coverage. Half.
-    depth_####.exr     R = G = B = snow depth in m (for displacement), A = 1. Float.
+    depth_####.exr     Y = snow depth in m (for displacement; Blender reads it as grey). Float.
     flakes_####.npz    "positions": (N, 3) flake positions (only with flakes=True)
 """
 import numpy as np
@@ -76,8 +76,7 @@ class SnowEffect(Effect):
         depth = self.snow.depth()
         out = {
             "coverage": ("exr", {c: cov[..., i] for i, c in enumerate("RGBA")}, {"half": True}),
-            "depth": ("exr", {"R": depth, "G": depth, "B": depth,
-                              "A": np.ones_like(depth)}, {}),
+            "depth": ("exr", {"Y": depth}, {}),
         }
         if self.with_flakes:
             out["flakes"] = ("npz", {"positions": self.snow.flakes()}, {})
