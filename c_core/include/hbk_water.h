@@ -120,8 +120,9 @@ HBK_EXPORT uint64_t hbk_water_step_count(const hbk_water_t *h);
  * velocities, sources, acceleration, footprint and the step counter. Loading it into a handle
  * with the same params continues bit for bit as the saved one would have.
  * hbk_water_state_size: bytes needed (0 for NULL). save: HBK_ERR_INVALID_ARGUMENT if `size` is
- * smaller. load: HBK_ERR_FORMAT (not a water state, other version), HBK_ERR_INVALID_ARGUMENT
- * (other grid size, buffer too small); the handle is unchanged on failure. */
+ * smaller. load: HBK_ERR_FORMAT (not a water state, other version, invalid numbers),
+ * HBK_ERR_INVALID_ARGUMENT (other grid size, buffer too small); the handle is unchanged on
+ * failure. The layout is native-endian: a checkpoint for the same machine, not an archive. */
 HBK_EXPORT size_t hbk_water_state_size(const hbk_water_t *h);
 HBK_EXPORT hbk_result_t hbk_water_save_state(hbk_water_t *h, void *buffer, size_t size);
 HBK_EXPORT hbk_result_t hbk_water_load_state(hbk_water_t *h, const void *buffer, size_t size);

@@ -482,6 +482,13 @@ void test_water_state_roundtrip(void)
     CHECK(hbk_water_load_state(b, mid, n) == HBK_ERR_FORMAT);
     CHECK(strstr(hbk_water_message(b), "not a water state"));
     mid[0] ^= 1;
+    double nan_depth = NAN, keep;
+    unsigned char *depth0 = mid + 32 + 40 * 32 * sizeof(float);
+    memcpy(&keep, depth0, sizeof keep);
+    memcpy(depth0, &nan_depth, sizeof nan_depth);
+    CHECK(hbk_water_load_state(b, mid, n) == HBK_ERR_FORMAT);
+    CHECK(strstr(hbk_water_message(b), "state cell 0"));
+    memcpy(depth0, &keep, sizeof keep);
     hbk_water_t *c = NULL;
     hbk_water_params_t q = params(41, 32, 0.1f);
     CHECK_OK(hbk_water_create(&c, &q, NULL));

@@ -22,8 +22,8 @@ typedef struct {
 
 /* Power through the surface triangle (a, b, c) and its weight on the ground image, for pass g.
  * `wet`: refracted (Fresnel, absorption) or dry ground lit directly. Adds to stats[9]. */
-static void triangle(const hbk_caustics_ctx_t *c, int g, int wet, const corner_t *a,
-                     const corner_t *b, const corner_t *d, tri_out_t *out, double *stats)
+static inline void triangle(const hbk_caustics_ctx_t *c, int g, int wet, const corner_t *a,
+                            const corner_t *b, const corner_t *d, tri_out_t *out, double *stats)
 {
     memset(out, 0, sizeof *out);
     double e1[3], e2[3], n2[3];
@@ -56,9 +56,9 @@ static void triangle(const hbk_caustics_ctx_t *c, int g, int wet, const corner_t
     }
     const double through = 0.5 * proj2 * T * scale; /* m^2 of light entering */
     /* The image on the ground, in metres: S' (exact area) and its signed horizontal area. */
-    const double f1[3] = {(b->px[g] - a->px[g]) / c->sx, (b->py[g] - a->py[g]) / c->sy,
+    const double f1[3] = {(b->px[g] - a->px[g]) * c->inv_sx, (b->py[g] - a->py[g]) * c->inv_sy,
                           b->hz[g] - a->hz[g]};
-    const double f2[3] = {(d->px[g] - a->px[g]) / c->sx, (d->py[g] - a->py[g]) / c->sy,
+    const double f2[3] = {(d->px[g] - a->px[g]) * c->inv_sx, (d->py[g] - a->py[g]) * c->inv_sy,
                           d->hz[g] - a->hz[g]};
     const double m2[3] = {f1[1] * f2[2] - f1[2] * f2[1], f1[2] * f2[0] - f1[0] * f2[2],
                           f1[0] * f2[1] - f1[1] * f2[0]};
@@ -84,7 +84,7 @@ static void triangle(const hbk_caustics_ctx_t *c, int g, int wet, const corner_t
 }
 
 /* Corner of the mesh at vertex v. */
-static void corner_vertex(const hbk_caustics_ctx_t *c, int32_t k, int32_t l, corner_t *o)
+static inline void corner_vertex(const hbk_caustics_ctx_t *c, int32_t k, int32_t l, corner_t *o)
 {
     const size_t v = (size_t)l * (size_t)c->nvx + (size_t)k;
     o->s[0] = c->vxs[k];
@@ -94,7 +94,9 @@ static void corner_vertex(const hbk_caustics_ctx_t *c, int32_t k, int32_t l, cor
         o->px[g] = c->ipx[g][v];
         o->py[g] = c->ipy[g][v];
         o->hz[g] = c->ihz[g][v];
-        for (int ch = 0; ch < c->nch; ++ch) o->att[g][ch] = c->iatt[g][v * (size_t)c->nch + (size_t)ch];
+        if (c->nch == 1) o->att[g][0] = c->iatt[g][v];
+        else
+            for (int ch = 0; ch < c->nch; ++ch) o->att[g][ch] = c->iatt[g][v * (size_t)c->nch + (size_t)ch];
     }
 }
 
@@ -311,6 +313,7 @@ hbk_result_t hbk_caustics_build_triangles(hbk_caustics_ctx_t *c)
 #pragma omp parallel for num_threads(c->threads) schedule(dynamic, 4)
     for (int32_t j = 0; j < c->ncy; ++j) {
         size_t n = 0;
+        if (hbk_cancelled(c->progress)) continue; /* the caller sees it after the stage */
         for (int32_t i = 0; i < c->ncx; ++i) {
             const int k = cell(c, i, j, NULL, c->row_stats + 9 * (size_t)j);
             cell_loose[(size_t)j * (size_t)c->ncx + (size_t)i] = (uint8_t)k;

@@ -11,11 +11,12 @@
  * position plus a constant for the whole row (derivation: the tile sums coverage over all
  * periods, see `region`).
  *
- * Determinism: the map is cut into bands of HBK_CAUSTICS_BAND rows with a double accumulator
- * each (in cache, and no float rounding streaks next to bright tiny triangles). Items (edges and
- * loose triangles) come in a fixed order, in groups of HBK_GROUP neighbours binned to the bands
- * their rows touch; every row's contribution is computed from the item alone, so the per-pixel
- * summation order is the item order whatever thread runs the band. */
+ * Determinism: the map is cut into bands of rows, each with a double accumulator of about
+ * HBK_CAUSTICS_BAND_BYTES (in cache; double so that bright tiny triangles leave no rounding
+ * streaks along their rows). Items (edges and loose triangles) come in a fixed order, in groups
+ * of HBK_GROUP neighbours binned to the bands their rows touch; every row's contribution is
+ * computed from the item alone, so the per-pixel summation order is the item order whatever
+ * thread runs the band. */
 #include "internal_caustics.h"
 #include <math.h>
 #include <omp.h>
@@ -59,20 +60,26 @@ static inline void edge_verts(const hbk_caustics_ctx_t *c, int kind, int32_t j, 
 
 /* The edge's weight: the value of the triangle on its left minus that on its right (cell (i, j)
  * has T0 = (00, 10, 11) and T1 = (00, 11, 01), both counter-clockwise). Returns 0 if all zero. */
-static inline int edge_weights(const hbk_caustics_ctx_t *c, int g, int kind, int32_t j,
-                               int32_t i, double *w)
+static inline __attribute__((always_inline)) int
+edge_weights(const hbk_caustics_ctx_t *c, int g, int kind, int32_t j, int32_t i, double *w,
+             const int NCH)
 {
     const size_t ci = (size_t)j * (size_t)c->ncx + (size_t)i;
+    const float *tw = c->triw[g];
+    const float *plus = NULL, *minus = NULL; /* triangles left and right of the edge */
+    if (kind == IT_H) { /* +T0(i, j), -T1(i, j-1) */
+        if (j < c->ncy) plus = tw + (ci * 2) * NCH;
+        if (j > 0) minus = tw + ((ci - (size_t)c->ncx) * 2 + 1) * NCH;
+    } else if (kind == IT_V) { /* +T0(i-1, j), -T1(i, j) */
+        if (i > 0) plus = tw + ((ci - 1) * 2) * NCH;
+        if (i < c->ncx) minus = tw + (ci * 2 + 1) * NCH;
+    } else { /* +T1(i, j), -T0(i, j) */
+        plus = tw + (ci * 2 + 1) * NCH;
+        minus = tw + (ci * 2) * NCH;
+    }
     int any = 0;
-    for (int ch = 0; ch < c->nch; ++ch) {
-        if (kind == IT_H) /* +T0(i, j), -T1(i, j-1) */
-            w[ch] = (j < c->ncy ? TRIW(c, g, ci, 0, ch) : 0.0) -
-                    (j > 0 ? TRIW(c, g, ci - (size_t)c->ncx, 1, ch) : 0.0);
-        else if (kind == IT_V) /* +T0(i-1, j), -T1(i, j) */
-            w[ch] = (i > 0 ? TRIW(c, g, ci - 1, 0, ch) : 0.0) -
-                    (i < c->ncx ? TRIW(c, g, ci, 1, ch) : 0.0);
-        else /* +T1(i, j), -T0(i, j) */
-            w[ch] = TRIW(c, g, ci, 1, ch) - TRIW(c, g, ci, 0, ch);
+    for (int ch = 0; ch < NCH; ++ch) {
+        w[ch] = (plus ? (double)plus[ch] : 0.0) - (minus ? (double)minus[ch] : 0.0);
         any |= w[ch] != 0.0;
     }
     return any;
@@ -105,9 +112,10 @@ static void loose_rows(const hbk_loose_tri_t *lt, int g, double *lo, double *hi)
 }
 
 /* Band ranges [r[k][0], r[k][1]] covering rows [lo, hi); returns how many (0..2). */
-static int row_bands(const hbk_caustics_ctx_t *c, int32_t nb, int64_t lo, int64_t hi, int32_t r[2][2])
+static int row_bands(const hbk_caustics_ctx_t *c, int32_t BH, int32_t nb, int64_t lo, int64_t hi,
+                     int32_t r[2][2])
 {
-    const int64_t BH = HBK_CAUSTICS_BAND, MH = c->MH;
+    const int64_t MH = c->MH;
     if (!(hi > lo)) return 0;
     if (!c->periodic) {
         if (lo < 0) lo = 0;
@@ -172,9 +180,10 @@ accumulate(double *row, double xa, double xb, double dv, double ds, const double
            const int NCH, const int PS)
 {
     const double x0 = xa < xb ? xa : xb, x1 = xa < xb ? xb : xa;
-    const double f0 = ffloor(x0);
-    const int32_t i0 = (int32_t)f0;
-    if (x1 <= f0 + 1.0) { /* within one pixel column */
+    const int32_t i0 = (int32_t)x0, j1 = (int32_t)x1; /* x >= 0: truncation is floor */
+    const int32_t i1 = x1 == (double)j1 ? j1 : j1 + 1; /* ceil: x1 in (i1 - 1, i1] */
+    const double f0 = (double)i0;
+    if (i1 <= i0 + 1) { /* within one pixel column */
         const double xm = 0.5 * (x0 + x1) - f0;
         HBK_PUT(row, i0, dv * (1.0 - xm));
         HBK_PUT(row, i0 + 1, dv * xm);
@@ -182,14 +191,13 @@ accumulate(double *row, double xa, double xb, double dv, double ds, const double
     }
     const double x0f = 1.0 - (x0 - f0);
     const double h = 0.5 * ds;
-    if (x1 <= f0 + 2.0) { /* pixels i0 and i0 + 1 */
+    if (i1 == i0 + 2) { /* pixels i0 and i0 + 1 */
         const double x1f = x1 - f0 - 1.0, a0 = h * x0f * x0f, am = h * x1f * x1f;
         HBK_PUT(row, i0, a0);
         HBK_PUT(row, i0 + 1, dv - a0 - am);
         HBK_PUT(row, i0 + 2, am);
         return;
     }
-    const int32_t i1 = (int32_t)-ffloor(-x1);
     const double x1f = x1 - (double)(i1 - 1);
     const double a0 = h * x0f * x0f;        /* dv x coverage of pixel i0 */
     const double am = h * x1f * x1f;        /* dv x (1 - coverage of pixel i1-1) */
@@ -268,19 +276,35 @@ edge_n(const band_t *b, double x0, double y0, double x1, double y1, int64_t rlo,
     const double ylo = y0 < y1 ? y0 : y1, yhi = y0 < y1 ? y1 : y0;
     const double dxdy = (x1 - x0) / (y1 - y0);
     const double ds = x1 != x0 ? dir * fabs((y1 - y0) / (x1 - x0)) : 0.0;
-    const int inside = (x0 < x1 ? x0 : x1) >= 0.0 && (x0 < x1 ? x1 : x0) <= (double)c->MW;
+    const double MW = c->MW;
+    /* Periodic: move the edge by whole periods so it starts in the map; each row then gets the
+     * constant of that shift at pixel 0 (see `region`) and usually needs no splitting. */
+    double m = 0.0;
+    if (c->periodic && ((x0 < x1 ? x0 : x1) < 0.0 || (x0 < x1 ? x0 : x1) >= MW)) {
+        m = ffloor((x0 < x1 ? x0 : x1) * c->inv_mw);
+        x0 -= m * MW;
+        x1 -= m * MW;
+    }
+    const int inside = (x0 < x1 ? x0 : x1) >= 0.0 && (x0 < x1 ? x1 : x0) <= MW;
     const int64_t MH = c->MH;
     for (int64_t k = kmin; k <= kmax; ++k) {
         const int64_t r0 = rlo > b->B0 + k * MH ? rlo : b->B0 + k * MH;
         const int64_t r1 = rhi < b->B1 + k * MH ? rhi : b->B1 + k * MH;
         double *row = b->buf + (size_t)(r0 - k * MH - b->B0) * b->rowlen;
+        /* x where the edge enters each row; the exit of one row is the entry of the next (the
+         * same expression, so the same bits as when a band starts at that row). */
+        double ya = ylo > (double)r0 ? ylo : (double)r0, xa = x0 + (ya - y0) * dxdy;
         for (int64_t r = r0; r < r1; ++r, row += b->rowlen) {
-            const double ya = ylo > (double)r ? ylo : (double)r;
             const double yb = yhi < (double)(r + 1) ? yhi : (double)(r + 1);
-            if (!(yb > ya)) continue;
-            const double xa = x0 + (ya - y0) * dxdy, xb = x0 + (yb - y0) * dxdy;
-            if (inside) accumulate(row, xa, xb, dir * (yb - ya), ds, w, ch0, NCH, PS);
-            else row_piece(c, row, xa, xb, dir * (yb - ya), ds, w, ch0, NCH);
+            const double xb = x0 + (yb - y0) * dxdy;
+            if (yb > ya) {
+                const double dv = dir * (yb - ya);
+                if (m != 0.0) HBK_PUT(row, 0, -m * dv);
+                if (inside) accumulate(row, xa, xb, dv, ds, w, ch0, NCH, PS);
+                else row_piece(c, row, xa, xb, dv, ds, w, ch0, NCH);
+            }
+            ya = yb;
+            xa = xb;
         }
     }
 }
@@ -300,7 +324,7 @@ edge_item(const band_t *b, double x0, double y0, double x1, double y1, const dou
     double wv[3];
     const double *w = w_in;
     if (!w) {
-        if (!edge_weights(b->c, g, kind, j, i, wv)) return;
+        if (!edge_weights(b->c, g, kind, j, i, wv, NCH)) return;
         w = wv;
     }
     edge_n(b, x0, y0, x1, y1, rlo, rhi, kmin, kmax, w, ch0, NCH, PS);
@@ -385,7 +409,10 @@ static void group_rows(const hbk_caustics_ctx_t *c, group_t *gr)
 hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
                                     hbk_progress_t *progress)
 {
-    const int32_t BH = HBK_CAUSTICS_BAND, nb = (c->MH + BH - 1) / BH;
+    const size_t rowlen = (size_t)c->ps * ((size_t)c->MW + 2);
+    int32_t BH = (int32_t)(HBK_CAUSTICS_BAND_BYTES / (rowlen * sizeof(double)));
+    BH = BH < 8 ? 8 : BH > 256 ? 256 : BH;
+    const int32_t nb = (c->MH + BH - 1) / BH;
     const int T = c->threads;
     /* The groups, in drawing order: per pass, H edges, V edges, D edges, loose triangles. */
     size_t ngroups = 0;
@@ -419,7 +446,7 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
     for (int fill = 0; fill < 2; ++fill) {
         for (size_t k = 0; k < ngroups; ++k) {
             int32_t r[2][2];
-            const int m = row_bands(c, nb, groups[k].lo, groups[k].hi, r);
+            const int m = row_bands(c, BH, nb, groups[k].lo, groups[k].hi, r);
             for (int q = 0; q < m; ++q)
                 for (int32_t bb = r[q][0]; bb <= r[q][1]; ++bb) {
                     if (fill) list[fillat[bb]++] = (uint32_t)k;
@@ -440,8 +467,7 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
         res = HBK_ERR_CANCELLED;
         goto done;
     }
-    const size_t rowlen = (size_t)c->ps * ((size_t)c->MW + 2);
-    bufs = malloc((size_t)T * (size_t)BH * rowlen * sizeof *bufs);
+    bufs = calloc((size_t)T * (size_t)BH * rowlen, sizeof *bufs);
     if (!bufs) {
         res = HBK_ERR_OUT_OF_MEMORY;
         goto done;
@@ -450,39 +476,43 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
     const int nc = out->channels;
 #pragma omp parallel for num_threads(T) schedule(dynamic, 1)
     for (int32_t bb = 0; bb < nb; ++bb) {
-        if (cancelled || hbk_cancelled(progress)) {
-            cancelled = 1;
+        if (__atomic_load_n(&cancelled, __ATOMIC_RELAXED) || hbk_cancelled(progress)) {
+            __atomic_store_n(&cancelled, 1, __ATOMIC_RELAXED);
             continue;
         }
         band_t b = {c, bufs + (size_t)omp_get_thread_num() * (size_t)BH * rowlen, rowlen,
                     bb * BH, bb * BH + BH < c->MH ? bb * BH + BH : c->MH};
-        memset(b.buf, 0, (size_t)BH * rowlen * sizeof *b.buf);
+        /* The buffers start zeroed (calloc) and the prefix pass below zeroes what it read. */
         for (size_t k = start[bb]; k < start[bb + 1]; ++k) draw_group(&b, &groups[list[k]]);
         const double e0 = c->escale[0], e1 = c->escale[1], e2 = c->escale[2];
         for (int32_t y = b.B0; y < b.B1; ++y) {
-            const double *a = b.buf + (size_t)(y - b.B0) * rowlen;
+            double *a = b.buf + (size_t)(y - b.B0) * rowlen;
             float *px = out->data + (size_t)y * out->row_stride;
             double s0 = 0.0, s1 = 0.0, s2 = 0.0;
             if (c->ps == 1) {
                 for (int32_t x = 0; x < c->MW; ++x, ++a, px += nc) {
                     s0 += a[0];
+                    a[0] = 0.0;
                     const double v = s0 > 0.0 ? s0 : 0.0; /* below 0 only by rounding */
                     px[0] = (float)(v * e0);
                     px[1] = (float)(v * e1);
                     px[2] = (float)(v * e2);
                     if (nc == 4) px[3] = 1.0f;
                 }
-                continue;
+            } else {
+                for (int32_t x = 0; x < c->MW; ++x, a += 3, px += nc) {
+                    s0 += a[0];
+                    s1 += a[1];
+                    s2 += a[2];
+                    a[0] = a[1] = a[2] = 0.0;
+                    px[0] = s0 > 0.0 ? (float)s0 : 0.0f;
+                    px[1] = s1 > 0.0 ? (float)s1 : 0.0f;
+                    px[2] = s2 > 0.0 ? (float)s2 : 0.0f;
+                    if (nc == 4) px[3] = 1.0f;
+                }
             }
-            for (int32_t x = 0; x < c->MW; ++x, a += 3, px += nc) {
-                s0 += a[0];
-                s1 += a[1];
-                s2 += a[2];
-                px[0] = s0 > 0.0 ? (float)s0 : 0.0f;
-                px[1] = s1 > 0.0 ? (float)s1 : 0.0f;
-                px[2] = s2 > 0.0 ? (float)s2 : 0.0f;
-                if (nc == 4) px[3] = 1.0f;
-            }
+            /* The two pixels past the edge take writes that affect no pixel: clear them too. */
+            memset(a, 0, (size_t)c->ps * 2 * sizeof *a);
         }
         if (omp_get_thread_num() == 0) hbk_report(progress, 0.5f + 0.5f * (float)(bb + 1) / (float)nb);
     }

@@ -56,6 +56,8 @@ void hbk_caustics_init(hbk_caustics_ctx_t *c, const hbk_caustics_params_t *p,
     c->W = water->width;
     c->H = water->height;
     c->dx = cell_size;
+    c->inv_dx = 1.0 / c->dx;
+    c->wet_depth = p->wet_depth;
     c->periodic = p->periodic;
     c->threads = p->threads > 0 ? p->threads : omp_get_max_threads();
     c->point = p->light_type == HBK_LIGHT_POINT;
@@ -138,8 +140,12 @@ hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p, const hbk_image
     }
     hbk_caustics_ctx_t c;
     hbk_caustics_init(&c, p, water_height, ground_height, cell_size);
+    c.progress = progress;
     c.MW = out->width;
     c.MH = out->height;
+    if ((size_t)c.W * (size_t)c.H < 4096 && (size_t)c.MW * (size_t)c.MH < 65536)
+        c.threads = 1; /* too small to be worth waking threads; the bytes are the same */
+    c.inv_mw = 1.0 / c.MW;
     double ex1, ey1;
     if (p->auto_extent) {
         ex1 = c.W * c.dx;
@@ -152,6 +158,8 @@ hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p, const hbk_image
     }
     c.sx = c.MW / (ex1 - c.ex0);
     c.sy = c.MH / (ey1 - c.ey0);
+    c.inv_sx = 1.0 / c.sx;
+    c.inv_sy = 1.0 / c.sy;
     c.pixel_area = (ex1 - c.ex0) / c.MW * ((ey1 - c.ey0) / c.MH);
     hbk_report(progress, 0.0f);
     if ((r = hbk_caustics_setup_ground(&c)) || (r = hbk_caustics_setup_mesh(&c))) goto fail;
@@ -161,6 +169,7 @@ hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p, const hbk_image
     if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto fail; }
     if ((r = hbk_caustics_build_triangles(&c))) goto fail;
     hbk_report(progress, 0.5f);
+    /* (A cancel during the triangle pass leaves its rows uncounted: caught here.) */
     if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto fail; }
     if ((r = hbk_caustics_rasterise(&c, out, progress))) goto fail;
     if (stats) {

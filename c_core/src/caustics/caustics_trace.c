@@ -6,6 +6,7 @@
 
 static inline int32_t wrap(int32_t i, int32_t n)
 {
+    if (i >= -n && i < 2 * n) return i < 0 ? i + n : i >= n ? i - n : i; /* no division */
     i %= n;
     return i < 0 ? i + n : i;
 }
@@ -29,14 +30,17 @@ static inline float gs(const hbk_caustics_ctx_t *c, int32_t i, int32_t j)
     return c->ground[(size_t)sidx(c, j, c->H) * c->ground_stride + (size_t)sidx(c, i, c->W)];
 }
 
-int hbk_caustics_wet(const hbk_caustics_ctx_t *c, int32_t i, int32_t j)
+static inline int wet_at(const hbk_caustics_ctx_t *c, int32_t i, int32_t j)
 {
     const size_t at = (size_t)j * c->water_stride + (size_t)i;
     return (double)c->water[at] - (double)c->ground[(size_t)j * c->ground_stride + (size_t)i] >
-           (double)c->p->wet_depth;
+           c->wet_depth;
 }
 
-double hbk_caustics_ground_at(const hbk_caustics_ctx_t *c, double u, double v)
+int hbk_caustics_wet(const hbk_caustics_ctx_t *c, int32_t i, int32_t j) { return wet_at(c, i, j); }
+
+static inline __attribute__((always_inline)) double
+ground_bilinear(const hbk_caustics_ctx_t *c, double u, double v)
 {
     const double fu = ffloor(u), fv = ffloor(v);
     const int32_t i = (int32_t)fu, j = (int32_t)fv;
@@ -46,7 +50,13 @@ double hbk_caustics_ground_at(const hbk_caustics_ctx_t *c, double u, double v)
     return (g00 + a * (g10 - g00)) * (1.0 - b) + (g01 + a * (g11 - g01)) * b;
 }
 
-void hbk_caustics_normal(const hbk_caustics_ctx_t *c, int32_t i, int32_t j, double n[3])
+double hbk_caustics_ground_at(const hbk_caustics_ctx_t *c, double u, double v)
+{
+    return ground_bilinear(c, u, v);
+}
+
+static inline __attribute__((always_inline)) void
+normal_at(const hbk_caustics_ctx_t *c, int32_t i, int32_t j, double n[3])
 {
     /* Central differences over wet neighbours only: a dry neighbour's "surface" is its ground,
      * which says nothing about the water's slope. */
@@ -57,16 +67,16 @@ void hbk_caustics_normal(const hbk_caustics_ctx_t *c, int32_t i, int32_t j, doub
         int have[2];
         for (int s = 0; s < 2; ++s) {
             int32_t ii = i + (axis == 0 ? (s ? 1 : -1) : 0), jj = j + (axis == 1 ? (s ? 1 : -1) : 0);
-            if (c->periodic) {
-                ii = wrap(ii, c->W);
-                jj = wrap(jj, c->H);
+            if (c->periodic) { /* one step out at most: no division */
+                ii = ii < 0 ? ii + c->W : ii >= c->W ? ii - c->W : ii;
+                jj = jj < 0 ? jj + c->H : jj >= c->H ? jj - c->H : jj;
             }
-            have[s] = ii >= 0 && jj >= 0 && ii < c->W && jj < c->H && hbk_caustics_wet(c, ii, jj);
+            have[s] = ii >= 0 && jj >= 0 && ii < c->W && jj < c->H && wet_at(c, ii, jj);
             hv[s] = have[s] ? c->water[(size_t)jj * c->water_stride + (size_t)ii] : 0.0;
         }
-        slope[axis] = have[0] && have[1] ? (hv[1] - hv[0]) / (2.0 * c->dx)
-                    : have[1]            ? (hv[1] - h0) / c->dx
-                    : have[0]            ? (h0 - hv[0]) / c->dx
+        slope[axis] = have[0] && have[1] ? (hv[1] - hv[0]) * (0.5 * c->inv_dx)
+                    : have[1]            ? (hv[1] - h0) * c->inv_dx
+                    : have[0]            ? (h0 - hv[0]) * c->inv_dx
                                          : 0.0;
     }
     const double inv = 1.0 / sqrt(slope[0] * slope[0] + slope[1] * slope[1] + 1.0);
@@ -75,7 +85,13 @@ void hbk_caustics_normal(const hbk_caustics_ctx_t *c, int32_t i, int32_t j, doub
     n[2] = inv;
 }
 
-void hbk_caustics_refract(const double l[3], const double n[3], double eta, double r[3])
+void hbk_caustics_normal(const hbk_caustics_ctx_t *c, int32_t i, int32_t j, double n[3])
+{
+    normal_at(c, i, j, n);
+}
+
+static inline __attribute__((always_inline)) void
+refract_dir(const double l[3], const double n[3], double eta, double r[3])
 {
     static const double up[3] = {0.0, 0.0, 1.0};
     double cos_i = l[0] * n[0] + l[1] * n[1] + l[2] * n[2];
@@ -93,6 +109,11 @@ void hbk_caustics_refract(const double l[3], const double n[3], double eta, doub
         r[1] = hl > 0.0 ? r[1] / hl * keep : 0.0;
         r[2] = -HBK_CAUSTICS_MIN_DOWN;
     }
+}
+
+void hbk_caustics_refract(const double l[3], const double n[3], double eta, double r[3])
+{
+    refract_dir(l, n, eta, r);
 }
 
 double hbk_caustics_fresnel_t(double cos_i, double ior)
@@ -170,20 +191,21 @@ static double cell_hit(const hbk_caustics_ctx_t *c, int32_t i, int32_t j, double
 static double plane_hit(const hbk_caustics_ctx_t *c, double u0, double v0, double z0, double du,
                         double dv, double dz, double t)
 {
-    const double z = z0 + t * dz, g = hbk_caustics_ground_at(c, u0 + t * du, v0 + t * dv);
+    const double z = z0 + t * dz, g = ground_bilinear(c, u0 + t * du, v0 + t * dv);
     return z > g ? t + (z - g) / -dz : t;
 }
 
 double hbk_caustics_march(const hbk_caustics_ctx_t *c, const double o[3], const double r[3])
 {
-    const double inv = 1.0 / c->dx;
+    const double inv = c->inv_dx;
     const double u0 = o[0] * inv - 0.5, v0 = o[1] * inv - 0.5, z0 = o[2];
     const double du = r[0] * inv, dv = r[1] * inv, dz = r[2];
-    if (z0 <= hbk_caustics_ground_at(c, u0, v0)) return 0.0;
     double t = 0.0;
     if (z0 > c->gmax) { /* nothing to hit above the highest ground */
         t = (z0 - c->gmax) / -dz;
-        if (c->gmax <= hbk_caustics_ground_at(c, u0 + t * du, v0 + t * dv)) return t; /* flat floors */
+        if (c->gmax <= ground_bilinear(c, u0 + t * du, v0 + t * dv)) return t; /* flat floors */
+    } else if (z0 <= ground_bilinear(c, u0, v0)) {
+        return 0.0;
     }
     const int32_t su = du > 0.0 ? 1 : -1, sv = dv > 0.0 ? 1 : -1;
     const double tdu = du != 0.0 ? fabs(1.0 / du) : INFINITY, tdv = dv != 0.0 ? fabs(1.0 / dv) : INFINITY;
@@ -307,12 +329,13 @@ void hbk_caustics_trace_vertices(hbk_caustics_ctx_t *c)
     const int32_t nx = c->periodic ? c->W : c->nvx, ny = c->periodic ? c->H : c->nvy;
 #pragma omp parallel for num_threads(c->threads) schedule(dynamic, 4)
     for (int32_t l = 0; l < ny; ++l) {
+        if (hbk_cancelled(c->progress)) continue; /* the caller sees it after the stage */
         for (int32_t k = 0; k < nx; ++k) {
             const size_t v = (size_t)l * (size_t)c->nvx + (size_t)k;
             const double s[3] = {c->vxs[k], c->vys[l], c->vz[v]};
             double n[3], L[3];
             if (c->vwet[v]) {
-                hbk_caustics_normal(c, c->vsi[k], c->vsj[l], n);
+                normal_at(c, c->vsi[k], c->vsj[l], n);
                 if (c->point) {
                     double len = 0.0;
                     for (int a = 0; a < 3; ++a) len += (c->lpos[a] - s[a]) * (c->lpos[a] - s[a]);
@@ -326,7 +349,7 @@ void hbk_caustics_trace_vertices(hbk_caustics_ctx_t *c)
                 double hit[3] = {s[0], s[1], c->vb[v]}, t = 0.0;
                 if (c->vwet[v]) {
                     double r[3];
-                    hbk_caustics_refract(L, n, c->eta[g], r);
+                    refract_dir(L, n, c->eta[g], r);
                     t = hbk_caustics_march(c, s, r);
                     for (int a = 0; a < 3; ++a) hit[a] = s[a] + t * r[a];
                 }

@@ -10,8 +10,9 @@
 /* Ground triangles smaller than this (in map pixels^2) are splatted into one pixel instead of
  * rasterised: it only catches (near-)degenerate images, whose 1/area weight would be huge. */
 #define HBK_CAUSTICS_TINY_PX2 1e-6
-/* Map rows per raster band: the band's double accumulator stays in cache. */
-#define HBK_CAUSTICS_BAND 16
+/* Size of a raster band's double accumulator: big bands split fewer edges, and it still fits
+ * in a typical L2 cache. */
+#define HBK_CAUSTICS_BAND_BYTES (1u << 20)
 
 /* A ground triangle rasterised on its own: a small triangle of a shoreline cell, or a regular
  * triangle whose image is degenerate (then `splat`). Per pass: image in map pixels, weights. */
@@ -28,8 +29,9 @@ typedef struct {
     const float *water, *ground; /* samples, row stride in floats below */
     size_t water_stride, ground_stride;
     int32_t W, H;                /* samples */
-    double dx;
+    double dx, inv_dx, wet_depth;
     int periodic, threads;
+    hbk_progress_t *progress;    /* polled per row of every stage; may be NULL */
     /* Light: unit vector towards the sun, or the point light position; irradiance per channel. */
     int point;
     double L[3], lpos[3], E[3];
@@ -59,7 +61,9 @@ typedef struct {
     float *ihz[3], *iatt[3];
     /* Map. */
     int32_t MW, MH;
+    double inv_mw;               /* 1 / MW */
     double ex0, ey0, sx, sy;     /* pixel = (world - e0) * s */
+    double inv_sx, inv_sy;
     double pixel_area;           /* m^2 */
     /* Triangles: weight per [pass][triangle * nch + channel]; two triangles per cell. */
     float *triw[3];

@@ -328,6 +328,20 @@ hbk_result_t hbk_water_load_state(hbk_water_t *h, const void *buffer, size_t siz
     if (size < need)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "size = %zu: a %d x %d state needs %zu bytes", size, w, ht, need);
+    /* Values are checked before anything is changed: a corrupt buffer must not poison the
+     * simulation (NaN spreads through the implicit solve to every cell). */
+    const unsigned char *vals = at + STATE_HEADER;
+    for (size_t i = 0; i < n; ++i) {
+        float b;
+        double d, u, v;
+        memcpy(&b, vals + i * sizeof b, sizeof b);
+        memcpy(&d, vals + n * sizeof(float) + i * sizeof d, sizeof d);
+        memcpy(&u, vals + n * (sizeof(float) + sizeof(double)) + i * sizeof u, sizeof u);
+        memcpy(&v, vals + n * (sizeof(float) + 2 * sizeof(double)) + i * sizeof v, sizeof v);
+        if (!isfinite(b) || !(d >= 0.0 && d < 1e9) || !isfinite(u) || !isfinite(v))
+            return hbk_fail(&h->msg, HBK_ERR_FORMAT,
+                            "state cell %zu: ground, depth or velocity is not a valid number", i);
+    }
     float *fresh[3] = {NULL, NULL, NULL};
     const int present[3] = {!!(flags & HAS_SOURCES), !!(flags & HAS_ACCEL),
                             !!(flags & HAS_FOOTPRINT)};

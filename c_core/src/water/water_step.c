@@ -35,41 +35,49 @@ typedef struct {
     int periodic, has_acc, has_foot;
 } line_coef_t;
 
-/* Solves the symmetric tridiagonal system (diag, off[k] between k and k+1) by Thomas. */
-static void thomas(int32_t n, const double *diag, const double *off, const double *r, double *x,
-                   double *cp)
+/* Thomas algorithm for the symmetric tridiagonal system (diag, off[k] between k and k+1):
+ * factor once (cp, and ib = 1 / pivot), then solve for any right-hand side. */
+static void thomas_factor(int32_t n, const double *diag, const double *off, double *cp, double *ib)
 {
-    double beta = diag[0];
-    x[0] = r[0] / beta;
+    ib[0] = 1.0 / diag[0];
     for (int32_t i = 1; i < n; ++i) {
-        cp[i] = off[i - 1] / beta;
-        beta = diag[i] - off[i - 1] * cp[i];
-        x[i] = (r[i] - off[i - 1] * x[i - 1]) / beta;
+        cp[i] = off[i - 1] * ib[i - 1];
+        ib[i] = 1.0 / (diag[i] - off[i - 1] * cp[i]);
     }
+}
+
+static void thomas_solve(int32_t n, const double *off, const double *cp, const double *ib,
+                         const double *r, double *x)
+{
+    x[0] = r[0] * ib[0];
+    for (int32_t i = 1; i < n; ++i) x[i] = (r[i] - off[i - 1] * x[i - 1]) * ib[i];
     for (int32_t i = n - 2; i >= 0; --i) x[i] -= cp[i + 1] * x[i + 1];
 }
 
-/* The same with corner entries off[n-1] (periodic), by Sherman-Morrison: two Thomas solves. */
+/* The same with corner entries off[n-1] (periodic), by Sherman-Morrison: one factorisation,
+ * two solves. */
 static void thomas_cyclic(int32_t n, const double *diag, const double *off, const double *r,
                           double *x, double *s)
 {
+    double *cp = s + S_CP * (size_t)n, *ib = s + S_BB * (size_t)n;
     const double cc = off[n - 1];
     if (cc == 0.0) {
-        thomas(n, diag, off, r, x, s + S_CP * (size_t)n);
+        thomas_factor(n, diag, off, cp, ib);
+        thomas_solve(n, off, cp, ib, r, x);
         return;
     }
-    double *bb = s + S_BB * (size_t)n, *z = s + S_Z * (size_t)n, *cp = s + S_CP * (size_t)n;
+    double *bb = s + S_Z * (size_t)n, *u = s + S_SCALE * (size_t)n, *z = s + S_Q * (size_t)n;
     const double gamma = -diag[0];
     memcpy(bb, diag, (size_t)n * sizeof *bb);
     bb[0] = diag[0] - gamma;
     bb[n - 1] = diag[n - 1] - cc * cc / gamma;
-    thomas(n, bb, off, r, x, cp);
-    /* Second right-hand side u = (gamma, 0, ..., 0, cc), solved in place in z. */
-    double *u = s + S_SCALE * (size_t)n;
+    thomas_factor(n, bb, off, cp, ib);
+    thomas_solve(n, off, cp, ib, r, x);
+    /* Second right-hand side u = (gamma, 0, ..., 0, cc). */
     memset(u, 0, (size_t)n * sizeof *u);
     u[0] = gamma;
     u[n - 1] = cc;
-    thomas(n, bb, off, u, z, cp);
+    thomas_solve(n, off, cp, ib, u, z);
     const double fact = (x[0] + cc * x[n - 1] / gamma) / (1.0 + z[0] + cc * z[n - 1] / gamma);
     for (int32_t i = 0; i < n; ++i) x[i] -= fact * z[i];
 }
@@ -167,8 +175,9 @@ static void sweep_y(hbk_water_t *h, const line_coef_t *C, int threads)
 {
     const int32_t W = h->p.width, Ht = h->p.height;
     const size_t per = hbk_water_line_scratch(W > Ht ? W : Ht);
-    /* Chunks of 8 neighbouring columns share cache lines. */
-#pragma omp parallel for num_threads(threads) schedule(static, 8)
+    /* Chunks of 16 neighbouring columns: a chunk reuses its cache lines row after row, and two
+     * threads share at most one line per row and array at a chunk boundary. */
+#pragma omp parallel for num_threads(threads) schedule(static, 16)
     for (int32_t x = 0; x < W; ++x) {
         double *s = h->scratch + per * (size_t)omp_get_thread_num();
         sweep_line(C, Ht, (size_t)W, h->ground + x, h->depth + x, h->vel_y + x,
@@ -273,7 +282,8 @@ hbk_result_t hbk_water_step(hbk_water_t *h, hbk_progress_t *progress)
 {
     if (!h) return HBK_ERR_INVALID_ARGUMENT;
     hbk_message_clear(&h->msg);
-    const int threads = h->p.threads > 0 ? h->p.threads : omp_get_max_threads();
+    /* Small grids are not worth waking threads for (the result is the same either way). */
+    const int threads = h->n < 16384 ? 1 : h->p.threads > 0 ? h->p.threads : omp_get_max_threads();
     if (threads > h->scratch_threads) {
         const int32_t n = h->p.width > h->p.height ? h->p.width : h->p.height;
         double *s = realloc(h->scratch, (size_t)threads * hbk_water_line_scratch(n) * sizeof *s);
