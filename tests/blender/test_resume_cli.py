@@ -31,5 +31,5 @@ def test_kill_then_resume_is_bit_identical(blender, tmp_path):
     r = blender.run("cli.py", "resume", *ARGS, "--output", cut, blend=blend)
     assert "resumed after frame" in r.stdout
     ref_files = exr_bytes(ref / "pool" / "Water_caustics")
-    assert len(ref_files) == 30 and exr_bytes(folder) == ref_files
+    assert len(ref_files) == 40 and exr_bytes(folder) == ref_files
     assert not [n for n in os.listdir(folder) if n.startswith(".")]  # no temporaries left

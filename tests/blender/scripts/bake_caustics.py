@@ -19,6 +19,7 @@ s.use_scene_range = False
 s.frame_start, s.frame_end = 1, 3
 s.water.width = 64
 s.map_resolution = 256
+s.displace_surface = True
 floor_tree = floor.data.materials[0].node_tree
 bsdf = next(n for n in floor_tree.nodes if n.type == "BSDF_PRINCIPLED")
 orig_from = bsdf.inputs["Base Color"].links[0].from_node.name
@@ -32,7 +33,7 @@ assert m["params"]["water"]["width"] == 64 and m["params"]["water"]["height"] ==
 names = sorted(os.listdir(folder))
 assert names == sorted(["manifest.json", "checkpoint_0001.bin", "checkpoint_0003.bin"] +
                       [f"{st}_{i:04d}.exr" for i in (1, 2, 3)
-                       for st in ("caustics", "surface", "water")]), names
+                       for st in ("caustics", "surface", "height", "water")]), names
 
 # Wired: floor base colour = original texture x caustic sequence; water has the normal map.
 link = bsdf.inputs["Base Color"].links[0]
@@ -45,6 +46,14 @@ wtree = water.data.materials[0].node_tree
 wbsdf = next(n for n in wtree.nodes if n.type == "BSDF_PRINCIPLED")
 assert wbsdf.inputs["Normal"].links[0].from_node.get("hydrobake") == "caustics.normal"
 assert not water.visible_shadow
+
+# The surface moves: Displace by the baked heights over a UV map spanning the grid.
+assert water.modifiers["HBK Displace"].texture.image.source == "SEQUENCE"
+scene.frame_set(3)
+dg = bpy.context.evaluated_depsgraph_get()
+zs = [v.co.z for v in water.evaluated_get(dg).to_mesh().vertices]
+assert len(zs) > 1000 and max(zs) - min(zs) > 1e-4, (len(zs), max(zs) - min(zs))
+water.evaluated_get(dg).to_mesh_clear()
 
 # A small render: the caustic texture is found (no magenta 'missing image').
 scene.render.resolution_x, scene.render.resolution_y = 64, 36
@@ -65,4 +74,5 @@ assert bsdf.inputs["Base Color"].links[0].from_node.name == orig_from
 assert not any(n.get("hydrobake") for n in floor_tree.nodes)
 assert not any(n.get("hydrobake") for n in wtree.nodes)
 assert water.visible_shadow and not s.is_baked
+assert "HBK Displace" not in water.modifiers and "HBK_UV" not in water.data.uv_layers
 print("CAUSTICS BLENDER OK")

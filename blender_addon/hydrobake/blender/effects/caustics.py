@@ -48,6 +48,17 @@ class CausticsBlender(BlenderEffect):
             map_resolution=bpy.props.IntProperty(
                 name="Map Resolution", default=1024, min=16, max=8192,
                 description="Caustic map width in pixels (height follows the aspect)"),
+            loop=bpy.props.BoolProperty(
+                name="Loop", default=False,
+                description="Make the baked range a seamless loop: the last frames cross-fade "
+                            "the water into the state just before the first frame"),
+            loop_blend=bpy.props.IntProperty(
+                name="Loop Blend", default=12, min=1, max=10000,
+                description="Frames at the end of the loop that cross-fade into its start"),
+            displace_surface=bpy.props.BoolProperty(
+                name="Displace Surface", default=False,
+                description="Also move the water mesh by the baked heights (adds Subdivision "
+                            "and Displace modifiers, removed by Free Bake)"),
         )
 
     @classmethod
@@ -96,6 +107,8 @@ class CausticsBlender(BlenderEffect):
         w = settings.map_resolution
         inputs = dict(ground=ground.astype(np.float32), level=level, footprints=footprints,
                       map_size=(w, max(1, int(round(w * shape[0] / shape[1])))))
+        if settings.loop:
+            inputs["loop"] = (frames[0], frames[1], settings.loop_blend)
         return params, inputs
 
     # --- wiring -------------------------------------------------------------------------
@@ -159,6 +172,8 @@ class CausticsBlender(BlenderEffect):
             nm.space = "WORLD"
             tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
             tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+        if settings.displace_surface:
+            cls._displace(obj, folder, frames, width)
         # Light reaches the floor through the caustic map, not through the glass: the water
         # casts no shadow (restored by Free Bake).
         if "hydrobake_shadow" not in obj:
@@ -166,7 +181,44 @@ class CausticsBlender(BlenderEffect):
         obj.visible_shadow = False
 
     @classmethod
+    def _displace(cls, obj, folder, frames, width):
+        """Subdivision + Displace modifiers reading the height sequence through a UV map that
+        spans the water grid (made here, removed by Free Bake)."""
+        origin, cell, shape, _ = cls.grid(obj, width)
+        mesh = obj.data
+        uv = mesh.uv_layers.get("HBK_UV") or mesh.uv_layers.new(name="HBK_UV")
+        mw = obj.matrix_world
+        for loop in mesh.loops:
+            p = mw @ mesh.vertices[loop.vertex_index].co
+            uv.data[loop.index].uv = ((p.x - origin[0]) / (shape[1] * cell),
+                                      (p.y - origin[1]) / (shape[0] * cell))
+        tex = bpy.data.textures.get(f"HBK_{obj.name}_height") or bpy.data.textures.new(
+            f"HBK_{obj.name}_height", "IMAGE")
+        tex.image = images.load_sequence(folder, "height", frames[0], len(frames),
+                                         name=f"HBK_{obj.name}_height")
+        tex.extension = "EXTEND"
+        images.configure_user(tex.image_user, frames[0], len(frames))
+        sub = obj.modifiers.get("HBK Subdivision") or obj.modifiers.new("HBK Subdivision",
+                                                                        "SUBSURF")
+        sub.subdivision_type = "SIMPLE"
+        sub.levels = sub.render_levels = max(1, min(6, int(np.log2(max(width, 2)))))
+        disp = obj.modifiers.get("HBK Displace") or obj.modifiers.new("HBK Displace", "DISPLACE")
+        disp.texture = tex
+        disp.texture_coords = "UV"
+        disp.uv_layer = "HBK_UV"
+        disp.direction = "Z"
+        disp.space = "GLOBAL"  # heights are world metres
+        disp.mid_level = 0.0
+        disp.strength = 1.0
+
+    @classmethod
     def remove(cls, context, obj, settings):
+        for name in ("HBK Displace", "HBK Subdivision"):
+            mod = obj.modifiers.get(name)
+            if mod is not None:
+                obj.modifiers.remove(mod)
+        if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):
+            obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
         mats = [s.material for s in obj.material_slots if s.material]
         if settings.ground_object:
             mats += [s.material for s in settings.ground_object.material_slots if s.material]
@@ -191,7 +243,7 @@ class CausticsBlender(BlenderEffect):
     def draw_settings(cls, layout, settings):
         col = layout.column()
         for name in ("ground_object", "disturber_object", "disturber_depth", "sun_object",
-                     "map_resolution"):
+                     "map_resolution", "loop", "loop_blend", "displace_surface"):
             col.prop(settings, name)
         super().draw_settings(layout, settings)
 

@@ -7,6 +7,10 @@ Inputs (all optional, arrays (H, W) float32 on the water grid, row 0 at y = 0):
     footprints  {frame: (H, W) depth in m an object presses the surface down}
     sources     (H, W) water added/removed in m/s (pouring, draining)
     map_size    (width, height) of the caustic map in pixels (default 4 texels per cell)
+    loop        (first frame, last frame, blend frames): a seamless loop. The water runs
+                `blend` frames of pre-roll before the first frame; the last `blend` frames
+                cross-fade the height field towards the pre-roll (heights, not maps: caustics
+                do not blend linearly), so the frame after the last is the first again.
 
 Streams per frame:
     caustics_####.exr  R, G, B: the caustic multiplier, ground irradiance divided by what
@@ -15,11 +19,15 @@ Streams per frame:
                        gives the lit ground. A = 1. Half float, HDR.
     surface_####.exr   R, G, B: the water's tangent-space normal map (n * 0.5 + 0.5),
                        A: surface height above the initial level in m. Float.
+    height_####.exr    Y: surface height above the initial level in m (grey in Blender, for a
+                       Displace modifier). Float.
     water_####.exr     data: height, depth, velocity.x, velocity.y (m, m, m/s). Float.
 """
+import struct
+
 import numpy as np
 
-from .. import caustics, image
+from .. import caustics, errors, image
 from ..water import Water
 from . import register
 from .base import Effect
@@ -28,7 +36,7 @@ from .base import Effect
 @register
 class CausticsEffect(Effect):
     name = "caustics"
-    streams = ("caustics", "surface", "water")
+    streams = ("caustics", "surface", "height", "water")
 
     @classmethod
     def groups(cls):
@@ -55,12 +63,39 @@ class CausticsEffect(Effect):
         self.cell_size = float(cell)
         self.map_size = tuple(self.inputs.get("map_size", (shape[1] * 4, shape[0] * 4)))
         self.surface = None
+        self.loop = self.inputs.get("loop")
+        self.preroll = None  # surfaces of the `blend` frames before the first (loop only)
+        if self.loop is not None:
+            first, last, blend = (int(v) for v in self.loop)
+            if not 1 <= blend <= last - first:
+                self.close()
+                raise errors.InvalidArgument(
+                    f"loop blend = {blend}: must be in [1, {last - first}] (frames in the loop "
+                    "minus one)")
+            self.loop = (first, last, blend)
 
     def step(self, frame, progress):
+        if self.loop is not None and self.preroll is None:
+            first, _, blend = self.loop
+            roll = []
+            for f in range(first - blend, first):
+                self.water.set_footprint(self.footprints.get(f))
+                self.water.step(progress)
+                roll.append(self.water.surface())
+            self.preroll = np.stack(roll)
         fp = self.footprints.get(frame)
         self.water.set_footprint(fp)
         self.water.step(progress)
         self.surface = self.water.surface()
+        self._depth, self._velocity = self.water.depth(), self.water.velocity()
+        if self.loop is not None:
+            first, last, blend = self.loop
+            if frame > last - blend:
+                a = (frame - (last - blend)) / blend
+                target = self.preroll[frame - (last - first + 1) - first + blend]
+                self.surface = ((1.0 - a) * self.surface + a * target).astype(np.float32)
+                self._depth = np.maximum(self.surface - self.ground, 0.0).astype(np.float32)
+                self._velocity = ((1.0 - a) * self._velocity).astype(np.float32)
         self._map, self.stats = caustics.render(self.surface, self.ground, self.cell_size,
                                                 self.map_size, self.params["light"], progress)
 
@@ -68,7 +103,7 @@ class CausticsEffect(Effect):
         periodic = bool(self.params["water"].periodic)
         normals = image.normal_map(self.surface, (self.cell_size, self.cell_size),
                                    edge="WRAP" if periodic else "CLAMP", encode=True)
-        vel = self.water.velocity()
+        vel = self._velocity
         m = self._map
         # Normalise to a multiplier: the renderer's sun already applies irradiance * N.L.
         light = self.params["light"]
@@ -81,15 +116,23 @@ class CausticsEffect(Effect):
                                  "A": m[..., 3]}, {"half": True}),
             "surface": ("exr", {"R": normals[..., 0], "G": normals[..., 1],
                                 "B": normals[..., 2], "A": self.surface - self.level}, {}),
-            "water": ("exr", {"height": self.surface, "depth": self.water.depth(),
+            "height": ("exr", {"Y": self.surface - self.level}, {}),
+            "water": ("exr", {"height": self.surface, "depth": self._depth,
                               "velocity.x": vel[..., 0], "velocity.y": vel[..., 1]}, {}),
         }
 
     def save_state(self):
-        return self.water.save_state()
+        """The water's state, then the loop's pre-roll surfaces (if any)."""
+        water = self.water.save_state()
+        roll = b"" if self.preroll is None else self.preroll.astype(np.float32).tobytes()
+        return struct.pack("<QQ", len(water), len(roll)) + water + roll
 
     def load_state(self, data):
-        self.water.load_state(data)
+        nw, nr = struct.unpack_from("<QQ", data)
+        self.water.load_state(data[16:16 + nw])
+        if nr:
+            self.preroll = np.frombuffer(data[16 + nw:16 + nw + nr], np.float32).reshape(
+                (-1,) + self.water.shape).copy()
 
     def close(self):
         self.water.close()
