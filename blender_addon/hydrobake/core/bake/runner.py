@@ -4,6 +4,7 @@ An effect (see core/effects/base.py) advances one frame per ``step`` and hands b
 outputs; the runner names, writes and records them. Cancel is honoured between frames and,
 through the shared hbk_progress_t, inside long C calls.
 """
+import concurrent.futures
 import json
 import os
 import threading
@@ -123,6 +124,17 @@ class BakeRunner:
         except BaseException:  # state carries the error; the thread must not die loudly
             pass
 
+    def _write_all(self, frame, outputs):
+        """Writes a frame's files side by side: the C writers release the GIL and compress
+        on their own threads, so a frame's streams go out in parallel."""
+        items = list(outputs.items())
+        if len(items) < 2 or (os.cpu_count() or 1) < 2:
+            return [write_output(self.cache.folder, st, frame, out) for st, out in items]
+        with concurrent.futures.ThreadPoolExecutor(min(len(items), os.cpu_count())) as pool:
+            futures = [pool.submit(write_output, self.cache.folder, st, frame, out)
+                       for st, out in items]
+            return [f.result() for f in futures]  # in stream order; the first error raises
+
     def _header(self):
         s = self.state
         return dict(self.header, effect=self.effect.name, streams=list(self.effect.streams),
@@ -198,8 +210,7 @@ class BakeRunner:
                 self.effect.step(frame, self._progress)
                 if self._cancel.is_set():  # the step may have finished just as cancel came
                     raise errors.Cancelled("bake cancelled")
-                files = [write_output(self.cache.folder, stream, frame, out)
-                         for stream, out in self.effect.outputs(frame).items()]
+                files = self._write_all(frame, self.effect.outputs(frame))
                 self._checkpoint(manifest, frame)
                 self.cache.add_frame(manifest, frame, files)
                 s.done += 1
