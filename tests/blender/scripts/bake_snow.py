@@ -19,6 +19,7 @@ s.use_scene_range = False
 s.frame_start, s.frame_end = 1, 4
 s.snow.flake_count = 200000
 s.snow.texture_width = s.snow.texture_height = 256
+s.write_flakes = True
 with bpy.context.temp_override(scene=scene):
     assert bpy.ops.hydrobake.bake(effect="snow", object_name="Person") == {"FINISHED"}
 cov = exr.read(os.path.join(s.bake_folder, "coverage_0004.exr"))["A"]
@@ -42,7 +43,17 @@ assert out.inputs["Surface"].links[0].from_node.get("hydrobake") == "snow.mix"
 skin = bpy.data.materials["Skin"].node_tree
 assert not any(n.get("hydrobake") for n in skin.nodes)
 
+# The falling flakes as points that follow the frame, instanced by Geometry Nodes.
+flakes = bpy.data.objects["HBK_Person_flakes"]
+scene.frame_set(4)
+assert len(flakes.data.vertices) == 200000
+z4 = flakes.data.vertices[0].co.z
+scene.frame_set(2)
+assert flakes.data.vertices[0].co.z != z4
+assert flakes.modifiers["HBK Instances"].node_group is not None
+
 assert bpy.ops.hydrobake.free_bake(effect="snow", object_name="Person") == {"FINISHED"}
+assert "HBK_Person_flakes" not in bpy.data.objects
 assert out.inputs["Surface"].links[0].from_node.type == "BSDF_PRINCIPLED"
 assert not any(n.get("hydrobake") for n in coat.nodes)
 print("SNOW BLENDER OK")

@@ -5,7 +5,7 @@ material of the object non-destructively (Free Bake takes them out again)."""
 import bpy
 import numpy as np
 
-from ..bridge import images, materials, mesh_data
+from ..bridge import images, materials, mesh_data, points
 from . import register_effect
 from .base import BlenderEffect
 
@@ -76,6 +76,15 @@ class HYDROBAKE_PT_snow_material(bpy.types.Panel):
         col.label(text=f"Catch chance used: {c:.0%}")
 
 
+def _flake_material():
+    mat = bpy.data.materials.new("HBK Snow Flake")
+    mat.use_nodes = True
+    bsdf = materials.principled(mat.node_tree)
+    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.9
+    return mat
+
+
 @register_effect
 class SnowBlender(BlenderEffect):
     name = "snow"
@@ -95,9 +104,12 @@ class SnowBlender(BlenderEffect):
         bpy.utils.register_class(HYDROBAKE_PT_snow_material)
         bpy.types.Material.hydrobake_snow = bpy.props.PointerProperty(
             type=HYDROBAKE_PG_snow_material)
+        if points.on_frame not in bpy.app.handlers.frame_change_post:
+            bpy.app.handlers.frame_change_post.append(points.on_frame)  # saved flake objects
 
     @classmethod
     def unregister_extra(cls):
+        points.unregister()
         del bpy.types.Material.hydrobake_snow
         bpy.utils.unregister_class(HYDROBAKE_PT_snow_material)
         bpy.utils.unregister_class(HYDROBAKE_PG_snow_material)
@@ -215,8 +227,16 @@ class SnowBlender(BlenderEffect):
                 tree.links.new(dep.outputs["Color"], disp.inputs["Height"])
                 tree.links.new(disp.outputs["Displacement"], out.inputs["Displacement"])
 
+        if "flakes" in manifest.get("streams", []):
+            white = bpy.data.materials.get("HBK Snow Flake") or _flake_material()
+            points.attach(f"HBK_{obj.name}_flakes", folder, "flakes",
+                          settings.snow.flake_radius * 2.0, context.scene.frame_current,
+                          collection=obj.users_collection[0] if obj.users_collection else None,
+                          material=white)
+
     @classmethod
     def remove(cls, context, obj, settings):
+        points.detach(f"HBK_{obj.name}_flakes")
         for slot in obj.material_slots:
             mat = slot.material
             if mat is None or not mat.node_tree:
