@@ -292,8 +292,141 @@ def snow_scene():
     return scene
 
 
+GLASS_W, GLASS_H, TILT = 1.4, 0.75, math.radians(35)
+
+
+def glass_point(u, v):
+    """World position of glass UV (u, v): a windshield tilted back TILT from the horizontal,
+    its sides curving back towards the driver."""
+    x = (u - 0.5) * GLASS_W
+    s = v * GLASS_H
+    y = 0.9 - s * math.cos(TILT) - 0.12 * (x / (GLASS_W / 2)) ** 2
+    z = 0.95 + s * math.sin(TILT)
+    return (x, y, z)
+
+
+def wiper_angle(t, rest, sweep, period):
+    return rest + sweep * (1 - math.cos(2 * math.pi * t / period)) / 2
+
+
+def rain_scene():
+    """A windshield with two animated wipers, seen from the driver's seat, a street outside."""
+    import bmesh
+    scene = new_scene("Rain")
+    scene.frame_start, scene.frame_end = 1, 48
+    scene["hydrobake_still_frame"] = 40  # the blades on their way back: rain ahead of them
+    scene.cycles.samples = 48
+    scene.render.resolution_x, scene.render.resolution_y = 960, 540
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.55, 0.6, 0.68, 1)
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+    # The glass: a UV grid, u across, v up the glass.
+    n_u, n_v = 28, 15
+    bm = bmesh.new()
+    uv = bm.loops.layers.uv.new("UVMap")
+    verts = [[bm.verts.new(glass_point(i / n_u, j / n_v)) for i in range(n_u + 1)]
+             for j in range(n_v + 1)]
+    for j in range(n_v):
+        for i in range(n_u):
+            f = bm.faces.new((verts[j][i], verts[j][i + 1], verts[j + 1][i + 1], verts[j + 1][i]))
+            f.smooth = True
+            for loop, (a, b) in zip(f.loops, ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1))):
+                loop[uv].uv = (a / n_u, b / n_v)
+    mesh = bpy.data.meshes.new("Windshield")
+    bm.to_mesh(mesh)
+    bm.free()
+    glass = bpy.data.objects.new("Windshield", mesh)
+    scene.collection.objects.link(glass)
+    # Dashboard and frame, so the glass reads as a windshield.
+    dash = mesh_object(scene, "Dashboard", *grid(1, 1.0, lambda x, y: 0.0))
+    dash.scale = (1.6, 0.6, 1)
+    dash.location = (0, 1.15, 0.93)
+    dash.data.materials.append(material("Dashboard", (0.03, 0.03, 0.035), 0.6))
+    # The cabin: A-pillars along the glass's sides and the roof's edge above it.
+    trim = material("Cabin Trim", (0.02, 0.02, 0.025), 0.7)
+    for k, u in enumerate((0.0, 1.0)):
+        a, b = glass_point(u, 0.0), glass_point(u, 1.0)
+        mid = tuple((p + q) / 2 for p, q in zip(a, b))
+        pillar = parts_object(scene, f"A-Pillar {k}", [(cube((0.08, 0.8, 0.05), (0, 0, 0)), 0)],
+                              mid)
+        pillar.rotation_euler = (-TILT, 0, 0)
+        pillar.location.x += -0.04 if u == 0.0 else 0.04
+        pillar.data.materials.append(trim)
+    top = glass_point(0.5, 1.0)
+    roof = parts_object(scene, "Roof", [(cube((1.6, 1.2, 0.04), (0, 0, 0)), 0)],
+                        (0.0, top[1] - 0.6, top[2] + 0.03))
+    roof.data.materials.append(trim)
+    # Outside: a road, buildings, a car ahead.
+    road = mesh_object(scene, "Road", *grid(1, 200.0, lambda x, y: 0.0))
+    road.data.materials.append(material("Road", (0.05, 0.05, 0.055), 0.4))
+    colours = [(0.6, 0.2, 0.15), (0.2, 0.35, 0.6), (0.75, 0.65, 0.4), (0.3, 0.5, 0.3),
+               (0.7, 0.7, 0.72), (0.5, 0.25, 0.45)]
+    for k in range(10):
+        side = -1 if k % 2 else 1
+        b = parts_object(scene, f"Building {k}", [(cube((6, 6, 6 + 3 * (k % 4)),
+                                                        (0, 0, 3 + 1.5 * (k % 4))), 0)],
+                         (side * (9 + (k % 3)), 12 + 9 * k, 0))
+        b.data.materials.append(material(f"Facade {k}", colours[k % len(colours)], 0.7))
+    ahead = parts_object(scene, "Car Ahead", [(cube((1.8, 4.2, 1.0), (0, 0, 0.75)), 0),
+                                              (cube((1.6, 2.0, 0.6), (0, -0.3, 1.5)), 0)],
+                         (0.6, 14.0, 0))
+    ahead.data.materials.append(material("Red Paint", (0.6, 0.02, 0.02), 0.25, 0.6))
+    lamp = parts_object(scene, "Tail Lights", [(cube((1.6, 0.05, 0.12), (0, -2.12, 0.95)), 0)],
+                        (0.6, 14.0, 0))
+    em = bpy.data.materials.new("Tail Light")
+    em.use_nodes = True
+    em.node_tree.nodes["Principled BSDF"].inputs["Emission"].default_value = (1, 0.05, 0.02, 1)
+    em.node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 8.0
+    lamp.data.materials.append(em)
+    sun_data = bpy.data.lights.new("Overcast", "SUN")
+    sun_data.energy = 1.5
+    sun_data.angle = math.radians(30)
+    sun = bpy.data.objects.new("Overcast", sun_data)
+    sun.rotation_euler = (math.radians(30), 0, math.radians(20))
+    scene.collection.objects.link(sun)
+    cam_data = bpy.data.cameras.new("Driver")
+    cam_data.lens = 28
+    cam = bpy.data.objects.new("Driver", cam_data)
+    cam.location = (-0.25, -0.05, 1.14)
+    cam.rotation_euler = (math.radians(84), 0, math.radians(4))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    # Wipers: the simulation's PIVOT blades, and objects that follow the same angles.
+    s = glass.hydrobake_rain
+    s.enabled = True
+    s.substeps = 2
+    r = s.rain
+    r.cell_size = 0.002
+    r.rain_rate = 9000.0
+    r.drop_mass = 18.0
+    r.wiper_count, r.wiper_mode = 2, "PIVOT"
+    r.wiper_pivot = (0.30, -0.03, 0.95, -0.03)
+    r.wiper_rest = (8.0, 8.0)
+    r.sweep_angle = 110.0
+    r.blade_length, r.blade_offset = 0.5, 0.06
+    r.wiper_period = 2.0
+    fps = scene.render.fps
+    blade_mat = material("Wiper", (0.01, 0.01, 0.01), 0.5)
+    for w in range(2):
+        px, py = r.wiper_pivot[2 * w], r.wiper_pivot[2 * w + 1]
+        blade = parts_object(scene, f"Wiper {w}", [(cube((r.blade_length, 0.012, 0.02),
+                                                         (r.blade_offset + r.blade_length / 2,
+                                                          0, 0)), 0)], (0, 0, 0))
+        blade.data.materials.append(blade_mat)
+        origin = glass_point(px / GLASS_W, max(py, 0.0) / GLASS_H)
+        out = (0.0, math.sin(TILT), math.cos(TILT))  # the glass's outward normal
+        blade.location = tuple(o + 0.012 * n for o, n in zip(origin, out))
+        # Local x = u, local y = up the glass: R = Rx(pi - TILT) Rz(theta) ("ZYX" order).
+        blade.rotation_mode = "ZYX"
+        for f in range(scene.frame_start, scene.frame_end + 1):
+            t = (f - scene.frame_start + 1) / fps
+            theta = math.radians(wiper_angle(t, r.wiper_rest[w], r.sweep_angle, r.wiper_period))
+            blade.rotation_euler = (math.pi - TILT, 0.0, theta)
+            blade.keyframe_insert("rotation_euler", frame=f)
+    return scene
+
+
 clear()
-scenes = [caustics_scene(), snow_scene()]
+scenes = [caustics_scene(), snow_scene(), rain_scene()]
 bpy.context.preferences.filepaths.save_version = 0  # no examples.blend1 beside it
 bpy.ops.wm.save_as_mainfile(filepath=out, compress=True)
 print("examples written:", out, [s.name for s in scenes])

@@ -1,7 +1,7 @@
 """Inside Blender (build/main.sh): bake every enabled effect of every scene of the open .blend
 through the addon's batch path, then render one still per scene to <out>/<scene>.png.
 
-Arguments after '--': OUT_DIR [--samples N] [--resolution PERCENT]."""
+Arguments after '--': OUT_DIR [--samples N] [--resolution PERCENT] [--scenes A,B]."""
 import argparse
 import os
 import sys
@@ -15,6 +15,7 @@ ap = argparse.ArgumentParser()
 ap.add_argument("out")
 ap.add_argument("--samples", type=int, default=None)
 ap.add_argument("--resolution", type=int, default=None)
+ap.add_argument("--scenes", default="", help="comma-separated scene names (default: all)")
 args = ap.parse_args(argv)
 
 addon_utils.enable("hydrobake", default_set=False)
@@ -23,7 +24,10 @@ from hydrobake.blender import effects, jobs  # noqa: E402
 known = effects.load_all()
 cache = os.path.join(os.path.abspath(args.out), "cache")
 failed = False
+only = [n for n in args.scenes.split(",") if n]
 for scene in bpy.data.scenes:
+    if only and scene.name not in only:
+        continue
     for obj in scene.objects:
         for name in known:
             settings = getattr(obj, f"hydrobake_{name}", None)

@@ -8,4 +8,5 @@
 #include "hbk_snow.h"
 #include "hbk_water.h"
 #include "hbk_caustics.h"
+#include "hbk_rain.h"
 #endif

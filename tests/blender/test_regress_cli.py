@@ -25,7 +25,7 @@ def test_examples_match_the_golden_set(blender, tmp_path):
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
     assert "0 regressions" in r.stdout
     rep = json.loads((report / "report.json").read_text())
-    assert rep["passed"] and len(rep["files"]) == 2 * (4 + 2 * 3)  # caustics 4, snow 2 x 3
+    assert rep["passed"] and len(rep["files"]) == 2 * (4 + 2 * 3 + 3)  # caustics, snow x 3, rain
 
 
 def test_a_changed_setting_is_caught(blender, tmp_path):

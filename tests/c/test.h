@@ -98,7 +98,21 @@ const char *hbk_test_tmpdir(void);
     X(snow, cancel)                      \
     X(snow, mesh_rejects)                \
     X(snow, box_mode)                    \
-    X(snow, bvh_brute_force)
+    X(snow, bvh_brute_force)             \
+    X(rain, params_rejects)              \
+    X(rain, kernel_formula)              \
+    X(rain, water_conserved)             \
+    X(rain, flows_along_gravity)         \
+    X(rain, tangent_field)               \
+    X(rain, merge)                       \
+    X(rain, trails_fade)                 \
+    X(rain, wiper_sweep)                 \
+    X(rain, holdback)                    \
+    X(rain, car_motion)                  \
+    X(rain, threads_identical)           \
+    X(rain, state_roundtrip)             \
+    X(rain, cancel)                      \
+    X(rain, refraction)                  \
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

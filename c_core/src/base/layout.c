@@ -32,6 +32,17 @@ static const layout_entry_t k_layout[] = {
     FIELD(hbk_snow_stats_t, stuck), FIELD(hbk_snow_stats_t, bounced),
     FIELD(hbk_snow_stats_t, melted), FIELD(hbk_snow_stats_t, shed),
     FIELD(hbk_snow_stats_t, fell),
+    SIZE(hbk_rain_water_t), FIELD(hbk_rain_water_t, rain_in), FIELD(hbk_rain_water_t, on_glass),
+    FIELD(hbk_rain_water_t, wiped), FIELD(hbk_rain_water_t, run_off),
+    FIELD(hbk_rain_water_t, in_drops), FIELD(hbk_rain_water_t, in_particles),
+    FIELD(hbk_rain_water_t, in_film), FIELD(hbk_rain_water_t, drops),
+    FIELD(hbk_rain_water_t, trails), FIELD(hbk_rain_water_t, particles),
+    SIZE(hbk_rain_drop_t), FIELD(hbk_rain_drop_t, x), FIELD(hbk_rain_drop_t, y),
+    FIELD(hbk_rain_drop_t, mass), FIELD(hbk_rain_drop_t, radius), FIELD(hbk_rain_drop_t, speed),
+    FIELD(hbk_rain_drop_t, kind), FIELD(hbk_rain_drop_t, id),
+    SIZE(hbk_rain_blade_t), FIELD(hbk_rain_blade_t, x0), FIELD(hbk_rain_blade_t, y0),
+    FIELD(hbk_rain_blade_t, x1), FIELD(hbk_rain_blade_t, y1), FIELD(hbk_rain_blade_t, width),
+    FIELD(hbk_rain_blade_t, value),
 };
 
 hbk_result_t hbk_layout(const char *struct_name, const char *field, size_t *out)

@@ -2,7 +2,7 @@
 import importlib
 
 EFFECTS = {}
-_MODULES = ("caustics", "snow")  # effect modules shipped with the addon, loaded on first use
+_MODULES = ("caustics", "snow", "rain")  # effect modules shipped with the addon
 
 
 def register(cls):

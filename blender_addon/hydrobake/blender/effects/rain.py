@@ -1,0 +1,172 @@
+"""Windshield rain in Blender: the glass object's UV layout is the simulation grid (curved
+glass: gravity and airflow act along each cell's own tangents, taken from the mesh), the
+glass's physical size sets the grid, a car object's animation gives speed and acceleration.
+The normal-map sequence is wired into the glass material (tangent space, its UV map)."""
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from ..bridge import images, materials, mesh_data, uv_grid
+from . import register_effect
+from .base import BlenderEffect
+
+AXES = {"-Y": (0, -1, 0), "+Y": (0, 1, 0), "-X": (-1, 0, 0), "+X": (1, 0, 0)}
+
+
+@register_effect
+class RainBlender(BlenderEffect):
+    name = "rain"
+    label = "Windshield Rain"
+    icon = "MOD_FLUIDSIM"
+    presets = {
+        "Drizzle": {"rain": {"rain_rate": 80.0, "drop_mass": 1.5}},
+        "Downpour": {"rain": {"rain_rate": 1500.0, "drop_mass": 5.0}},
+        "Highway": {"rain": {"rain_rate": 400.0, "car_speed": 25.0}},
+    }
+
+    @classmethod
+    def extra_properties(cls):
+        return dict(
+            car_object=bpy.props.PointerProperty(
+                name="Car", type=bpy.types.Object,
+                description="Object whose animation is the car's motion: its speed pushes "
+                            "drops up the glass, its acceleration adds an inertial force. "
+                            "Empty: the Car Speed / Car Accel parameters"),
+            forward_axis=bpy.props.EnumProperty(
+                name="Car Forward", default="+Y", items=[(k, k, "") for k in AXES],
+                description="The car's (or glass's) local axis that points forward"),
+            background_image=bpy.props.PointerProperty(
+                name="Preview Background", type=bpy.types.Image,
+                description="Image seen through the glass for the cheap refraction preview "
+                            "sequence (the paper's method); empty: no preview"),
+            substeps=bpy.props.IntProperty(
+                name="Substeps", default=2, min=1, max=100,
+                description="Simulation steps per frame"),
+            use_mesh_size=bpy.props.BoolProperty(
+                name="Grid From Mesh", default=True,
+                description="Set the grid's cell counts from the glass's physical size and "
+                            "the cell size; map resolution twice the cells"),
+        )
+
+    @classmethod
+    def prepare(cls, context, obj, settings, params, frames):
+        scene = context.scene
+        pos, tris, uvs, _ = mesh_data.triangles(obj, context.evaluated_depsgraph_get())
+        if uvs is None:
+            raise ValueError(f"{obj.name}: needs a UV map (the glass is simulated in UV space)")
+        rp = params["rain"]
+        if settings.use_mesh_size:
+            mu, mv = uv_grid.physical_size(pos, tris, uvs)
+            rp["width"] = int(np.clip(round(mu / rp["cell_size"]), 8, 16384))
+            rp["height"] = int(np.clip(round(mv / rp["cell_size"]), 8, 16384))
+            rp["map_width"] = int(min(2 * rp["width"], 16384))
+            rp["map_height"] = int(min(2 * rp["height"], 16384))
+        carrier = settings.car_object or obj
+        fwd = carrier.matrix_world.to_3x3() @ Vector(AXES[settings.forward_axis])
+        back = -np.array(fwd.normalized(), np.float64)
+        field, mask = uv_grid.rasterize(pos, tris, uvs, rp["width"], rp["height"],
+                                        back=back)
+        inputs = dict(gravity_dir=field, mask=mask, substeps=settings.substeps,
+                      fps=scene.render.fps / scene.render.fps_base)
+        if settings.car_object:
+            inputs["car"] = cls._car_motion(scene, settings.car_object, fwd, frames)
+        if settings.background_image is not None:
+            inputs["background"] = images.pixels(settings.background_image)
+        return params, inputs
+
+    @staticmethod
+    def _car_motion(scene, car, fwd, frames):
+        """{frame: (speed, acceleration)} along the car's forward axis, from its animation."""
+        fps = scene.render.fps / scene.render.fps_base
+        keep = scene.frame_current
+        pos = {}
+        try:
+            for f in range(frames[0] - 2, frames[1] + 1):
+                scene.frame_set(f)
+                pos[f] = np.array(car.matrix_world.translation)
+        finally:
+            scene.frame_set(keep)
+        f_axis = np.array(fwd.normalized())
+        speed = {f: max(0.0, float((pos[f] - pos[f - 1]) @ f_axis) * fps)
+                 for f in range(frames[0] - 1, frames[1] + 1)}
+        return {f: (speed[f], (speed[f] - speed[f - 1]) * fps)
+                for f in range(frames[0], frames[1] + 1)}
+
+    @classmethod
+    def apply(cls, context, obj, settings, folder, manifest):
+        frames = sorted(int(f) for f in manifest["frames"])
+        mat = materials.ensure_material(obj, f"HBK_{obj.name}_glass")
+        tree = mat.node_tree
+        bsdf = materials.principled(tree)
+        if bsdf is None:
+            return
+        if not mat.get("hydrobake_glass_setup"):
+            bsdf.inputs["Transmission"].default_value = 1.0
+            bsdf.inputs["Roughness"].default_value = 0.0
+            bsdf.inputs["IOR"].default_value = 1.33  # the drops' surface is water
+            mat["hydrobake_glass_setup"] = 1
+        uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
+        x, y = bsdf.location
+        uvn = materials.add_node(tree, "ShaderNodeUVMap", "rain.uv", (x - 900, y - 300))
+        uvn.uv_map = uv
+        tex = materials.add_node(tree, "ShaderNodeTexImage", "rain.normal", (x - 650, y - 300))
+        tex.image = images.load_sequence(folder, "normal", frames[0], len(frames),
+                                         name=f"HBK_{obj.name}_rain_normal")
+        tex.extension = "EXTEND"
+        images.configure_user(tex.image_user, frames[0], len(frames))
+        tree.links.new(uvn.outputs["UV"], tex.inputs["Vector"])
+        nm = materials.add_node(tree, "ShaderNodeNormalMap", "rain.normalmap", (x - 300, y - 300))
+        nm.space = "TANGENT"
+        nm.uv_map = uv
+        tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+        tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+        # Dry glass lets light straight through; only the drops (height > 0) refract, as
+        # thin lenses: mix a Transparent BSDF and the glass shader by the height map.
+        out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output),
+                   None)
+        if out is not None and out.inputs["Surface"].is_linked:
+            ht = materials.add_node(tree, "ShaderNodeTexImage", "rain.height", (x - 650, y + 250))
+            ht.image = images.load_sequence(folder, "height", frames[0], len(frames),
+                                            name=f"HBK_{obj.name}_rain_height")
+            ht.extension = "EXTEND"
+            images.configure_user(ht.image_user, frames[0], len(frames))
+            tree.links.new(uvn.outputs["UV"], ht.inputs["Vector"])
+            gt = materials.add_node(tree, "ShaderNodeMath", "rain.wet", (x - 350, y + 250))
+            gt.operation = "GREATER_THAN"
+            gt.inputs[1].default_value = 1e-6
+            tree.links.new(ht.outputs["Color"], gt.inputs[0])
+            clear = materials.add_node(tree, "ShaderNodeBsdfTransparent", "rain.clear",
+                                       (x - 100, y + 350))
+            mix = materials.add_node(tree, "ShaderNodeMixShader", "rain.mix", (x + 300, y + 200))
+            src = out.inputs["Surface"].links[0].from_socket
+            if src.node is not mix:
+                tree.links.new(src, mix.inputs[2])
+            tree.links.new(clear.outputs["BSDF"], mix.inputs[1])
+            tree.links.new(gt.outputs["Value"], mix.inputs["Fac"])
+            tree.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+        if "preview" in manifest.get("streams", []) and settings.background_image is not None:
+            images.load_sequence(folder, "preview", frames[0], len(frames),
+                                 name=f"HBK_{obj.name}_rain_preview", colorspace="Linear")
+
+    @classmethod
+    def remove(cls, context, obj, settings):
+        for slot in obj.material_slots:
+            if slot.material and slot.material.node_tree:
+                tree = slot.material.node_tree
+                mix = materials.tagged(tree, "rain.mix")
+                if mix is not None and mix.inputs[2].is_linked:
+                    src = mix.inputs[2].links[0].from_socket
+                    for link in list(mix.outputs["Shader"].links):
+                        tree.links.new(src, link.to_socket)
+                materials.remove_tagged(tree, "rain.")
+        img = bpy.data.images.get(f"HBK_{obj.name}_rain_preview")
+        if img is not None and img.users == 0:
+            bpy.data.images.remove(img)
+
+    @classmethod
+    def draw_settings(cls, layout, settings):
+        col = layout.column()
+        for name in ("car_object", "forward_axis", "background_image", "substeps",
+                     "use_mesh_size"):
+            col.prop(settings, name)
+        super().draw_settings(layout, settings)

@@ -1,0 +1,9 @@
+"""Windshield rain in real Blender with the installed addon."""
+import os
+
+from hydrobake_paths import ROOT
+
+
+def test_bake_windshield_wire_free_on_examples(blender, tmp_path):
+    r = blender.run("bake_rain.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
+    assert "RAIN BLENDER OK" in r.stdout
