@@ -20,6 +20,7 @@ s.frame_start, s.frame_end = 1, 3
 s.water.width = 64
 s.map_resolution = 256
 s.displace_surface = True
+s.projector = True
 floor_tree = floor.data.materials[0].node_tree
 bsdf = next(n for n in floor_tree.nodes if n.type == "BSDF_PRINCIPLED")
 orig_from = bsdf.inputs["Base Color"].links[0].from_node.name
@@ -55,6 +56,12 @@ zs = [v.co.z for v in water.evaluated_get(dg).to_mesh().vertices]
 assert len(zs) > 1000 and max(zs) - min(zs) > 1e-4, (len(zs), max(zs) - min(zs))
 water.evaluated_get(dg).to_mesh_clear()
 
+# The projector: a spot light whose emission is the caustic sequence, aimed at the pool.
+proj = bpy.data.objects["HBK_Water_projector"]
+assert proj.type == "LIGHT" and proj.data.type == "SPOT"
+ptex = next(n for n in proj.data.node_tree.nodes if n.type == "TEX_IMAGE")
+assert ptex.image.source == "SEQUENCE" and ptex.image_user.frame_duration == 3
+
 # A small render: the caustic texture is found (no magenta 'missing image').
 scene.render.resolution_x, scene.render.resolution_y = 64, 36
 scene.render.resolution_percentage = 100
@@ -75,4 +82,5 @@ assert not any(n.get("hydrobake") for n in floor_tree.nodes)
 assert not any(n.get("hydrobake") for n in wtree.nodes)
 assert water.visible_shadow and not s.is_baked
 assert "HBK Displace" not in water.modifiers and "HBK_UV" not in water.data.uv_layers
+assert "HBK_Water_projector" not in bpy.data.objects
 print("CAUSTICS BLENDER OK")

@@ -55,6 +55,14 @@ class CausticsBlender(BlenderEffect):
             loop_blend=bpy.props.IntProperty(
                 name="Loop Blend", default=12, min=1, max=10000,
                 description="Frames at the end of the loop that cross-fade into its start"),
+            projector=bpy.props.BoolProperty(
+                name="Light Projector", default=False,
+                description="Also add a spot light above the water that projects the caustic "
+                            "sequence (lights swimmers, walls and anything else in the pool); "
+                            "removed by Free Bake"),
+            projector_power=bpy.props.FloatProperty(
+                name="Projector Power", default=500.0, min=0.0, max=1e6, subtype="POWER",
+                unit="POWER", description="Power of the projector light"),
             displace_surface=bpy.props.BoolProperty(
                 name="Displace Surface", default=False,
                 description="Also move the water mesh by the baked heights (adds Subdivision "
@@ -174,6 +182,8 @@ class CausticsBlender(BlenderEffect):
             tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
         if settings.displace_surface:
             cls._displace(obj, folder, frames, width)
+        if settings.projector:
+            cls._projector(context, obj, settings, folder, frames, width)
         # Light reaches the floor through the caustic map, not through the glass: the water
         # casts no shadow (restored by Free Bake).
         if "hydrobake_shadow" not in obj:
@@ -212,7 +222,67 @@ class CausticsBlender(BlenderEffect):
         disp.strength = 1.0
 
     @classmethod
+    def _projector(cls, context, obj, settings, folder, frames, width):
+        """A spot light straight above the grid's centre whose emission is the caustic map,
+        projected so that the map spans the grid at the ground's mean depth (a gobo)."""
+        origin, cell, shape, level = cls.grid(obj, width)
+        sx, sy = shape[1] * cell, shape[0] * cell
+        ground = settings.ground_object
+        floor = (meshes.world_bounds(ground)[0][2] + meshes.world_bounds(ground)[1][2]) / 2 \
+            if ground is not None else level - 1.0
+        height = max(sx, sy)  # far enough for a narrow, even cone
+        name = f"HBK_{obj.name}_projector"
+        light = bpy.data.lights.get(name) or bpy.data.lights.new(name, "SPOT")
+        lobj = bpy.data.objects.get(name) or bpy.data.objects.new(name, light)
+        if lobj.name not in context.scene.collection.all_objects:
+            (obj.users_collection[0] if obj.users_collection else
+             context.scene.collection).objects.link(lobj)
+        lobj.location = (origin[0] + sx / 2, origin[1] + sy / 2, level + height)
+        lobj.rotation_euler = (0.0, 0.0, 0.0)  # a spot light points down its -Z
+        dist = level + height - floor
+        light.energy = settings.projector_power
+        light.spot_size = 2.0 * np.arctan(0.5 * np.hypot(sx, sy) / dist) * 1.05
+        light.spot_blend = 0.0
+        light.shadow_soft_size = 0.0
+        light.use_nodes = True
+        tree = light.node_tree
+        for n in list(tree.nodes):
+            if n.type not in ("OUTPUT_LIGHT", "EMISSION"):
+                tree.nodes.remove(n)
+        emit = next(n for n in tree.nodes if n.type == "EMISSION")
+        coord = tree.nodes.new("ShaderNodeTexCoord")
+        sep = tree.nodes.new("ShaderNodeSeparateXYZ")
+        tree.links.new(coord.outputs["Normal"], sep.inputs["Vector"])
+        uv = []
+        for axis, size in (("X", sx), ("Y", sy)):
+            div = tree.nodes.new("ShaderNodeMath")
+            div.operation = "DIVIDE"
+            tree.links.new(sep.outputs[axis], div.inputs[0])
+            tree.links.new(sep.outputs["Z"], div.inputs[1])
+            mad = tree.nodes.new("ShaderNodeMath")
+            mad.operation = "MULTIPLY_ADD"  # u = (x / z) * (-dist / size) + 0.5
+            tree.links.new(div.outputs[0], mad.inputs[0])
+            mad.inputs[1].default_value = -dist / size
+            mad.inputs[2].default_value = 0.5
+            uv.append(mad)
+        comb = tree.nodes.new("ShaderNodeCombineXYZ")
+        tree.links.new(uv[0].outputs[0], comb.inputs["X"])
+        tree.links.new(uv[1].outputs[0], comb.inputs["Y"])
+        tex = tree.nodes.new("ShaderNodeTexImage")
+        tex.image = images.load_sequence(folder, "caustics", frames[0], len(frames),
+                                         name=f"HBK_{obj.name}_caustics")
+        tex.extension = "CLIP"
+        images.configure_user(tex.image_user, frames[0], len(frames))
+        tree.links.new(comb.outputs["Vector"], tex.inputs["Vector"])
+        tree.links.new(tex.outputs["Color"], emit.inputs["Color"])
+
+    @classmethod
     def remove(cls, context, obj, settings):
+        name = f"HBK_{obj.name}_projector"
+        if name in bpy.data.objects:
+            bpy.data.objects.remove(bpy.data.objects[name])
+        if name in bpy.data.lights and bpy.data.lights[name].users == 0:
+            bpy.data.lights.remove(bpy.data.lights[name])
         for name in ("HBK Displace", "HBK Subdivision"):
             mod = obj.modifiers.get(name)
             if mod is not None:
@@ -243,7 +313,8 @@ class CausticsBlender(BlenderEffect):
     def draw_settings(cls, layout, settings):
         col = layout.column()
         for name in ("ground_object", "disturber_object", "disturber_depth", "sun_object",
-                     "map_resolution", "loop", "loop_blend", "displace_surface"):
+                     "map_resolution", "loop", "loop_blend", "displace_surface", "projector",
+                     "projector_power"):
             col.prop(settings, name)
         super().draw_settings(layout, settings)
 
