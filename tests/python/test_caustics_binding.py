@@ -145,3 +145,37 @@ def test_loop_is_seamless_and_resumes(tmp_path):
             (tmp_path / "c" / f"caustics_{i:04d}.exr").read_bytes()
     with pytest.raises(errors.InvalidArgument, match="loop blend = 16"):
         get("caustics")(params, {"loop": (1, 16, 16)})
+
+
+def test_view_image_shows_the_lit_ground_and_reflects_the_sky():
+    """Flat water seen from straight above: no refraction shift, so each sample shows the lit
+    ground below it, times the Fresnel transmittance; the sky comes in at R = ((n-1)/(n+1))^2."""
+    n = 32
+    wh, gh = np.zeros((n, n), np.float32), np.full((n, n), -1.0, np.float32)
+    cell = 0.05
+    tex = np.zeros((n, n, 3), np.float32)
+    tex[..., 0] = np.linspace(0, 1, n)[None, :]  # a red ramp along x
+    cmap = np.ones((n, n, 4), np.float32)
+    sky = np.full((8, 16, 3), 2.0, np.float32)
+    centre = (n * cell / 2, n * cell / 2, 1000.0)  # far above: rays nearly vertical
+    img = caustics.view_image(wh, gh, cell, centre, tex, cmap, sky, {"fresnel": 1})
+    r0 = ((1.333 - 1) / (1.333 + 1)) ** 2
+    mid = n // 2
+    np.testing.assert_allclose(img[mid, :, 0], (1 - r0) * tex[mid, :, 0] + r0 * 2.0, atol=2e-3)
+    np.testing.assert_allclose(img[mid, :, 1], r0 * 2.0, atol=2e-3)
+    # A brighter caustic map brightens the ground in proportion.
+    img2 = caustics.view_image(wh, gh, cell, centre, tex, cmap * 2, None, {"fresnel": 1})
+    np.testing.assert_allclose(img2[mid, 4:-4, 0], 2 * (1 - r0) * tex[mid, 4:-4, 0], atol=2e-3)
+
+
+def test_effect_bakes_the_view_preview(tmp_path):
+    tex = np.full((16, 16, 3), 0.5, np.float32)
+    e = get("caustics")({"water": {"width": 24, "height": 24, "rain_rate": 50.0}},
+                        {"map_size": (48, 48), "view": {"camera": (0.3, -0.5, 2.0),
+                                                        "texture": tex, "environment": None}})
+    BakeRunner(e, tmp_path, 1, 2).run()
+    e.close()
+    from hydrobake.core import exr
+    v = exr.read(tmp_path / "view_0002.exr")
+    assert set(v) == {"R", "G", "B"} and v["R"].shape == (24, 24)
+    assert 0.2 < float(v["G"].mean()) < 0.6  # grey ground, mostly transmitted

@@ -89,3 +89,47 @@ def lit_ground(texture, caustic_map, edge="WRAP"):
                                      arrays.as_image(out, "out", (3, 4), writable=True),
                                      Message())
     return out
+
+
+def _bilinear(img, x, y):
+    """img (h, w, c) sampled at pixel coordinates (x, y) (centres at integers), clamped."""
+    h, w = img.shape[:2]
+    x = np.clip(x, 0, w - 1)
+    y = np.clip(y, 0, h - 1)
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    tx, ty = (x - x0)[..., None], (y - y0)[..., None]
+    top = img[y0, x0] * (1 - tx) + img[y0, x1] * tx
+    bot = img[y1, x0] * (1 - tx) + img[y1, x1] * tx
+    return top * (1 - ty) + bot * ty
+
+
+def view_image(water_height, ground_height, cell_size, camera, ground_texture, caustic_map,
+               environment=None, params=None):
+    """The paper's rendering of the water seen from ``camera`` (§3.2), one pixel per surface
+    sample: the lit ground (texture x caustic map) looked up where the refracted view ray hits
+    it, attenuated by absorption along the path in water, plus the Fresnel reflection of the
+    ``environment`` (a latitude-longitude image, +z up; None = black). (H, W, 3) float32."""
+    p = _struct(params)
+    uv, refl = view(water_height, ground_height, cell_size, camera, p, channels=4)
+    tex = np.ascontiguousarray(ground_texture, np.float32)
+    if tex.ndim == 2:
+        tex = np.repeat(tex[..., None], 3, axis=2)
+    cm = np.ascontiguousarray(caustic_map, np.float32)
+    if tex.shape[2] == 4:
+        tex = np.ascontiguousarray(tex[..., :3])
+    lit = lit_ground(tex, cm, edge="CLAMP")
+    th, tw = lit.shape[:2]
+    ground = _bilinear(lit, uv[..., 0] * tw - 0.5, uv[..., 1] * th - 0.5)[..., :3]
+    absorb = np.exp(-np.asarray(p.absorption[:3], np.float64)[None, None, :] * uv[..., 2:3])
+    R = uv[..., 3:4]
+    color = (1.0 - R) * ground * absorb
+    if environment is not None:
+        env = np.ascontiguousarray(environment, np.float32)
+        eh, ew = env.shape[:2]
+        lon = np.arctan2(refl[..., 1], refl[..., 0])
+        lat = np.arcsin(np.clip(refl[..., 2], -1.0, 1.0))
+        sky = _bilinear(env, (0.5 + lon / (2 * np.pi)) * ew - 0.5,
+                        (0.5 + lat / np.pi) * eh - 0.5)[..., :3]
+        color = color + R * sky
+    return color.astype(np.float32)

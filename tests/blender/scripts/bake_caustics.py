@@ -21,6 +21,8 @@ s.water.width = 64
 s.map_resolution = 256
 s.displace_surface = True
 s.projector = True
+s.preview_camera = scene.camera
+s.ground_texture = bpy.data.images.new("tiles", 64, 64)
 floor_tree = floor.data.materials[0].node_tree
 bsdf = next(n for n in floor_tree.nodes if n.type == "BSDF_PRINCIPLED")
 orig_from = bsdf.inputs["Base Color"].links[0].from_node.name
@@ -34,7 +36,8 @@ assert m["params"]["water"]["width"] == 64 and m["params"]["water"]["height"] ==
 names = sorted(os.listdir(folder))
 assert names == sorted(["manifest.json", "checkpoint_0001.bin", "checkpoint_0003.bin"] +
                       [f"{st}_{i:04d}.exr" for i in (1, 2, 3)
-                       for st in ("caustics", "surface", "height", "water")]), names
+                       for st in ("caustics", "surface", "height", "water", "view")]), names
+assert bpy.data.images["HBK_Water_view"].source == "SEQUENCE"  # the paper's own rendering
 
 # Wired: floor base colour = original texture x caustic sequence; water has the normal map.
 link = bsdf.inputs["Base Color"].links[0]

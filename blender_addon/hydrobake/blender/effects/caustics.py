@@ -55,6 +55,18 @@ class CausticsBlender(BlenderEffect):
             loop_blend=bpy.props.IntProperty(
                 name="Loop Blend", default=12, min=1, max=10000,
                 description="Frames at the end of the loop that cross-fade into its start"),
+            preview_camera=bpy.props.PointerProperty(
+                name="Preview Camera", type=bpy.types.Object,
+                poll=lambda self, o: o.type == "CAMERA",
+                description="Also bake the paper's own rendering of the water seen from this "
+                            "camera (view refraction onto the lit ground, sky reflection) as "
+                            "a preview sequence"),
+            ground_texture=bpy.props.PointerProperty(
+                name="Ground Texture", type=bpy.types.Image,
+                description="The ground's colour over the water's extent, for the preview"),
+            environment=bpy.props.PointerProperty(
+                name="Environment", type=bpy.types.Image,
+                description="A latitude-longitude sky reflected by the water in the preview"),
             projector=bpy.props.BoolProperty(
                 name="Light Projector", default=False,
                 description="Also add a spot light above the water that projects the caustic "
@@ -117,6 +129,15 @@ class CausticsBlender(BlenderEffect):
                       map_size=(w, max(1, int(round(w * shape[0] / shape[1])))))
         if settings.loop:
             inputs["loop"] = (frames[0], frames[1], settings.loop_blend)
+        if settings.preview_camera is not None:
+            if settings.ground_texture is None:
+                raise ValueError("Ground Texture: the preview needs an image of the ground")
+            cam = settings.preview_camera.matrix_world.translation
+            inputs["view"] = {
+                "camera": (cam.x - origin[0], cam.y - origin[1], cam.z),
+                "texture": np.ascontiguousarray(images.pixels(settings.ground_texture)[..., :3]),
+                "environment": None if settings.environment is None else
+                np.ascontiguousarray(images.pixels(settings.environment)[..., :3])}
         return params, inputs
 
     # --- wiring -------------------------------------------------------------------------
@@ -184,6 +205,9 @@ class CausticsBlender(BlenderEffect):
             cls._displace(obj, folder, frames, width)
         if settings.projector:
             cls._projector(context, obj, settings, folder, frames, width)
+        if "view" in manifest.get("streams", []):
+            images.load_sequence(folder, "view", frames[0], len(frames),
+                                 name=f"HBK_{obj.name}_view", colorspace="Linear")
         # Light reaches the floor through the caustic map, not through the glass: the water
         # casts no shadow (restored by Free Bake).
         if "hydrobake_shadow" not in obj:
@@ -314,7 +338,7 @@ class CausticsBlender(BlenderEffect):
         col = layout.column()
         for name in ("ground_object", "disturber_object", "disturber_depth", "sun_object",
                      "map_resolution", "loop", "loop_blend", "displace_surface", "projector",
-                     "projector_power"):
+                     "projector_power", "preview_camera", "ground_texture", "environment"):
             col.prop(settings, name)
         super().draw_settings(layout, settings)
 

@@ -7,6 +7,10 @@ Inputs (all optional, arrays (H, W) float32 on the water grid, row 0 at y = 0):
     footprints  {frame: (H, W) depth in m an object presses the surface down}
     sources     (H, W) water added/removed in m/s (pouring, draining)
     map_size    (width, height) of the caustic map in pixels (default 4 texels per cell)
+    view        {"camera": (x, y, z) in the grid's frame, "texture": (h, w, 3) ground colour,
+                 "environment": (h, w, 3) lat-long sky or None}: also bake the paper's
+                rendering of the water from that camera (view refraction onto the lit
+                ground, Fresnel reflection of the sky) as `view_####.exr`
     loop        (first frame, last frame, blend frames): a seamless loop. The water runs
                 `blend` frames of pre-roll before the first frame; the last `blend` frames
                 cross-fade the height field towards the pre-roll (heights, not maps: caustics
@@ -63,6 +67,11 @@ class CausticsEffect(Effect):
         self.cell_size = float(cell)
         self.map_size = tuple(self.inputs.get("map_size", (shape[1] * 4, shape[0] * 4)))
         self.surface = None
+        self.view = self.inputs.get("view")
+        if self.view is None:
+            self.streams = ("caustics", "surface", "height", "water")
+        else:
+            self.streams = ("caustics", "surface", "height", "water", "view")
         self.loop = self.inputs.get("loop")
         self.preroll = None  # surfaces of the `blend` frames before the first (loop only)
         if self.loop is not None:
@@ -117,9 +126,18 @@ class CausticsEffect(Effect):
             "surface": ("exr", {"R": normals[..., 0], "G": normals[..., 1],
                                 "B": normals[..., 2], "A": self.surface - self.level}, {}),
             "height": ("exr", {"Y": self.surface - self.level}, {}),
+            **self._view_output(m),
             "water": ("exr", {"height": self.surface, "depth": self._depth,
                               "velocity.x": vel[..., 0], "velocity.y": vel[..., 1]}, {}),
         }
+
+    def _view_output(self, multiplier):
+        if self.view is None:
+            return {}
+        img = caustics.view_image(self.surface, self.ground, self.cell_size,
+                                  self.view["camera"], self.view["texture"], multiplier,
+                                  self.view.get("environment"), self.params["light"])
+        return {"view": ("exr", {c: img[..., i] for i, c in enumerate("RGB")}, {"half": True})}
 
     def save_state(self):
         """The water's state, then the loop's pre-roll surfaces (if any)."""
