@@ -7,3 +7,8 @@ from hydrobake_paths import ROOT
 def test_bake_wire_render_free_on_examples(blender, tmp_path):
     r = blender.run("bake_caustics.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
     assert "CAUSTICS BLENDER OK" in r.stdout
+
+
+def test_ground_image_and_a_pouring_source(blender, tmp_path):
+    r = blender.run("caustics_sources.py", tmp_path)
+    assert "CAUSTICS SOURCES OK" in r.stdout

@@ -34,6 +34,22 @@ class CausticsBlender(BlenderEffect):
                 name="Ground", type=bpy.types.Object, poll=mesh_only,
                 description="Mesh under the water (pool floor, beach); its material gets the "
                             "caustics. Empty: flat ground 1 m below the water"),
+            ground_image=bpy.props.PointerProperty(
+                name="Ground Image", type=bpy.types.Image,
+                description="A height map of the ground over the water's extent (used when no "
+                            "Ground mesh is set): value x Ground Image Scale, in metres below "
+                            "the water level"),
+            ground_image_scale=bpy.props.FloatProperty(
+                name="Ground Image Scale", default=1.0, min=0.0, max=100.0, subtype="DISTANCE",
+                unit="LENGTH", description="Depth in metres of a pixel value of 1"),
+            source_object=bpy.props.PointerProperty(
+                name="Source", type=bpy.types.Object, poll=mesh_only,
+                description="Where water is poured in (or drained): the cells under this "
+                            "object's footprint"),
+            source_rate=bpy.props.FloatProperty(
+                name="Source Rate", default=0.05, min=-10.0, max=10.0, subtype="NONE",
+                unit="VELOCITY", description="Water added per second under the source, in "
+                                             "metres of depth (negative drains)"),
             disturber_object=bpy.props.PointerProperty(
                 name="Disturber", type=bpy.types.Object, poll=mesh_only,
                 description="Object moving through the surface; its footprint pushes the water "
@@ -104,6 +120,19 @@ class CausticsBlender(BlenderEffect):
                                            "DOWN", depsgraph)
             ground[np.isnan(ground)] = level - 1.0 if np.all(np.isnan(ground)) else \
                 np.nanmin(ground)
+        elif settings.ground_image is not None:
+            px = images.pixels(settings.ground_image)[..., 0].astype(np.float64)
+            ih, iw = px.shape
+            yy = (np.arange(shape[0]) + 0.5) / shape[0] * ih - 0.5
+            xx = (np.arange(shape[1]) + 0.5) / shape[1] * iw - 0.5
+            x0 = np.clip(np.floor(xx).astype(int), 0, iw - 1)
+            y0 = np.clip(np.floor(yy).astype(int), 0, ih - 1)
+            x1, y1 = np.minimum(x0 + 1, iw - 1), np.minimum(y0 + 1, ih - 1)
+            tx = np.clip(xx - x0, 0, 1)[None, :]
+            ty = np.clip(yy - y0, 0, 1)[:, None]
+            v = (px[np.ix_(y0, x0)] * (1 - tx) + px[np.ix_(y0, x1)] * tx) * (1 - ty) + \
+                (px[np.ix_(y1, x0)] * (1 - tx) + px[np.ix_(y1, x1)] * tx) * ty
+            ground = (level - settings.ground_image_scale * v).astype(np.float32)
         else:
             ground = np.full(shape, level - 1.0, np.float32)
         if settings.sun_object:
@@ -124,8 +153,14 @@ class CausticsBlender(BlenderEffect):
                     footprints[f] = press if press.any() else None
             finally:
                 scene.frame_set(keep)
+        sources = None
+        if settings.source_object:
+            under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
+                                          depsgraph)
+            sources = np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
         w = settings.map_resolution
         inputs = dict(ground=ground.astype(np.float32), level=level, footprints=footprints,
+                      sources=sources,
                       map_size=(w, max(1, int(round(w * shape[0] / shape[1])))))
         if settings.loop:
             inputs["loop"] = (frames[0], frames[1], settings.loop_blend)
@@ -336,7 +371,8 @@ class CausticsBlender(BlenderEffect):
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("ground_object", "disturber_object", "disturber_depth", "sun_object",
+        for name in ("ground_object", "ground_image", "ground_image_scale", "source_object",
+                     "source_rate", "disturber_object", "disturber_depth", "sun_object",
                      "map_resolution", "loop", "loop_blend", "displace_surface", "projector",
                      "projector_power", "preview_camera", "ground_texture", "environment"):
             col.prop(settings, name)
