@@ -174,10 +174,50 @@ class SnowBlender(BlenderEffect):
                             materials=slots, substeps=substeps, flakes=settings.write_flakes)
 
     # --- wiring -------------------------------------------------------------------------
+    BOX_UV = "HBK_SnowBox"
+
+    @classmethod
+    def _box_uvs(cls, obj, snow, slots):
+        """The paper's projection back onto the model (§3.3.2) for BOX mode, as a UV map:
+        each face takes the tile of its part's box that faces its normal's dominant axis, in
+        the atlas layout of hbk_snow.h (a block per material slot, six tiles per block)."""
+        mesh = obj.data
+        m = np.array(obj.matrix_world, np.float64)
+        co = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+        mi = np.array([p.material_index for p in mesh.polygons])
+        lo = np.zeros((slots, 3))
+        hi = np.ones((slots, 3))
+        for b in range(slots):
+            vs = [v for p in mesh.polygons if p.material_index == b for v in p.vertices]
+            if vs:
+                lo[b], hi[b] = co[vs].min(axis=0), co[vs].max(axis=0)
+        size = np.maximum(hi - lo, 1e-9)
+        w, h = snow.texture_width, snow.texture_height
+        tw, th = w // 3, h // 2
+        uv = mesh.uv_layers.get(cls.BOX_UV) or mesh.uv_layers.new(name=cls.BOX_UV)
+        nrm = np.array([tuple(m[:3, :3] @ np.array(p.normal)) for p in mesh.polygons])
+        for p, n, b in zip(mesh.polygons, nrm, mi):
+            axis = int(np.argmax(np.abs(n)))
+            pos = n[axis] > 0
+            for li in p.loop_indices:
+                q = (co[mesh.loops[li].vertex_index] - lo[b]) / size[b]
+                u, v = {  # the face's (u, v) axes as hbk_snow.h lists them
+                    (0, True): (q[1], q[2]), (0, False): (1 - q[1], q[2]),
+                    (1, True): (1 - q[0], q[2]), (1, False): (q[0], q[2]),
+                    (2, True): (q[0], q[1]), (2, False): (q[0], 1 - q[1])}[(axis, pos)]
+                uv.data[li].uv = ((axis * tw + u * tw) / w,
+                                  (b * h + (1 if pos else 0) * th + v * th) / (h * slots))
+        return cls.BOX_UV
+
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
         frames = sorted(int(f) for f in manifest["frames"])
         uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
+        if manifest["params"]["snow"]["contact_mode"] == 1:  # BOX: the atlas, not the UVs
+            slots = len(obj.material_slots) + (1 if settings.colliders else 0)
+            uv = cls._box_uvs(obj, settings.snow, max(slots, 1))
         for slot in obj.material_slots:
             mat = slot.material
             if mat is None or not mat.use_nodes or mat.hydrobake_snow.melts or \
@@ -237,6 +277,8 @@ class SnowBlender(BlenderEffect):
     @classmethod
     def remove(cls, context, obj, settings):
         points.detach(f"HBK_{obj.name}_flakes")
+        if obj.type == "MESH" and cls.BOX_UV in obj.data.uv_layers:
+            obj.data.uv_layers.remove(obj.data.uv_layers[cls.BOX_UV])
         for slot in obj.material_slots:
             mat = slot.material
             if mat is None or not mat.node_tree:
