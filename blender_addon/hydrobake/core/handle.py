@@ -57,8 +57,11 @@ class Handle(Owner):
             (f"hbk_{prefix}_message", ctypes.c_char_p, [ctypes.c_void_p]),
         ])
         check = check_handle(getattr(lib, f"hbk_{prefix}_message"))
+        table = list(table) + [("save_state", [ctypes.c_void_p, ctypes.c_size_t]),
+                               ("load_state", [ctypes.c_void_p, ctypes.c_size_t])]
         _lib.declare([(f"hbk_{prefix}_{name}", hbk_result_t, [ctypes.c_void_p, *args], check)
                       for name, args in table])
+        _lib.declare([(f"hbk_{prefix}_state_size", ctypes.c_size_t, [ctypes.c_void_p])])
 
     def __init__(self, values=None):
         self.params = self.spec().to_struct(values or {})
@@ -70,3 +73,15 @@ class Handle(Owner):
 
     def call(self, name, *args):
         return getattr(_lib.lib, f"hbk_{self.prefix}_{name}")(self.h, *args)
+
+    def save_state(self):
+        """The simulation's checkpoint (hbk_<x>_save_state) as bytes."""
+        n = getattr(_lib.lib, f"hbk_{self.prefix}_state_size")(self.h)
+        buf = ctypes.create_string_buffer(n)
+        self.call("save_state", buf, n)
+        return buf.raw
+
+    def load_state(self, data):
+        """Continues from a checkpoint of a handle with the same params, bit for bit."""
+        buf = ctypes.create_string_buffer(bytes(data), len(data))
+        self.call("load_state", buf, len(data))

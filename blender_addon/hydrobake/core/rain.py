@@ -40,8 +40,6 @@ Handle.declare("rain", [
     ("add_drop", [ctypes.c_float, ctypes.c_float, ctypes.c_float]),
     ("step", [ctypes.c_float, P(Progress)]),
     ("heightmap", [P(Image)]), ("wetness", [P(Image)]),
-    ("save_state", [ctypes.c_void_p, ctypes.c_size_t]),
-    ("load_state", [ctypes.c_void_p, ctypes.c_size_t]),
 ])
 _lib.declare([
     ("hbk_rain_water", _lib.hbk_result_t, [ctypes.c_void_p, P(Water)]),
@@ -49,7 +47,6 @@ _lib.declare([
     ("hbk_rain_drops", _lib.hbk_result_t, [ctypes.c_void_p, P(Drop), ctypes.c_int64,
                                            P(ctypes.c_int64)]),
     ("hbk_rain_blades", ctypes.c_int32, [ctypes.c_void_p, P(Blade), ctypes.c_int32]),
-    ("hbk_rain_state_size", ctypes.c_size_t, [ctypes.c_void_p]),
     ("hbk_rain_kernel", ctypes.c_float, [ctypes.c_float]),
     ("hbk_rain_compress", ctypes.c_float, [ctypes.c_void_p, ctypes.c_float]),
     ("hbk_rain_refraction", _lib.hbk_result_t,
@@ -118,15 +115,6 @@ class Rain(Handle):
         n = _lib.lib.hbk_rain_blades(self.h, buf, 2)
         return [{f: getattr(buf[i], f) for f, _ in Blade._fields_} for i in range(n)]
 
-    def save_state(self):
-        n = _lib.lib.hbk_rain_state_size(self.h)
-        buf = ctypes.create_string_buffer(n)
-        self.call("save_state", buf, n)
-        return buf.raw
-
-    def load_state(self, data):
-        buf = ctypes.create_string_buffer(bytes(data), len(data))
-        self.call("load_state", buf, len(data))
 
 
 def refraction(normals, background, strength=0.05):

@@ -34,13 +34,10 @@ Handle.declare("snow", [
     ("step", [ctypes.c_int32, P(Progress)]),
     ("coverage", [P(Image)]), ("depth", [P(Image)]),
     ("flakes", [ctypes.c_void_p, ctypes.c_int32, P(ctypes.c_int32)]),
-    ("save_state", [ctypes.c_void_p, ctypes.c_size_t]),
-    ("load_state", [ctypes.c_void_p, ctypes.c_size_t]),
 ])
 _lib.declare([
     ("hbk_snow_texture_size", None, [ctypes.c_void_p, P(ctypes.c_int32), P(ctypes.c_int32)]),
     ("hbk_snow_stats", None, [ctypes.c_void_p, P(Stats)]),
-    ("hbk_snow_state_size", ctypes.c_size_t, [ctypes.c_void_p]),
     ("hbk_snow_water_content", ctypes.c_float, [ctypes.c_void_p, ctypes.c_float]),
     ("hbk_snow_stick_chance", ctypes.c_float, [ctypes.c_void_p, ctypes.c_float]),
     ("hbk_snow_hit_chance", ctypes.c_float, [ctypes.c_void_p, ctypes.c_float, ctypes.c_float]),
@@ -116,15 +113,6 @@ class Snow(Handle):
         _lib.lib.hbk_snow_stats(self.h, ctypes.byref(s))
         return s.as_dict()
 
-    def save_state(self):
-        n = _lib.lib.hbk_snow_state_size(self.h)
-        buf = ctypes.create_string_buffer(n)
-        self.call("save_state", buf, n)
-        return buf.raw
-
-    def load_state(self, data):
-        buf = ctypes.create_string_buffer(bytes(data), len(data))
-        self.call("load_state", buf, len(data))
 
 
 def stamp_alpha(temp_c, r, params=None):

@@ -23,7 +23,7 @@ def _vdb():
 
 
 def make_grid(name, array, voxel_size=1.0, origin=(0.0, 0.0, 0.0), vector_type=None,
-              grid_class="FOG_VOLUME", tolerance=0.0):
+              grid_class="FOG_VOLUME", tolerance=0.0, metadata=None):
     """A pyopenvdb grid from a (X, Y, Z) float array or an (X, Y, Z, 3) vector array."""
     vdb = _vdb()
     array = np.ascontiguousarray(array, dtype=np.float32)
@@ -41,14 +41,20 @@ def make_grid(name, array, voxel_size=1.0, origin=(0.0, 0.0, 0.0), vector_type=N
                                      "(X, Y, Z, 3)")
     if not np.all(np.isfinite(array)):
         raise errors.InvalidArgument(f"{name}: contains NaN or infinite values")
-    if not voxel_size > 0:
+    sizes = tuple(float(v) for v in np.broadcast_to(np.asarray(voxel_size, np.float64), (3,)))
+    if not all(v > 0 for v in sizes):
         raise errors.InvalidArgument(f"voxel_size = {voxel_size}: must be > 0")
     grid.copyFromArray(array, tolerance=(tolerance,) * 3 if array.ndim == 4 else tolerance)
     grid.name = name
     grid.gridClass = getattr(vdb.GridClass, grid_class)
-    xform = vdb.createLinearTransform(voxelSize=float(voxel_size))
-    xform.translate(tuple(float(o) for o in origin))
+    # Voxel (i, j, k) centred at origin + (i, j, k) * voxel_size (a box may have non-cubic
+    # voxels: a scale matrix, translation in the last row as OpenVDB's matrices have it).
+    xform = vdb.createLinearTransform([[sizes[0], 0, 0, 0], [0, sizes[1], 0, 0],
+                                       [0, 0, sizes[2], 0],
+                                       [float(origin[0]), float(origin[1]), float(origin[2]), 1]])
     grid.transform = xform
+    for key, value in (metadata or {}).items():
+        grid[key] = value
     return grid
 
 

@@ -15,13 +15,10 @@ Handle.declare("water", [
     ("set_acceleration", [P(Image)]), ("set_footprint", [P(Image)]),
     ("step", [P(Progress)]),
     ("get_surface", [P(Image)]), ("get_depth", [P(Image)]), ("get_velocity", [P(Image)]),
-    ("save_state", [ctypes.c_void_p, ctypes.c_size_t]),
-    ("load_state", [ctypes.c_void_p, ctypes.c_size_t]),
 ])
 _lib.declare([
     ("hbk_water_volume", ctypes.c_double, [ctypes.c_void_p]),
     ("hbk_water_step_count", ctypes.c_uint64, [ctypes.c_void_p]),
-    ("hbk_water_state_size", ctypes.c_size_t, [ctypes.c_void_p]),
 ])
 
 
@@ -83,12 +80,3 @@ class Water(Handle):
     def step_count(self):
         return _lib.lib.hbk_water_step_count(self.h)
 
-    def save_state(self):
-        n = _lib.lib.hbk_water_state_size(self.h)
-        buf = ctypes.create_string_buffer(n)
-        self.call("save_state", buf, n)
-        return buf.raw
-
-    def load_state(self, data):
-        buf = ctypes.create_string_buffer(bytes(data), len(data))
-        self.call("load_state", buf, len(data))
