@@ -422,6 +422,7 @@ def rain_scene():
             theta = math.radians(wiper_angle(t, r.wiper_rest[w], r.sweep_angle, r.wiper_period))
             blade.rotation_euler = (math.pi - TILT, 0.0, theta)
             blade.keyframe_insert("rotation_euler", frame=f)
+        setattr(s, f"wiper_{w}", blade)  # the animation drives the simulated blade
     return scene
 
 

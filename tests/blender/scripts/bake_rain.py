@@ -17,6 +17,9 @@ glass = bpy.data.objects["Windshield"]
 s = glass.hydrobake_rain
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
 s.rain.cell_size = 0.01  # a coarse grid for the test
+assert s.wiper_0 is not None and s.wiper_1 is not None  # the example's blades are animated
+bg = bpy.data.images.new("street", 64, 32)
+s.background_image = bg
 with bpy.context.temp_override(scene=scene):
     assert bpy.ops.hydrobake.bake(effect="rain", object_name="Windshield") == {"FINISHED"}
 m = json.load(open(os.path.join(s.bake_folder, "manifest.json")))
@@ -27,6 +30,8 @@ assert p["map_width"] == 2 * p["width"]
 data = exr.read(os.path.join(s.bake_folder, "rain_0003.exr"))
 assert set(data) == {"height", "normal.x", "normal.y", "normal.z", "wetness"}
 assert data["height"].max() > 0  # drops landed and were drawn
+assert os.path.isfile(os.path.join(s.bake_folder, "preview_0003.exr"))  # cheap refraction
+assert bpy.data.images["HBK_Windshield_rain_preview"].source == "SEQUENCE"
 
 tree = glass.data.materials[0].node_tree
 bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")

@@ -39,6 +39,14 @@ class RainBlender(BlenderEffect):
                 name="Preview Background", type=bpy.types.Image,
                 description="Image seen through the glass for the cheap refraction preview "
                             "sequence (the paper's method); empty: no preview"),
+            wiper_0=bpy.props.PointerProperty(
+                name="Wiper 1", type=bpy.types.Object,
+                description="Animated wiper: its local Z rotation (degrees, PIVOT) or local X "
+                            "location (metres, TRANSLATE) drives blade 1 every frame, instead of "
+                            "the period"),
+            wiper_1=bpy.props.PointerProperty(
+                name="Wiper 2", type=bpy.types.Object,
+                description="Animated wiper driving blade 2 (as Wiper 1)"),
             substeps=bpy.props.IntProperty(
                 name="Substeps", default=2, min=1, max=100,
                 description="Simulation steps per frame"),
@@ -70,6 +78,12 @@ class RainBlender(BlenderEffect):
                       fps=scene.render.fps / scene.render.fps_base)
         if settings.car_object:
             inputs["car"] = cls._car_motion(scene, settings.car_object, fwd, frames)
+        blades = [o for o in (settings.wiper_0, settings.wiper_1) if o is not None]
+        if blades:
+            if len(blades) != rp["wiper_count"]:
+                raise ValueError(f"Wipers: {len(blades)} animated wiper object(s) for "
+                                 f"wiper_count = {rp['wiper_count']}; set one per blade")
+            inputs["wipers"] = cls._wiper_motion(scene, blades, rp["wiper_mode"], frames)
         if settings.background_image is not None:
             inputs["background"] = images.pixels(settings.background_image)
         return params, inputs
@@ -91,6 +105,21 @@ class RainBlender(BlenderEffect):
                  for f in range(frames[0] - 1, frames[1] + 1)}
         return {f: (speed[f], (speed[f] - speed[f - 1]) * fps)
                 for f in range(frames[0], frames[1] + 1)}
+
+    @staticmethod
+    def _wiper_motion(scene, blades, mode, frames):
+        """{frame: [value per blade]}: local Z rotation in degrees (PIVOT, mode 1) or local X
+        location in metres (TRANSLATE), sampled from the animation."""
+        keep = scene.frame_current
+        out = {}
+        try:
+            for f in range(frames[0], frames[1] + 1):
+                scene.frame_set(f)
+                out[f] = [float(np.degrees(b.rotation_euler.z)) if mode == 1 else
+                          float(b.location.x) for b in blades]
+        finally:
+            scene.frame_set(keep)
+        return out
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
@@ -166,7 +195,8 @@ class RainBlender(BlenderEffect):
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("car_object", "forward_axis", "background_image", "substeps",
+        for name in ("car_object", "forward_axis", "wiper_0", "wiper_1", "background_image",
+                     "substeps",
                      "use_mesh_size"):
             col.prop(settings, name)
         super().draw_settings(layout, settings)
