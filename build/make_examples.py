@@ -396,8 +396,9 @@ def rain_scene():
     s.substeps = 2
     r = s.rain
     r.cell_size = 0.002
-    r.rain_rate = 9000.0
-    r.drop_mass = 18.0
+    r.rain_rate = 14000.0
+    r.drop_mass = 25.0
+    r.radius_scale = 1.25
     r.wiper_count, r.wiper_mode = 2, "PIVOT"
     r.wiper_pivot = (0.30, -0.03, 0.95, -0.03)
     r.wiper_rest = (8.0, 8.0)
