@@ -9,4 +9,5 @@
 #include "hbk_water.h"
 #include "hbk_caustics.h"
 #include "hbk_rain.h"
+#include "hbk_fluid.h"
 #endif

@@ -113,6 +113,20 @@ const char *hbk_test_tmpdir(void);
     X(rain, state_roundtrip)             \
     X(rain, cancel)                      \
     X(rain, refraction)                  \
+    X(fluid, params_rejects)             \
+    X(fluid, uniform_flow_shift)         \
+    X(fluid, zero_flow_bitwise)          \
+    X(fluid, wrap_short_way)             \
+    X(fluid, blend_normalised)           \
+    X(fluid, density_lattice)            \
+    X(fluid, sph_rest)                   \
+    X(fluid, mc_closed)                  \
+    X(fluid, mc_sphere)                  \
+    X(fluid, crossfade)                  \
+    X(fluid, threads_identical)          \
+    X(fluid, state_roundtrip)            \
+    X(fluid, cancel)                     \
+    X(fluid, noise_tileable)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

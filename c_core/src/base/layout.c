@@ -43,6 +43,8 @@ static const layout_entry_t k_layout[] = {
     SIZE(hbk_rain_blade_t), FIELD(hbk_rain_blade_t, x0), FIELD(hbk_rain_blade_t, y0),
     FIELD(hbk_rain_blade_t, x1), FIELD(hbk_rain_blade_t, y1), FIELD(hbk_rain_blade_t, width),
     FIELD(hbk_rain_blade_t, value),
+    SIZE(hbk_fluid_obstacle_t), FIELD(hbk_fluid_obstacle_t, type),
+    FIELD(hbk_fluid_obstacle_t, center), FIELD(hbk_fluid_obstacle_t, extent),
 };
 
 hbk_result_t hbk_layout(const char *struct_name, const char *field, size_t *out)

@@ -2,7 +2,7 @@
 import importlib
 
 EFFECTS = {}
-_MODULES = ("caustics", "snow", "rain")  # effect modules shipped with the addon
+_MODULES = ("caustics", "snow", "rain", "fluid")  # effect modules shipped with the addon
 
 
 def register(cls):

@@ -1,0 +1,154 @@
+"""Solid fluid texturing (hbk_fluid_*): an SPH fluid (or caller-set particles or velocity
+grid) carrying uvw, blend-weight and wrap-flag volumes, and the metaball surface with per-vertex
+attributes. Vertex fields are (nz+1, ny+1, nx+1, c) arrays here (numpy's C order of the
+library's x-fastest layout)."""
+import ctypes
+
+import numpy as np
+
+from . import _lib, errors
+from ._lib import Message, P, Progress, check_message
+from .handle import Handle
+
+FEATURES = ("density", "density_rate", "flow_angle", "acceleration", "divergence")
+VOLUMES = {"uvw_a": (0, 3), "uvw_b": (1, 3), "blend": (2, None), "motion": (3, 3),
+           "density": (4, 1), "surface": (5, 1), "features": (6, len(FEATURES)),
+           "wrap_a": (7, 3), "wrap_b": (8, 3)}
+
+
+class Obstacle(ctypes.Structure):
+    _fields_ = [("type", ctypes.c_int32), ("center", ctypes.c_float * 3),
+                ("extent", ctypes.c_float * 3)]
+
+
+_lib.check_mirror(Obstacle, "hbk_fluid_obstacle_t")
+_f32 = np.ctypeslib.ndpointer(np.float32, flags="C_CONTIGUOUS")
+_i32 = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
+_V3 = ctypes.c_float * 3
+Handle.declare("fluid", [
+    ("set_particles", [_f32, ctypes.c_void_p, ctypes.c_int32]),
+    ("fill_box", [P(_V3), P(_V3), ctypes.c_float]),
+    ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
+    ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
+    ("set_velocity_grid", [_f32, ctypes.c_void_p]),
+    ("step", [P(Progress)]), ("update_fields", []),
+    ("get_volume", [ctypes.c_int32, _f32, ctypes.c_size_t]),
+    ("sample_uvw", [ctypes.c_int32, P(_V3), P(_V3)]),
+    ("paint_mask", [ctypes.c_int32, _f32]),
+    ("paint_sphere", [ctypes.c_int32, P(_V3), ctypes.c_float, ctypes.c_float]),
+    ("clear_paint", []),
+    ("set_feature_rule", [ctypes.c_int32, P(ctypes.c_float * 5), P(ctypes.c_float * 5)]),
+    ("capture_feature_rule", [ctypes.c_int32, _f32]),
+    ("clear_feature_rule", [ctypes.c_int32]),
+    ("update_surface", [P(Progress)]),
+    ("mesh_counts", [P(ctypes.c_int32), P(ctypes.c_int32)]),
+    ("get_mesh", [ctypes.c_void_p] * 7),
+])
+_lib.declare([
+    ("hbk_fluid_particle_count", ctypes.c_int32, [ctypes.c_void_p]),
+    ("hbk_fluid_grid_vertices", ctypes.c_size_t, [ctypes.c_void_p, P(ctypes.c_int32 * 3)]),
+    ("hbk_fluid_volume_size", ctypes.c_size_t, [ctypes.c_void_p, ctypes.c_int32]),
+    ("hbk_fluid_uvw_weight", ctypes.c_float, [ctypes.c_void_p]),
+    ("hbk_noise3d_tileable", _lib.hbk_result_t,
+     [_f32, ctypes.c_int32, ctypes.c_int32, ctypes.c_int32, ctypes.c_float, ctypes.c_uint64,
+      P(Message)], check_message),
+])
+
+
+class Fluid(Handle):
+    prefix = "fluid"
+
+    @property
+    def vertices(self):
+        """(nx+1, ny+1, nz+1)."""
+        v = (ctypes.c_int32 * 3)()
+        _lib.lib.hbk_fluid_grid_vertices(self.h, ctypes.byref(v))
+        return tuple(v)
+
+    def set_particles(self, pos, vel=None):
+        pos = np.ascontiguousarray(pos, np.float32).reshape(-1, 3)
+        v = None if vel is None else np.ascontiguousarray(vel, np.float32).reshape(-1, 3)
+        if v is not None and v.shape != pos.shape:
+            raise errors.InvalidArgument(f"vel: shape {v.shape} must match pos {pos.shape}")
+        self.call("set_particles", pos.reshape(-1), None if v is None else v.ctypes.data,
+                  len(pos))
+
+    def fill_box(self, lo, hi, jitter=0.0):
+        self.call("fill_box", _V3(*lo), _V3(*hi), float(jitter))
+
+    def particles(self):
+        n = _lib.lib.hbk_fluid_particle_count(self.h)
+        pos, vel = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+        self.call("get_particles", pos.ctypes.data, vel.ctypes.data, n)
+        return pos, vel
+
+    def set_obstacles(self, obstacles):
+        """obstacles: [("sphere", centre, radius) | ("box", centre, half_sizes)]."""
+        arr = (Obstacle * max(len(obstacles), 1))()
+        for i, (kind, c, e) in enumerate(obstacles):
+            ext = (e, 0.0, 0.0) if kind == "sphere" else tuple(e)
+            arr[i] = Obstacle(0 if kind == "sphere" else 1, _V3(*c), _V3(*ext))
+        self.call("set_obstacles", arr, len(obstacles))
+
+    def set_velocity_grid(self, velocity, surface=None):
+        vel = np.ascontiguousarray(velocity, np.float32).reshape(-1)
+        s = None if surface is None else np.ascontiguousarray(surface, np.float32).reshape(-1)
+        self.call("set_velocity_grid", vel, None if s is None else s.ctypes.data)
+
+    def step(self, progress=None):
+        self.call("step", progress)
+
+    def update_fields(self):
+        self.call("update_fields")
+
+    def volume(self, name):
+        """A volume as (nz, ny, nx, c) (vertex fields +1 per axis), x fastest in memory."""
+        idx, _ = VOLUMES[name]
+        n = _lib.lib.hbk_fluid_volume_size(self.h, idx)
+        out = np.empty(n, np.float32)
+        self.call("get_volume", idx, out, n)
+        nx, ny, nz = self.vertices
+        if name.startswith("wrap"):
+            nx, ny, nz = nx - 1, ny - 1, nz - 1
+        return out.reshape(nz, ny, nx, -1)
+
+    def uvw_weight(self):
+        return _lib.lib.hbk_fluid_uvw_weight(self.h)
+
+    def paint_sphere(self, texture, center, radius, falloff=0.0):
+        self.call("paint_sphere", int(texture), _V3(*center), float(radius), float(falloff))
+
+    def paint_mask(self, texture, mask):
+        self.call("paint_mask", int(texture), np.ascontiguousarray(mask, np.float32).reshape(-1))
+
+    def set_feature_rule(self, texture, lo, hi):
+        self.call("set_feature_rule", int(texture), (ctypes.c_float * 5)(*lo),
+                  (ctypes.c_float * 5)(*hi))
+
+    def capture_feature_rule(self, texture, mask):
+        self.call("capture_feature_rule", int(texture),
+                  np.ascontiguousarray(mask, np.float32).reshape(-1))
+
+    def surface(self, progress=None):
+        """The surface mesh: dict of positions, normals, triangles, uvw_a, uvw_b, blend,
+        features (per vertex)."""
+        self.call("update_surface", progress)
+        nv, nt = ctypes.c_int32(), ctypes.c_int32()
+        self.call("mesh_counts", ctypes.byref(nv), ctypes.byref(nt))
+        nv, nt = nv.value, nt.value
+        k = self.params.textures
+        m = {"positions": np.empty((nv, 3), np.float32), "normals": np.empty((nv, 3), np.float32),
+             "triangles": np.empty((nt, 3), np.int32), "uvw_a": np.empty((nv, 3), np.float32),
+             "uvw_b": np.empty((nv, 3), np.float32), "blend": np.empty((nv, k), np.float32),
+             "features": np.empty((nv, len(FEATURES)), np.float32)}
+        self.call("get_mesh", *(m[n].ctypes.data for n in (
+            "positions", "normals", "triangles", "uvw_a", "uvw_b", "blend", "features")))
+        return m
+
+
+
+def noise3d(size, period=4, octaves=3, persistence=0.5, seed=0):
+    """A tileable size^3 gradient-noise texture in [0, 1], as (z, y, x)."""
+    out = np.empty(size ** 3, np.float32)
+    _lib.lib.hbk_noise3d_tileable(out, size, period, octaves, persistence, seed, Message())
+    return out.reshape(size, size, size)

@@ -1,0 +1,264 @@
+/* Solid fluid texturing (Holzer, Owada, Harada, Butz; SPH after Harada et al. 2007).
+ *
+ * One handle holds a fluid and the texturing volumes over its box:
+ *  - the fluid: an SPH particle simulation (source SIMULATE), or particles the caller sets every
+ *    frame (source PARTICLES, e.g. a Blender particle system), or a velocity grid the caller
+ *    sets every frame (source VELOCITY_GRID, e.g. a Mantaflow cache);
+ *  - V_m (motion), density, the surface field and the features, at grid vertices;
+ *  - V_c: two uvw fields A and B, advected by V_m, reset to the rest mapping at staggered times
+ *    and cross-faded (hbk_fluid_uvw_weight), so no texture lives long enough to stretch;
+ *  - V_b: blend weights, `textures` per vertex, summing to one: feature paint (a table of
+ *    feature ranges per texture) over a base that flows, plus local paint that flows and fades;
+ *  - V_r: per-axis wrap flags at voxel centres (the dual grid), paper Fig. 4;
+ *  - the surface: metaballs from the particles, extracted every hbk_fluid_update_surface call as a
+ *    closed triangle mesh with smooth normals and per-vertex uvw, blend weights and features.
+ *
+ * Grid layout. The box [box_min, box_max] is split into resolution[0] x [1] x [2] voxels.
+ * Vertex fields have (resolution[a] + 1) values per axis, vertex (i, j, k) at
+ * box_min + (i, j, k) * cell where cell[a] = (box_max[a] - box_min[a]) / resolution[a]; voxel
+ * fields (V_r) have resolution[a] values per axis, voxel (i, j, k) centred at
+ * box_min + (i + 0.5, j + 0.5, k + 0.5) * cell. Index = i + nx * (j + ny * k) (x fastest),
+ * channels interleaved. Axes are Blender's: z up. uvw are in [0, 1): one tile of a sample texture.
+ *
+ * Determinism: every result is the same bytes for any `threads` (neighbour lists in a fixed
+ * order, per-particle and per-vertex gathers, no floating-point atomics). The only random numbers
+ * (the jitter of hbk_fluid_fill_box, the noise textures) come from the counter-based RNG keyed by
+ * `seed`.
+ *
+ * Threads: one handle must not be used from two threads at once; different handles are
+ * independent. The handle owns everything it allocates; setters copy the caller's buffers and
+ * getters write into buffers the caller sized (counts from the handle's queries). */
+#ifndef HBK_FLUID_H
+#define HBK_FLUID_H
+#include "hbk_base.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define HBK_FLUID_MAX_TEXTURES 8
+#define HBK_FLUID_MAX_OBSTACLES 64
+
+typedef enum hbk_fluid_source {
+    HBK_FLUID_SIMULATE = 0,      /* the built-in SPH moves the particles */
+    HBK_FLUID_PARTICLES = 1,     /* the caller sets positions and velocities every frame */
+    HBK_FLUID_VELOCITY_GRID = 2  /* the caller sets V_m (and a surface field) every frame */
+} hbk_fluid_source_t;
+
+/* Features per vertex (paper §3.2), in this channel order. */
+typedef enum hbk_fluid_feature {
+    HBK_FLUID_FEATURE_DENSITY = 0,      /* kg/m^3, SPH density (a grid source: its surface field) */
+    HBK_FLUID_FEATURE_DENSITY_RATE = 1, /* kg/m^3/s, d density / dt between frames; 0 on frame 1 */
+    HBK_FLUID_FEATURE_FLOW_ANGLE = 2,   /* rad in [0, pi]: angle between the flow and the outward
+                                         * surface normal (-grad density); pi/2 where either is 0 */
+    HBK_FLUID_FEATURE_ACCELERATION = 3, /* m/s^2, |dV_m/dt| between frames; 0 on frame 1 */
+    HBK_FLUID_FEATURE_DIVERGENCE = 4,   /* 1/s, div V_m by central differences */
+    HBK_FLUID_FEATURE_COUNT = 5
+} hbk_fluid_feature_t;
+
+typedef struct hbk_fluid_params {
+    uint32_t size;              /* sizeof(hbk_fluid_params_t), set by hbk_fluid_params_default */
+    int32_t source;             /* hbk_fluid_source_t */
+    int32_t resolution[3];      /* voxels per axis, 4..256 (paper: 32) */
+    float box_min[3];           /* m, the simulation box; particles never leave it */
+    float box_max[3];           /* m */
+    float dt;                   /* s advanced by one hbk_fluid_step (one frame), e.g. 1/24 */
+    int32_t substeps;           /* SPH steps per frame, 1..1000; keep dt/substeps below
+                                 * 0.4 h / sqrt(stiffness) */
+    int32_t max_particles;      /* particle capacity, 0..4,000,000 */
+    float particle_spacing;     /* m, rest lattice spacing; the mass is set so that a lattice
+                                 * of this spacing has exactly rest_density */
+    float smoothing_length;     /* m, SPH kernel radius h, 1.5..3 x particle_spacing */
+    float rest_density;         /* kg/m^3, 1000 for water */
+    float stiffness;            /* m^2/s^2, k of p = k (rho - rho0), p >= 0; the sound speed is
+                                 * sqrt(k): 10x the fastest flow keeps compression near 1% */
+    float viscosity;            /* Pa s (Mueller et al. 2003 viscosity term), 0..100; 0.5..5 */
+    float damping;              /* 1/s, velocity decay, 0..100; 0 for real fluid */
+    float gravity[3];           /* m/s^2, (0, 0, -9.81) */
+    float metaball_radius;      /* m, radius of one particle's metaball, 1..4 x spacing */
+    float surface_threshold;    /* iso value of the metaball sum (1 at a lone particle's centre),
+                                 * 0.01..10; 0.5 typical */
+    float max_flow;             /* voxels per frame: faster V_m is clamped to this speed */
+    int32_t textures;           /* sample textures, 1..8 */
+    int32_t default_texture;    /* texture of the base blend at creation, 0..textures-1 */
+    float uvw_tile;             /* m, world size of one texture tile at a uvw reset */
+    float reset_period;         /* s between resets of one uvw field (B is half a period later);
+                                 * 0 = never reset (only field A, weight 1) */
+    float paint_duration;       /* s a local paint stroke lasts at full strength */
+    float paint_fade;           /* s over which it then fades out */
+    float texture_scale[HBK_FLUID_MAX_TEXTURES]; /* per texture: tiles per uvw unit (for the
+                                                 * shader; the core only stores it) */
+    int32_t texture_feature[HBK_FLUID_MAX_TEXTURES]; /* per texture: the feature that
+                                                 * hbk_fluid_capture_feature_rule reads, or
+                                                 * HBK_FLUID_FEATURE_COUNT for all features */
+    uint64_t seed;              /* random seed (fill jitter) */
+    int32_t threads;            /* OpenMP threads, 0 = all; results never depend on it */
+} hbk_fluid_params_t;
+
+/* Fills every field with the defaults (a 1 m box at 32^3, 2 cm particles). Never fails. */
+HBK_EXPORT void hbk_fluid_params_default(hbk_fluid_params_t *p);
+/* The parameter table (every field but `size`); *count receives its length. Never fails. */
+HBK_EXPORT const hbk_param_info_t *hbk_fluid_params_info(size_t *count);
+/* Table ranges plus cross-field rules (box_max > box_min, smoothing_length and metaball_radius
+ * within 1..4 spacings, default_texture < textures, texture_feature). HBK_ERR_INVALID_ARGUMENT
+ * naming the field, HBK_ERR_VERSION. */
+HBK_EXPORT hbk_result_t hbk_fluid_params_check(const hbk_fluid_params_t *p, hbk_message_t *msg);
+
+typedef struct hbk_fluid hbk_fluid_t;
+
+/* A new handle: no particles, uvw at the rest mapping, blend = default_texture, no paint.
+ * HBK_ERR_INVALID_ARGUMENT, HBK_ERR_VERSION, HBK_ERR_OUT_OF_MEMORY. */
+HBK_EXPORT hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p,
+                                         hbk_message_t *msg);
+HBK_EXPORT void hbk_fluid_destroy(hbk_fluid_t *h); /* NULL is allowed */
+/* Detail of the handle's last failure ("" after a success); never NULL. */
+HBK_EXPORT const char *hbk_fluid_message(const hbk_fluid_t *h);
+
+/* Setters: HBK_ERR_INVALID_ARGUMENT (NULL, out of range, non-finite; the message names it) and
+ * the handle is then unchanged. */
+
+/* Replaces all particles: pos and vel are count x 3 floats (m, m/s); vel may be NULL (rest).
+ * Positions must lie in the box. The external-particles path calls this every frame; with the
+ * simulation it seeds the fluid. count <= max_particles. */
+HBK_EXPORT hbk_result_t hbk_fluid_set_particles(hbk_fluid_t *h, const float *pos,
+                                                const float *vel, int32_t count);
+/* Adds particles at rest on a lattice of particle_spacing filling [lo, hi] (clipped to the box,
+ * half a spacing from its walls), each moved by up to `jitter` spacings (0..0.5) with the RNG
+ * keyed by seed. HBK_ERR_INVALID_ARGUMENT also when they would exceed max_particles. */
+HBK_EXPORT hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float hi[3],
+                                           float jitter);
+HBK_EXPORT int32_t hbk_fluid_particle_count(const hbk_fluid_t *h); /* 0 for NULL */
+/* Copies positions and/or velocities (either may be NULL), particle_count x 3 floats each. */
+HBK_EXPORT hbk_result_t hbk_fluid_get_particles(hbk_fluid_t *h, float *pos, float *vel,
+                                                int32_t capacity);
+
+/* Obstacles the particles cannot enter (SIMULATE only). */
+typedef struct hbk_fluid_obstacle {
+    int32_t type;       /* 0 = sphere, 1 = axis-aligned box */
+    float center[3];    /* m */
+    float extent[3];    /* m: sphere radius in [0]; box half-sizes */
+} hbk_fluid_obstacle_t;
+/* Replaces the obstacle list (count 0..64; NULL with 0 clears). */
+HBK_EXPORT hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs,
+                                                int32_t count);
+
+/* VELOCITY_GRID source: V_m at the vertices (vertex_count x 3 floats, m/s) and optionally a
+ * surface field (vertex_count floats, e.g. a density or liquid fraction; the surface is where
+ * it equals surface_threshold; it also stands in for the density feature). NULL surface: none. */
+HBK_EXPORT hbk_result_t hbk_fluid_set_velocity_grid(hbk_fluid_t *h, const float *velocity,
+                                                    const float *surface);
+
+/* Vertex and voxel counts of the grid: vertices[a] = resolution[a] + 1. Never fails for a
+ * valid handle; returns the total vertex count (0 for NULL). */
+HBK_EXPORT size_t hbk_fluid_grid_vertices(const hbk_fluid_t *h, int32_t vertices[3]);
+
+/* Advances one frame: SPH substeps (SIMULATE), then density, V_m (clamped to max_flow), the
+ * features, then advects V_c A/B, V_r, the base blend and the paint by V_m (semi-Lagrangian,
+ * interpolation honouring V_r), resets a uvw field when its period comes round, ages the paint
+ * and applies the feature rules. Polls progress->cancel between substeps and phases; on
+ * HBK_ERR_CANCELLED the handle is exactly as before. HBK_ERR_INVALID_ARGUMENT (NULL),
+ * HBK_ERR_OUT_OF_MEMORY, HBK_ERR_CANCELLED. */
+HBK_EXPORT hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress);
+/* Frames stepped since creation. 0 for NULL. */
+HBK_EXPORT uint64_t hbk_fluid_frame(const hbk_fluid_t *h);
+/* Recomputes density, V_m, the surface field and the features from the current particles or
+ * grid without advancing time or advecting (for frame 0, or after set_particles). */
+HBK_EXPORT hbk_result_t hbk_fluid_update_fields(hbk_fluid_t *h);
+
+/* Volumes. */
+typedef enum hbk_fluid_volume {
+    HBK_FLUID_VOL_UVW_A = 0,    /* vertices x 3: uvw field A in [0, 1) */
+    HBK_FLUID_VOL_UVW_B = 1,    /* vertices x 3: uvw field B */
+    HBK_FLUID_VOL_BLEND = 2,    /* vertices x textures: V_b, sums to one */
+    HBK_FLUID_VOL_MOTION = 3,   /* vertices x 3: V_m, m/s, clamped */
+    HBK_FLUID_VOL_DENSITY = 4,  /* vertices x 1: kg/m^3 */
+    HBK_FLUID_VOL_SURFACE = 5,  /* vertices x 1: the metaball sum (or the caller's field) */
+    HBK_FLUID_VOL_FEATURES = 6, /* vertices x HBK_FLUID_FEATURE_COUNT */
+    HBK_FLUID_VOL_WRAP = 7,     /* voxels x 3: V_r flags per uvw component, 0 or 1 (field A) */
+    HBK_FLUID_VOL_WRAP_B = 8,   /* voxels x 3: V_r of field B */
+    HBK_FLUID_VOL_COUNT = 9
+} hbk_fluid_volume_t;
+/* Floats a volume needs (0 for NULL or an unknown volume). */
+HBK_EXPORT size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume);
+/* Copies a volume into out[0..count); count must equal hbk_fluid_volume_size. */
+HBK_EXPORT hbk_result_t hbk_fluid_get_volume(hbk_fluid_t *h, int32_t volume, float *out,
+                                             size_t count);
+/* Weight of uvw field A in the cross-fade; B's is 1 - A's. It is 0 the frame A is reset and 1
+ * the frame B is. 1 when reset_period = 0. 0 for NULL. */
+HBK_EXPORT float hbk_fluid_uvw_weight(const hbk_fluid_t *h);
+/* uvw of field `which` (0 = A, 1 = B) at world position pos (clamped to the box), trilinear
+ * with the wrap flags of the voxel. */
+HBK_EXPORT hbk_result_t hbk_fluid_sample_uvw(hbk_fluid_t *h, int32_t which, const float pos[3],
+                                             float uvw[3]);
+
+/* Local paint (paper §3.1): from now on, texture `texture` covers the masked region at full
+ * strength for paint_duration s, then fades over paint_fade s; it flows with the fluid.
+ * mask: vertex_count floats in [0, 1] (coverage). A newer stroke replaces older paint where it
+ * covers it. */
+HBK_EXPORT hbk_result_t hbk_fluid_paint_mask(hbk_fluid_t *h, int32_t texture, const float *mask);
+/* The same with a ball: coverage 1 inside `radius` m of `center`, a linear falloff over the last
+ * `falloff` m. */
+HBK_EXPORT hbk_result_t hbk_fluid_paint_sphere(hbk_fluid_t *h, int32_t texture,
+                                               const float center[3], float radius,
+                                               float falloff);
+/* Removes all local paint. */
+HBK_EXPORT hbk_result_t hbk_fluid_clear_paint(hbk_fluid_t *h);
+
+/* Feature paint (paper §3.1): every vertex whose features all lie in [lo[f], hi[f]] gets
+ * `texture` in the base blend, every frame. Rules are tried in texture order; a later texture
+ * wins where several match. Use -FLT_MAX / FLT_MAX for a feature that does not matter. */
+HBK_EXPORT hbk_result_t hbk_fluid_set_feature_rule(hbk_fluid_t *h, int32_t texture,
+                                                   const float lo[HBK_FLUID_FEATURE_COUNT],
+                                                   const float hi[HBK_FLUID_FEATURE_COUNT]);
+/* The selection UI: sets texture's rule to the range its texture_feature (or every feature)
+ * takes over the vertices where mask >= 0.5; the other features are left open.
+ * HBK_ERR_INVALID_ARGUMENT when the mask selects nothing. */
+HBK_EXPORT hbk_result_t hbk_fluid_capture_feature_rule(hbk_fluid_t *h, int32_t texture,
+                                                       const float *mask);
+HBK_EXPORT hbk_result_t hbk_fluid_clear_feature_rule(hbk_fluid_t *h, int32_t texture);
+
+/* Surface: marching cubes (on the Kuhn tetrahedra of each cube, so no ambiguous faces) over the
+ * surface field at the grid vertices; outside the box counts as empty, so every blob gives
+ * closed surfaces, capped flat where the fluid meets the box walls. Normals are the normalised
+ * negative gradient of the field. Triangles wind counter-clockwise seen from outside.
+ * HBK_ERR_OUT_OF_MEMORY, HBK_ERR_CANCELLED (the previous mesh is kept). */
+HBK_EXPORT hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress);
+/* Counts of the current mesh (0, 0 before the first update). */
+HBK_EXPORT hbk_result_t hbk_fluid_mesh_counts(hbk_fluid_t *h, int32_t *vertices,
+                                              int32_t *triangles);
+/* Copies the mesh into caller buffers sized by hbk_fluid_mesh_counts; any pointer may be NULL.
+ * pos, normal, uvw_a, uvw_b: vertices x 3; blend: vertices x textures; features: vertices x
+ * HBK_FLUID_FEATURE_COUNT (the flow angle uses the mesh normal); tris: triangles x 3 indices. */
+HBK_EXPORT hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal,
+                                           int32_t *tris, float *uvw_a, float *uvw_b,
+                                           float *blend, float *features);
+
+/* Milliseconds the last step / surface update spent in: [0] SPH, [1] density, V_m and
+ * features, [2] advection and paint, [3] surface. For benchmarks; not deterministic, not state. */
+HBK_EXPORT void hbk_fluid_timings(const hbk_fluid_t *h, double ms[4]);
+
+/* Checkpoints: everything but the params and the mesh (particles, obstacles, the external
+ * grid inputs, every volume, the paint, the rules, the frame counter). Loading into a handle
+ * with the same params continues bit for bit. save: HBK_ERR_INVALID_ARGUMENT if size is too
+ * small. load: HBK_ERR_FORMAT (not a fluid state, other version, bad numbers),
+ * HBK_ERR_INVALID_ARGUMENT (other grid, textures or capacity); unchanged on failure.
+ * Native-endian: a checkpoint for the same machine, not an archive. */
+HBK_EXPORT size_t hbk_fluid_state_size(const hbk_fluid_t *h);
+HBK_EXPORT hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size);
+HBK_EXPORT hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t size);
+
+/* Tileable 3D gradient noise for sample textures: a size^3 voxel texture (x fastest) in [0, 1]
+ * whose opposite faces continue each other. `period` lattice cells span the tile at the first
+ * octave (1..size), each further octave doubles the frequency and multiplies the amplitude by
+ * `persistence` (0..1). octaves 1..8. HBK_ERR_INVALID_ARGUMENT naming the argument. */
+HBK_EXPORT hbk_result_t hbk_noise3d_tileable(float *out, int32_t size, int32_t period,
+                                             int32_t octaves, float persistence, uint64_t seed,
+                                             hbk_message_t *msg);
+/* One value of that noise at (x, y, z) in tile units ([0, 1) is one tile; the noise repeats
+ * with period 1). Never fails; invalid arguments give 0.5. */
+HBK_EXPORT float hbk_noise3d_sample(float x, float y, float z, int32_t period, int32_t octaves,
+                                    float persistence, uint64_t seed);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,63 @@
+/* Features per vertex (paper §3.2): density, its rate, the angle between flow and surface
+ * normal, the acceleration of the flow, and (beyond the paper, as it suggests) divergence.
+ * Rates are finite differences against the previous frame's fields on the same grid, so they
+ * work for every source, including particle systems whose particles come and go. */
+#include "internal_fluid.h"
+#include <omp.h>
+
+/* Central difference of channel c of an nv x ch field along axis a at vertex (i, j, k), per
+ * metre; one-sided at the borders. */
+static inline float diff(const hbk_fluid_t *h, const float *f, int ch, int c, const int32_t ijk[3],
+                         int a)
+{
+    static const size_t one = 1;
+    const size_t stride[3] = {one, (size_t)h->nv[0], (size_t)h->nv[0] * (size_t)h->nv[1]};
+    const size_t vi = (size_t)ijk[0] + stride[1] * (size_t)ijk[1] + stride[2] * (size_t)ijk[2];
+    const int lo = ijk[a] > 0, hi = ijk[a] < h->nv[a] - 1;
+    const float fl = f[(size_t)ch * (vi - (lo ? stride[a] : 0)) + (size_t)c];
+    const float fh = f[(size_t)ch * (vi + (hi ? stride[a] : 0)) + (size_t)c];
+    const int span = lo + hi;
+    return span ? (fh - fl) * h->inv_cell[a] / (float)span : 0.0f;
+}
+
+void hbk_fluid_features(hbk_fluid_t *h, int threads)
+{
+    const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2];
+    const float inv_dt = 1.0f / h->p.dt;
+    const int prev = h->have_fields;
+    const int F = HBK_FLUID_FEATURE_COUNT;
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < nz; ++k)
+        for (int32_t j = 0; j < ny; ++j)
+            for (int32_t i = 0; i < nx; ++i) {
+                const int32_t ijk[3] = {i, j, k};
+                const size_t vi = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
+                float *o = h->g_features + (size_t)F * vi;
+                const float d = h->g_density[vi], *v = h->g_motion + 3 * vi;
+                o[HBK_FLUID_FEATURE_DENSITY] = d;
+                o[HBK_FLUID_FEATURE_DENSITY_RATE] = prev ? (d - h->density[vi]) * inv_dt : 0.0f;
+                float g[3], gg = 0.0f, vv = 0.0f, gv = 0.0f, div = 0.0f;
+                for (int a = 0; a < 3; ++a) {
+                    g[a] = -diff(h, h->g_density, 1, 0, ijk, a); /* outward normal direction */
+                    gg += g[a] * g[a];
+                    vv += v[a] * v[a];
+                    gv += g[a] * v[a];
+                    div += diff(h, h->g_motion, 3, a, ijk, a);
+                }
+                float ang = (float)(0.5 * M_PI);
+                if (gg > 0.0f && vv > 0.0f) {
+                    float cs = gv / sqrtf(gg * vv);
+                    cs = cs > 1.0f ? 1.0f : cs < -1.0f ? -1.0f : cs;
+                    ang = acosf(cs);
+                }
+                o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang;
+                float acc = 0.0f;
+                if (prev) {
+                    const float *pv = h->motion + 3 * vi;
+                    const float ax = v[0] - pv[0], ay = v[1] - pv[1], az = v[2] - pv[2];
+                    acc = sqrtf(ax * ax + ay * ay + az * az) * inv_dt;
+                }
+                o[HBK_FLUID_FEATURE_ACCELERATION] = acc;
+                o[HBK_FLUID_FEATURE_DIVERGENCE] = div;
+            }
+}

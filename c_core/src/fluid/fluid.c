@@ -1,0 +1,472 @@
+/* Fluid handle: life cycle, inputs, the frame step and the volume getters. */
+#include "internal_fluid.h"
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void vols_free(hbk_fluid_vols_t *v)
+{
+    free(v->uvw[0]); free(v->uvw[1]); free(v->wrap[0]); free(v->wrap[1]);
+    free(v->base); free(v->paint); free(v->life);
+    memset(v, 0, sizeof *v);
+}
+
+static int vols_alloc(hbk_fluid_vols_t *v, size_t nv, size_t nvox, int K)
+{
+    v->uvw[0] = malloc(3 * nv * sizeof(float));
+    v->uvw[1] = malloc(3 * nv * sizeof(float));
+    v->wrap[0] = malloc(nvox);
+    v->wrap[1] = malloc(nvox);
+    v->base = malloc((size_t)K * nv * sizeof(float));
+    v->paint = calloc((size_t)K * nv, sizeof(float));
+    v->life = calloc(nv, sizeof(float));
+    return v->uvw[0] && v->uvw[1] && v->wrap[0] && v->wrap[1] && v->base && v->paint && v->life;
+}
+
+/* Kernel sum of a cubic lattice of spacing s around one of its points: sets the mass so that
+ * the lattice is exactly at rest density (poly6 for the fields, spiky for the SPH step). */
+static double lattice_sum(double s, double H, double (*kernel)(double, double))
+{
+    const int n = (int)ceil(H / s);
+    double sum = 0.0;
+    for (int k = -n; k <= n; ++k)
+        for (int j = -n; j <= n; ++j)
+            for (int i = -n; i <= n; ++i)
+                sum += kernel(s * s * (double)(i * i + j * j + k * k), H);
+    return sum;
+}
+
+void hbk_fluid_destroy(hbk_fluid_t *h)
+{
+    if (!h) return;
+    free(h->pos); free(h->vel); free(h->pos0); free(h->vel0);
+    free(h->in_vel); free(h->in_surface);
+    vols_free(&h->v);
+    vols_free(&h->scratch);
+    free(h->motion); free(h->density); free(h->surface); free(h->features);
+    free(h->g_motion); free(h->g_density); free(h->g_surface); free(h->g_features);
+    free(h->g_wsum);
+    free(h->sorted);
+    hbk_fluid_cells_free(&h->cells);
+    free(h->mesh_pos); free(h->mesh_nrm); free(h->mesh_tri);
+    free(h);
+}
+
+hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hbk_message_t *msg)
+{
+    hbk_message_clear(msg);
+    if (!out) return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "out: must not be NULL");
+    *out = NULL;
+    hbk_result_t r = hbk_fluid_params_check(p, msg);
+    if (r) return r;
+    hbk_fluid_t *h = calloc(1, sizeof *h);
+    if (!h) return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid handle: out of memory");
+    h->p = *p;
+    h->K = p->textures;
+    h->n_vert = h->n_vox = 1;
+    for (int a = 0; a < 3; ++a) {
+        h->nv[a] = p->resolution[a] + 1;
+        h->n_vert *= (size_t)h->nv[a];
+        h->n_vox *= (size_t)p->resolution[a];
+        h->cell[a] = (p->box_max[a] - p->box_min[a]) / (float)p->resolution[a];
+        h->inv_cell[a] = 1.0f / h->cell[a];
+    }
+    h->mass = p->rest_density / lattice_sum(p->particle_spacing, p->smoothing_length, hbk_poly6);
+    h->sph_mass = p->rest_density / lattice_sum(p->particle_spacing, p->smoothing_length, hbk_spiky);
+    const size_t np = p->max_particles > 0 ? (size_t)p->max_particles : 1, nv = h->n_vert;
+    const int F = HBK_FLUID_FEATURE_COUNT;
+    h->pos = malloc(3 * np * sizeof(float));
+    h->vel = malloc(3 * np * sizeof(float));
+    h->pos0 = malloc(3 * np * sizeof(float));
+    h->vel0 = malloc(3 * np * sizeof(float));
+    h->sorted = malloc(8 * np * sizeof(float));
+    h->motion = calloc(3 * nv, sizeof(float));
+    h->density = calloc(nv, sizeof(float));
+    h->surface = calloc(nv, sizeof(float));
+    h->features = calloc((size_t)F * nv, sizeof(float));
+    h->g_motion = malloc(3 * nv * sizeof(float));
+    h->g_density = malloc(nv * sizeof(float));
+    h->g_surface = malloc(nv * sizeof(float));
+    h->g_features = malloc((size_t)F * nv * sizeof(float));
+    h->g_wsum = malloc(nv * sizeof(float));
+    if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->motion || !h->density ||
+        !h->surface || !h->features || !h->g_motion || !h->g_density || !h->g_surface ||
+        !h->g_features || !h->g_wsum || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
+        hbk_fluid_destroy(h);
+        return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",
+                        p->resolution[0], p->resolution[1], p->resolution[2]);
+    }
+    const int threads = HBK_OMP_THREADS(h);
+    hbk_fluid_reset_uvw(h, h->v.uvw[0], h->v.wrap[0], threads);
+    memcpy(h->v.uvw[1], h->v.uvw[0], 3 * nv * sizeof(float));
+    memcpy(h->v.wrap[1], h->v.wrap[0], h->n_vox);
+    for (size_t i = 0; i < nv; ++i)
+        for (int t = 0; t < h->K; ++t) h->v.base[(size_t)h->K * i + (size_t)t] = t == p->default_texture;
+    *out = h;
+    return HBK_OK;
+}
+
+const char *hbk_fluid_message(const hbk_fluid_t *h) { return h ? h->msg.text : "handle is NULL"; }
+
+#define ENTER(h)                                      \
+    do {                                              \
+        if (!(h)) return HBK_ERR_INVALID_ARGUMENT;    \
+        hbk_message_clear(&(h)->msg);                 \
+    } while (0)
+
+/* Every value finite and, for positions, inside the box. */
+static hbk_result_t check_vectors(hbk_fluid_t *h, const float *v, size_t n, const char *name,
+                                  int in_box, float lim)
+{
+    for (size_t i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) {
+            const float x = v[3 * i + (size_t)a];
+            const float lo = in_box ? h->p.box_min[a] : -lim, hi = in_box ? h->p.box_max[a] : lim;
+            if (!(x >= lo && x <= hi))
+                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                                "%s[%zu][%d] = %g: must be a finite number in [%g, %g]", name, i, a,
+                                (double)x, (double)lo, (double)hi);
+        }
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_set_particles(hbk_fluid_t *h, const float *pos, const float *vel,
+                                     int32_t count)
+{
+    ENTER(h);
+    if (count < 0 || count > h->p.max_particles)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "count = %d: must be in [0, %d] "
+                        "(max_particles)", count, h->p.max_particles);
+    if (count > 0 && !pos)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos: must not be NULL");
+    hbk_result_t r = check_vectors(h, pos, (size_t)count, "pos", 1, 0);
+    if (r || (vel && (r = check_vectors(h, vel, (size_t)count, "vel", 0, 1e4f)))) return r;
+    memcpy(h->pos, pos, 3 * (size_t)count * sizeof(float));
+    if (vel) memcpy(h->vel, vel, 3 * (size_t)count * sizeof(float));
+    else memset(h->vel, 0, 3 * (size_t)count * sizeof(float));
+    h->count = count;
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float hi[3], float jitter)
+{
+    ENTER(h);
+    if (!lo || !hi) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "lo, hi: must not be NULL");
+    if (!(jitter >= 0.0f && jitter <= 0.5f))
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "jitter = %g: must be in [0, 0.5]",
+                        (double)jitter);
+    const float s = h->p.particle_spacing;
+    double a0[3];
+    int32_t n[3];
+    size_t total = 1;
+    for (int a = 0; a < 3; ++a) {
+        if (!isfinite(lo[a]) || !isfinite(hi[a]))
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "lo[%d], hi[%d]: must be finite", a, a);
+        const double l = fmax(lo[a], h->p.box_min[a]) + 0.5 * s;
+        const double u = fmin(hi[a], h->p.box_max[a]) - 0.5 * s;
+        a0[a] = l;
+        n[a] = u >= l ? (int32_t)floor((u - l) / s + 1e-6) + 1 : 0;
+        total *= (size_t)n[a];
+    }
+    if ((size_t)h->count + total > (size_t)h->p.max_particles)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "fill_box: %zu particles plus the %d present exceed max_particles = %d",
+                        total, h->count, h->p.max_particles);
+    size_t id = (size_t)h->count;
+    for (int32_t k = 0; k < n[2]; ++k)
+        for (int32_t j = 0; j < n[1]; ++j)
+            for (int32_t i = 0; i < n[0]; ++i, ++id) {
+                uint32_t rnd[4];
+                hbk_philox(h->p.seed, HBK_FLUID_STREAM_JITTER, (uint64_t)id, rnd);
+                const int32_t ijk[3] = {i, j, k};
+                for (int a = 0; a < 3; ++a) {
+                    const float jit = jitter * s * (2.0f * hbk_u32_to_unit(rnd[a]) - 1.0f);
+                    float x = (float)(a0[a] + (double)ijk[a] * s) + jit;
+                    const float m = 0.5f * s;
+                    x = x < h->p.box_min[a] + m ? h->p.box_min[a] + m : x;
+                    x = x > h->p.box_max[a] - m ? h->p.box_max[a] - m : x;
+                    h->pos[3 * id + (size_t)a] = x;
+                    h->vel[3 * id + (size_t)a] = 0.0f;
+                }
+            }
+    h->count = (int32_t)id;
+    return HBK_OK;
+}
+
+int32_t hbk_fluid_particle_count(const hbk_fluid_t *h) { return h ? h->count : 0; }
+
+hbk_result_t hbk_fluid_get_particles(hbk_fluid_t *h, float *pos, float *vel, int32_t capacity)
+{
+    ENTER(h);
+    if (capacity < h->count)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "capacity = %d: must be >= particle count %d", capacity, h->count);
+    if (pos) memcpy(pos, h->pos, 3 * (size_t)h->count * sizeof(float));
+    if (vel) memcpy(vel, h->vel, 3 * (size_t)h->count * sizeof(float));
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs, int32_t count)
+{
+    ENTER(h);
+    if (count < 0 || count > HBK_FLUID_MAX_OBSTACLES)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "count = %d: must be in [0, %d]", count,
+                        HBK_FLUID_MAX_OBSTACLES);
+    if (count && !obs) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "obs: must not be NULL");
+    for (int32_t i = 0; i < count; ++i) {
+        if (obs[i].type != 0 && obs[i].type != 1)
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                            "obs[%d].type = %d: must be 0 (sphere) or 1 (box)", i, obs[i].type);
+        for (int a = 0; a < 3; ++a) {
+            if (!(fabsf(obs[i].center[a]) <= 1e6f))
+                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                                "obs[%d].center[%d] = %g: must be finite", i, a, (double)obs[i].center[a]);
+            if (!(obs[i].extent[a] >= 0.0f && obs[i].extent[a] <= 1e6f) && (obs[i].type == 1 || a == 0))
+                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                                "obs[%d].extent[%d] = %g: must be in [0, 1e6] m", i, a,
+                                (double)obs[i].extent[a]);
+        }
+    }
+    if (count) memcpy(h->obs, obs, (size_t)count * sizeof *obs);
+    h->n_obs = count;
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_set_velocity_grid(hbk_fluid_t *h, const float *velocity, const float *surface)
+{
+    ENTER(h);
+    const size_t nv = h->n_vert;
+    if (!velocity) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "velocity: must not be NULL");
+    hbk_result_t r = check_vectors(h, velocity, nv, "velocity", 0, 1e4f);
+    if (r) return r;
+    if (surface)
+        for (size_t i = 0; i < nv; ++i)
+            if (!(fabsf(surface[i]) <= 1e9f))
+                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                                "surface[%zu] = %g: must be finite", i, (double)surface[i]);
+    if (!h->in_vel && !(h->in_vel = malloc(3 * nv * sizeof(float))))
+        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "velocity: out of memory");
+    if (surface && !h->in_surface && !(h->in_surface = malloc(nv * sizeof(float))))
+        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "surface: out of memory");
+    memcpy(h->in_vel, velocity, 3 * nv * sizeof(float));
+    if (surface) memcpy(h->in_surface, surface, nv * sizeof(float));
+    else { free(h->in_surface); h->in_surface = NULL; }
+    return HBK_OK;
+}
+
+size_t hbk_fluid_grid_vertices(const hbk_fluid_t *h, int32_t vertices[3])
+{
+    if (!h) return 0;
+    if (vertices) for (int a = 0; a < 3; ++a) vertices[a] = h->nv[a];
+    return h->n_vert;
+}
+
+uint64_t hbk_fluid_frame(const hbk_fluid_t *h) { return h ? h->frame : 0; }
+
+/* g_density, g_motion (clamped), g_surface and g_features from the current input. */
+static hbk_result_t build_fields(hbk_fluid_t *h, int threads)
+{
+    const size_t nv = h->n_vert;
+    if (h->p.source == HBK_FLUID_VELOCITY_GRID) {
+        if (h->in_vel) memcpy(h->g_motion, h->in_vel, 3 * nv * sizeof(float));
+        else memset(h->g_motion, 0, 3 * nv * sizeof(float));
+        if (h->in_surface) {
+            memcpy(h->g_surface, h->in_surface, nv * sizeof(float));
+            memcpy(h->g_density, h->in_surface, nv * sizeof(float));
+        } else {
+            memset(h->g_surface, 0, nv * sizeof(float));
+            memset(h->g_density, 0, nv * sizeof(float));
+        }
+    } else {
+        hbk_result_t r = hbk_fluid_particles_to_grid(h, threads);
+        if (r) return hbk_fail(&h->msg, r, "particle grid: out of memory");
+    }
+    /* Paper: "too fast flow is clamped" - here to max_flow voxels per frame. */
+    float cmin = h->cell[0] < h->cell[1] ? h->cell[0] : h->cell[1];
+    cmin = cmin < h->cell[2] ? cmin : h->cell[2];
+    const float vmax = h->p.max_flow * cmin / h->p.dt, vmax2 = vmax * vmax;
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (size_t i = 0; i < nv; ++i) {
+        float *v = h->g_motion + 3 * i;
+        const float s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        if (s2 > vmax2) {
+            const float f = vmax / sqrtf(s2);
+            v[0] *= f; v[1] *= f; v[2] *= f;
+        }
+    }
+    hbk_fluid_features(h, threads);
+    return HBK_OK;
+}
+
+static void swap_f(float **a, float **b) { float *t = *a; *a = *b; *b = t; }
+
+static void commit_fields(hbk_fluid_t *h)
+{
+    swap_f(&h->motion, &h->g_motion);
+    swap_f(&h->density, &h->g_density);
+    swap_f(&h->surface, &h->g_surface);
+    swap_f(&h->features, &h->g_features);
+    h->have_fields = 1;
+}
+
+hbk_result_t hbk_fluid_update_fields(hbk_fluid_t *h)
+{
+    ENTER(h);
+    const int threads = HBK_OMP_THREADS(h);
+    const int had = h->have_fields;
+    h->have_fields = 0; /* no time passes: the rates are zero */
+    hbk_result_t r = build_fields(h, threads);
+    h->have_fields = had;
+    if (r) return r;
+    commit_fields(h);
+    return HBK_OK;
+}
+
+static void restore_particles(hbk_fluid_t *h, int sim)
+{
+    if (!sim) return;
+    memcpy(h->pos, h->pos0, 3 * (size_t)h->count * sizeof(float));
+    memcpy(h->vel, h->vel0, 3 * (size_t)h->count * sizeof(float));
+}
+
+hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
+{
+    ENTER(h);
+    const int threads = HBK_OMP_THREADS(h);
+    const int sim = h->p.source == HBK_FLUID_SIMULATE;
+    double t0 = omp_get_wtime();
+    hbk_report(progress, 0.0f);
+    if (sim) {
+        memcpy(h->pos0, h->pos, 3 * (size_t)h->count * sizeof(float));
+        memcpy(h->vel0, h->vel, 3 * (size_t)h->count * sizeof(float));
+        const float dt = h->p.dt / (float)h->p.substeps;
+        for (int32_t s = 0; s < h->p.substeps; ++s) {
+            if (hbk_cancelled(progress)) {
+                restore_particles(h, sim);
+                return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
+            }
+            hbk_result_t r = hbk_fluid_sph_substep(h, dt, threads);
+            if (r) {
+                restore_particles(h, sim);
+                return hbk_fail(&h->msg, r, "SPH: out of memory");
+            }
+            hbk_report(progress, 0.7f * (float)(s + 1) / (float)h->p.substeps);
+        }
+    }
+    double t1 = omp_get_wtime();
+    hbk_result_t r = build_fields(h, threads);
+    if (r) { restore_particles(h, sim); return r; }
+    double t2 = omp_get_wtime();
+    if (hbk_cancelled(progress)) {
+        restore_particles(h, sim);
+        return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
+    }
+    hbk_report(progress, 0.8f);
+    /* Advect with the new V_m: the swap makes it h->motion for the advection; undone on
+     * cancel below. */
+    swap_f(&h->motion, &h->g_motion);
+    hbk_fluid_advect(h, h->p.dt, threads);
+    swap_f(&h->motion, &h->g_motion);
+    hbk_fluid_vols_t *n = &h->scratch;
+    const uint64_t frame = h->frame + 1, P = hbk_fluid_period_frames(&h->p);
+    if (P && frame % P == 0) hbk_fluid_reset_uvw(h, n->uvw[0], n->wrap[0], threads);
+    if (P && frame % P == P / 2) hbk_fluid_reset_uvw(h, n->uvw[1], n->wrap[1], threads);
+    int paint_active = h->paint_active;
+    if (paint_active) {
+        int any = 0;
+        const float dt = h->p.dt;
+        const size_t nv = h->n_vert;
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(| : any)
+        for (size_t i = 0; i < nv; ++i) {
+            const float l = n->life[i] - dt;
+            n->life[i] = l > 0.0f ? l : 0.0f;
+            any |= l > 0.0f;
+        }
+        paint_active = any;
+    }
+    hbk_fluid_apply_rules(h, n->base, h->g_features, threads);
+    double t3 = omp_get_wtime();
+    if (hbk_cancelled(progress)) {
+        restore_particles(h, sim);
+        return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
+    }
+    hbk_fluid_vols_t tmp = h->v;
+    h->v = h->scratch;
+    h->scratch = tmp;
+    commit_fields(h);
+    h->paint_active = paint_active;
+    h->frame = frame;
+    h->ms[0] = (t1 - t0) * 1e3;
+    h->ms[1] = (t2 - t1) * 1e3;
+    h->ms[2] = (t3 - t2) * 1e3;
+    hbk_report(progress, 1.0f);
+    return HBK_OK;
+}
+
+void hbk_fluid_timings(const hbk_fluid_t *h, double ms[4])
+{
+    if (!ms) return;
+    for (int i = 0; i < 4; ++i) ms[i] = h ? h->ms[i] : 0.0;
+}
+
+float hbk_fluid_uvw_weight(const hbk_fluid_t *h) { return h ? hbk_fluid_weight_at(&h->p, h->frame) : 0.0f; }
+
+size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume)
+{
+    if (!h) return 0;
+    switch (volume) {
+    case HBK_FLUID_VOL_UVW_A: case HBK_FLUID_VOL_UVW_B: case HBK_FLUID_VOL_MOTION: return 3 * h->n_vert;
+    case HBK_FLUID_VOL_BLEND: return (size_t)h->K * h->n_vert;
+    case HBK_FLUID_VOL_DENSITY: case HBK_FLUID_VOL_SURFACE: return h->n_vert;
+    case HBK_FLUID_VOL_FEATURES: return (size_t)HBK_FLUID_FEATURE_COUNT * h->n_vert;
+    case HBK_FLUID_VOL_WRAP: case HBK_FLUID_VOL_WRAP_B: return 3 * h->n_vox;
+    default: return 0;
+    }
+}
+
+hbk_result_t hbk_fluid_get_volume(hbk_fluid_t *h, int32_t volume, float *out, size_t count)
+{
+    ENTER(h);
+    const size_t need = hbk_fluid_volume_size(h, volume);
+    if (!need)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "volume = %d: must be in [0, %d]",
+                        volume, HBK_FLUID_VOL_COUNT - 1);
+    if (!out) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "out: must not be NULL");
+    if (count != need)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "count = %zu: volume %d needs exactly %zu floats", count, volume, need);
+    const float *src = NULL;
+    switch (volume) {
+    case HBK_FLUID_VOL_UVW_A: src = h->v.uvw[0]; break;
+    case HBK_FLUID_VOL_UVW_B: src = h->v.uvw[1]; break;
+    case HBK_FLUID_VOL_MOTION: src = h->motion; break;
+    case HBK_FLUID_VOL_DENSITY: src = h->density; break;
+    case HBK_FLUID_VOL_SURFACE: src = h->surface; break;
+    case HBK_FLUID_VOL_FEATURES: src = h->features; break;
+    case HBK_FLUID_VOL_BLEND:
+        for (size_t i = 0; i < h->n_vert; ++i)
+            hbk_fluid_blend_at(h, h->v.base, h->v.paint, h->v.life, i, out + (size_t)h->K * i);
+        return HBK_OK;
+    default: {
+        const uint8_t *w = h->v.wrap[volume == HBK_FLUID_VOL_WRAP ? 0 : 1];
+        for (size_t i = 0; i < h->n_vox; ++i)
+            for (int a = 0; a < 3; ++a) out[3 * i + (size_t)a] = (float)((w[i] >> a) & 1u);
+        return HBK_OK;
+    }
+    }
+    memcpy(out, src, need * sizeof(float));
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_sample_uvw(hbk_fluid_t *h, int32_t which, const float pos[3], float uvw[3])
+{
+    ENTER(h);
+    if (which != 0 && which != 1)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "which = %d: must be 0 (A) or 1 (B)", which);
+    if (!pos || !uvw) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos, uvw: must not be NULL");
+    float x[3];
+    for (int a = 0; a < 3; ++a) x[a] = (pos[a] - h->p.box_min[a]) * h->inv_cell[a];
+    hbk_fluid_sample_wrapped(h, h->v.uvw[which], h->v.wrap[which], x, uvw);
+    return HBK_OK;
+}

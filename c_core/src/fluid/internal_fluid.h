@@ -1,0 +1,144 @@
+/* Private: the fluid handle and the entry points shared by the fluid sources. */
+#ifndef HBK_INTERNAL_FLUID_H
+#define HBK_INTERNAL_FLUID_H
+#include "hbk_fluid.h"
+#include "../base/internal_base.h"
+#include <math.h>
+
+#define HBK_FLUID_STREAM_JITTER 0xf1a1u
+#define HBK_FLUID_STREAM_NOISE 0xf1a2u
+
+/* Uniform grid of particles: cells of `size` m, counting-sorted so every query visits particles
+ * in the same order whatever the thread count. */
+typedef struct hbk_fluid_cells {
+    float origin[3], size, inv_size;
+    int32_t dims[3];
+    size_t ncells;
+    int32_t *start;    /* ncells + 1 offsets into `order` */
+    int32_t *order;    /* particle ids sorted by cell, ascending id within a cell */
+    int32_t *cell_of;  /* cell of each particle */
+    uint8_t *near;     /* 1 if the cell or one of its 26 neighbours holds a particle */
+    size_t cap_cells, cap_particles;
+} hbk_fluid_cells_t;
+
+/* The texturing volumes that advect (double buffered by the step for cancellation). */
+typedef struct hbk_fluid_vols {
+    float *uvw[2];     /* nv x 3 */
+    uint8_t *wrap[2];  /* nvox: bit a = component a wraps in this voxel */
+    float *base;       /* nv x K: base blend (feature paint acts on it) */
+    float *paint;      /* nv x K: paint weights, sum = coverage in [0, 1] */
+    float *life;       /* nv: seconds of paint left (duration + fade when painted) */
+} hbk_fluid_vols_t;
+
+struct hbk_fluid {
+    hbk_fluid_params_t p;
+    hbk_message_t msg;
+    int32_t nv[3];              /* vertices per axis */
+    size_t n_vert, n_vox;
+    int K;                      /* textures */
+    float cell[3], inv_cell[3];
+    double mass;                /* kg per particle: a lattice is at rest density under poly6 */
+    double sph_mass;            /* the same under the spiky kernel, for the SPH step */
+    /* State. */
+    int32_t count;
+    float *pos, *vel;           /* max_particles x 3 */
+    int32_t n_obs;
+    hbk_fluid_obstacle_t obs[HBK_FLUID_MAX_OBSTACLES];
+    float *in_vel, *in_surface; /* VELOCITY_GRID inputs (nv x 3, nv), or NULL */
+    hbk_fluid_vols_t v;
+    float *motion;              /* nv x 3, V_m */
+    float *density;             /* nv */
+    float *surface;             /* nv, metaball sum */
+    float *features;            /* nv x F */
+    int32_t have_fields;        /* density/motion hold a frame (the rates can use them) */
+    int32_t rule_on[HBK_FLUID_MAX_TEXTURES];
+    float rule_lo[HBK_FLUID_MAX_TEXTURES][HBK_FLUID_FEATURE_COUNT];
+    float rule_hi[HBK_FLUID_MAX_TEXTURES][HBK_FLUID_FEATURE_COUNT];
+    int32_t paint_active;
+    uint64_t frame;
+    /* Scratch, not state. */
+    hbk_fluid_vols_t scratch;   /* advection targets */
+    float *pos0, *vel0;         /* particles at the start of a step (cancellation) */
+    float *sorted;              /* SPH scratch: 8 floats per particle */
+    float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
+    float *g_wsum;              /* Shepard weight sums of the velocity gather */
+    hbk_fluid_cells_t cells;
+    /* Mesh. */
+    int32_t mesh_nv, mesh_nt;
+    float *mesh_pos, *mesh_nrm;
+    int32_t *mesh_tri;
+    double ms[4];
+};
+
+#define HBK_OMP_THREADS(h) ((h)->p.threads > 0 ? (h)->p.threads : omp_get_max_threads())
+
+/* SPH kernels (Mueller et al. 2003, as Harada et al. 2007 use them). */
+static inline double hbk_poly6(double r2, double h)
+{
+    const double h2 = h * h;
+    if (r2 >= h2) return 0.0;
+    const double d = h2 - r2;
+    return 315.0 / (64.0 * M_PI * pow(h, 9)) * d * d * d;
+}
+
+static inline double hbk_spiky(double r2, double h)
+{
+    if (r2 >= h * h) return 0.0;
+    const double q = h - sqrt(r2);
+    return 15.0 / (M_PI * pow(h, 6)) * q * q * q;
+}
+
+/* neighbours.c */
+hbk_result_t hbk_fluid_cells_build(hbk_fluid_cells_t *c, const float *pos, int32_t count,
+                                   const float lo[3], const float hi[3], float size, int threads);
+void hbk_fluid_cells_free(hbk_fluid_cells_t *c);
+static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, int a)
+{
+    int32_t i = (int32_t)floorf((x - c->origin[a]) * c->inv_size);
+    return i < 0 ? 0 : i >= c->dims[a] ? c->dims[a] - 1 : i;
+}
+
+/* sph.c: one substep on h->pos / h->vel. */
+hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
+/* sph.c: density, V_m and the metaball sum at the vertices into g_* from the particles. */
+hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads);
+
+/* features.c: g_features from g_density, g_motion and the previous frame. */
+void hbk_fluid_features(hbk_fluid_t *h, int threads);
+
+/* wrap.c */
+/* uvw at voxel coordinates (x, y, z) (vertex (i,j,k) at integers), honouring the flags. */
+void hbk_fluid_sample_wrapped(const hbk_fluid_t *h, const float *uvw, const uint8_t *wrap,
+                              const float x[3], float out[3]);
+/* Interpolation weights and base index at voxel coordinates (clamped to the grid). */
+typedef struct hbk_fluid_lerp {
+    size_t base;   /* vertex (i, j, k) */
+    size_t voxel;  /* voxel (i, j, k) */
+    float t[3];
+} hbk_fluid_lerp_t;
+void hbk_fluid_lerp_at(const hbk_fluid_t *h, const float x[3], hbk_fluid_lerp_t *l);
+void hbk_fluid_sample_wrapped_l(const hbk_fluid_t *h, const float *uvw, const uint8_t *wrap,
+                                const hbk_fluid_lerp_t *l, float out[3]);
+/* Trilinear sample of an nv x ch field. */
+void hbk_fluid_sample_field(const hbk_fluid_t *h, const float *f, int ch,
+                            const hbk_fluid_lerp_t *l, float *out);
+/* Rest uvw mapping and its wrap flags. */
+void hbk_fluid_reset_uvw(const hbk_fluid_t *h, float *uvw, uint8_t *wrap, int threads);
+/* Re-derives each voxel's flags from its corners where the short way is unambiguous. */
+void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap, int threads);
+
+/* advect.c: advects h->v into h->scratch by h->motion over dt (does not swap). */
+void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads);
+
+/* paint.c */
+void hbk_fluid_apply_rules(hbk_fluid_t *h, float *base, const float *features, int threads);
+/* Final blend of vertex i (K floats). */
+void hbk_fluid_blend_at(const hbk_fluid_t *h, const float *base, const float *paint,
+                        const float *life, size_t i, float *out);
+
+/* uvw cross-fade weight of field A at frame f. */
+float hbk_fluid_weight_at(const hbk_fluid_params_t *p, uint64_t frame);
+/* Frames per reset period (0 = never). */
+uint64_t hbk_fluid_period_frames(const hbk_fluid_params_t *p);
+
+#endif

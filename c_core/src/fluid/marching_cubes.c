@@ -1,0 +1,338 @@
+/* Surface extraction: marching cubes on the six Kuhn tetrahedra of every cube (all sharing the
+ * cube's main diagonal). The split is the same in neighbouring cubes, so the tetrahedra tile
+ * space and there are no ambiguous faces: the mesh is closed by construction. The grid is
+ * padded with one layer of empty vertices all round, so blobs touching the box are capped.
+ *
+ * Three passes, each parallel over z layers and each writing only its own slots, so the mesh
+ * is the same bytes for any thread count: (1) mark crossing edges per padded vertex (7 edge
+ * directions: 3 axes, 3 face diagonals, 1 body diagonal), (2) number and place the edge
+ * vertices, (3) count, number and write the triangles. */
+#include "internal_fluid.h"
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Edge direction d (1..7) is the offset (d & 1, d >> 1 & 1, d >> 2 & 1); bit d-1 of a mask. */
+typedef struct mc {
+    const hbk_fluid_t *h;
+    int32_t e[3];      /* padded vertices per axis */
+    float iso;
+} mc_t;
+
+static inline float val(const mc_t *m, int32_t i, int32_t j, int32_t k)
+{
+    if (i <= 0 || j <= 0 || k <= 0 || i >= m->e[0] - 1 || j >= m->e[1] - 1 || k >= m->e[2] - 1)
+        return 0.0f;
+    const hbk_fluid_t *h = m->h;
+    return h->surface[(size_t)(i - 1) + (size_t)h->nv[0] * ((size_t)(j - 1) + (size_t)h->nv[1] * (size_t)(k - 1))];
+}
+static inline int inside(const mc_t *m, int32_t i, int32_t j, int32_t k)
+{
+    return val(m, i, j, k) > m->iso;
+}
+static inline size_t pidx(const mc_t *m, int32_t i, int32_t j, int32_t k)
+{
+    return (size_t)i + (size_t)m->e[0] * ((size_t)j + (size_t)m->e[1] * (size_t)k);
+}
+
+/* Gradient of the field (per voxel unit) at padded vertex (i, j, k), central differences. */
+static void grad(const mc_t *m, int32_t i, int32_t j, int32_t k, float g[3])
+{
+    g[0] = 0.5f * (val(m, i + 1, j, k) - val(m, i - 1, j, k)) * m->h->inv_cell[0];
+    g[1] = 0.5f * (val(m, i, j + 1, k) - val(m, i, j - 1, k)) * m->h->inv_cell[1];
+    g[2] = 0.5f * (val(m, i, j, k + 1) - val(m, i, j, k - 1)) * m->h->inv_cell[2];
+}
+
+/* Crossing point of edge (p, p + d) in world units, unclamped. */
+static void crossing(const mc_t *m, int32_t i, int32_t j, int32_t k, int d, float out[3], float *t_out)
+{
+    const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
+    const float f0 = val(m, i, j, k), f1 = val(m, i1, j1, k1);
+    float t = (m->iso - f0) / (f1 - f0);
+    t = t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t;
+    const int32_t a[3] = {i, j, k}, b[3] = {i1, j1, k1};
+    for (int c = 0; c < 3; ++c)
+        out[c] = m->h->p.box_min[c] +
+                 ((float)(a[c] - 1) + t * (float)(b[c] - a[c])) * m->h->cell[c];
+    *t_out = t;
+}
+
+/* The six tetrahedra: path 0 -> e_a -> e_a + e_b -> (1,1,1) for each permutation (a, b, c). */
+static const int k_perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+
+/* Corner offsets (as bit masks) of tetrahedron t. */
+static inline void tet(int t, int c[4])
+{
+    c[0] = 0;
+    c[1] = 1 << k_perm[t][0];
+    c[2] = c[1] | 1 << k_perm[t][1];
+    c[3] = 7;
+}
+
+static inline int tet_tris(int in)
+{
+    const int n = (in & 1) + (in >> 1 & 1) + (in >> 2 & 1) + (in >> 3 & 1);
+    return n == 1 || n == 3 ? 1 : n == 2 ? 2 : 0;
+}
+
+/* Inside bits of the 8 cube corners (bit = corner mask). */
+static inline int cube_bits(const mc_t *m, int32_t i, int32_t j, int32_t k)
+{
+    int b = 0;
+    for (int c = 0; c < 8; ++c)
+        b |= inside(m, i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)) << c;
+    return b;
+}
+
+static int cube_tris(int bits)
+{
+    int n = 0;
+    for (int t = 0; t < 6; ++t) {
+        int c[4], in = 0;
+        tet(t, c);
+        for (int q = 0; q < 4; ++q) in |= (bits >> c[q] & 1) << q;
+        n += tet_tris(in);
+    }
+    return n;
+}
+
+hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
+{
+    if (!h) return HBK_ERR_INVALID_ARGUMENT;
+    hbk_message_clear(&h->msg);
+    const double t0 = omp_get_wtime();
+    const int threads = HBK_OMP_THREADS(h);
+    mc_t m = {h, {h->nv[0] + 2, h->nv[1] + 2, h->nv[2] + 2}, h->p.surface_threshold};
+    const int32_t ex = m.e[0], ey = m.e[1], ez = m.e[2];
+    const size_t npad = (size_t)ex * (size_t)ey * (size_t)ez, rows = (size_t)ey * (size_t)ez;
+    uint8_t *mask = malloc(npad);
+    int32_t *first = malloc(npad * sizeof *first);
+    int64_t *row_v = malloc((rows + 1) * sizeof *row_v), *row_t = malloc((rows + 1) * sizeof *row_t);
+    float *pos = NULL, *nrm = NULL;
+    int32_t *tri = NULL;
+    hbk_result_t r = HBK_OK;
+    if (!mask || !first || !row_v || !row_t) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+    /* (1) Crossing edges and triangle counts per row. */
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < ez; ++k)
+        for (int32_t j = 0; j < ey; ++j) {
+            int64_t nvr = 0, ntr = 0;
+            for (int32_t i = 0; i < ex; ++i) {
+                const int a = inside(&m, i, j, k);
+                uint8_t b = 0;
+                for (int d = 1; d < 8; ++d) {
+                    const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
+                    if (i1 >= ex || j1 >= ey || k1 >= ez) continue;
+                    if (inside(&m, i1, j1, k1) != a) b |= (uint8_t)(1u << (d - 1));
+                }
+                mask[pidx(&m, i, j, k)] = b;
+                nvr += __builtin_popcount(b);
+                if (i + 1 < ex && j + 1 < ey && k + 1 < ez) {
+                    const int bits = cube_bits(&m, i, j, k);
+                    if (bits && bits != 255) ntr += cube_tris(bits);
+                }
+            }
+            row_v[1 + (size_t)j + (size_t)ey * (size_t)k] = nvr;
+            row_t[1 + (size_t)j + (size_t)ey * (size_t)k] = ntr;
+        }
+    if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto done; }
+    row_v[0] = row_t[0] = 0;
+    for (size_t q = 0; q < rows; ++q) { row_v[q + 1] += row_v[q]; row_t[q + 1] += row_t[q]; }
+    if (row_v[rows] > INT32_MAX / 3 || row_t[rows] > INT32_MAX / 3) {
+        r = hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "surface: more than 700 million triangles");
+        goto done;
+    }
+    const int32_t NV = (int32_t)row_v[rows], NT = (int32_t)row_t[rows];
+    pos = malloc(3 * ((size_t)NV + 1) * sizeof *pos);
+    nrm = malloc(3 * ((size_t)NV + 1) * sizeof *nrm);
+    tri = malloc(3 * ((size_t)NT + 1) * sizeof *tri);
+    if (!pos || !nrm || !tri) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+    /* (2) Edge vertices: position clamped into the box (caps on the walls), normal from the
+     * interpolated field gradient. */
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < ez; ++k)
+        for (int32_t j = 0; j < ey; ++j) {
+            int32_t id = (int32_t)row_v[(size_t)j + (size_t)ey * (size_t)k];
+            for (int32_t i = 0; i < ex; ++i) {
+                const size_t pi = pidx(&m, i, j, k);
+                first[pi] = id;
+                for (int d = 1; d < 8; ++d) {
+                    if (!(mask[pi] >> (d - 1) & 1)) continue;
+                    float x[3], t, g0[3], g1[3];
+                    crossing(&m, i, j, k, d, x, &t);
+                    grad(&m, i, j, k, g0);
+                    grad(&m, i + (d & 1), j + (d >> 1 & 1), k + (d >> 2 & 1), g1);
+                    float n[3], nn = 0.0f;
+                    for (int c = 0; c < 3; ++c) {
+                        const float lo = h->p.box_min[c], hi = h->p.box_max[c];
+                        x[c] = x[c] < lo ? lo : x[c] > hi ? hi : x[c];
+                        n[c] = -(g0[c] + t * (g1[c] - g0[c]));
+                        nn += n[c] * n[c];
+                    }
+                    nn = nn > 0.0f ? 1.0f / sqrtf(nn) : 0.0f;
+                    for (int c = 0; c < 3; ++c) {
+                        pos[3 * (size_t)id + (size_t)c] = x[c];
+                        nrm[3 * (size_t)id + (size_t)c] = n[c] * nn;
+                    }
+                    ++id;
+                }
+            }
+        }
+    if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto done; }
+    /* (3) Triangles, wound so that the normal points from inside to outside. */
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < ez - 1; ++k)
+        for (int32_t j = 0; j < ey - 1; ++j) {
+            size_t out = (size_t)row_t[(size_t)j + (size_t)ey * (size_t)k];
+            for (int32_t i = 0; i < ex - 1; ++i) {
+                const int bits = cube_bits(&m, i, j, k);
+                if (!bits || bits == 255) continue;
+                for (int t = 0; t < 6; ++t) {
+                    int c[4], in = 0;
+                    tet(t, c);
+                    for (int q = 0; q < 4; ++q) in |= (bits >> c[q] & 1) << q;
+                    const int nt = tet_tris(in);
+                    if (!nt) continue;
+                    /* Inside corners first, then outside ones (tetrahedron-local numbers). */
+                    int ins[4], outs[4], ni = 0, no = 0;
+                    for (int q = 0; q < 4; ++q) {
+                        if (in >> q & 1) ins[ni++] = q;
+                        else outs[no++] = q;
+                    }
+                    /* Edge between corners qa and qb: from the lower corner (qa < qb along
+                     * the path) in direction c[qb] - c[qa] (always a 0/1 vector). */
+                    int32_t ev[4][4];
+                    float ep[4][4][3];
+                    for (int a = 0; a < ni; ++a)
+                        for (int b = 0; b < no; ++b) {
+                            int qa = ins[a], qb = outs[b];
+                            if (qa > qb) { int s = qa; qa = qb; qb = s; }
+                            const int d = c[qb] & ~c[qa];
+                            const int32_t pi = i + (c[qa] & 1), pj = j + (c[qa] >> 1 & 1),
+                                          pk = k + (c[qa] >> 2 & 1);
+                            const uint8_t mk = mask[pidx(&m, pi, pj, pk)];
+                            ev[a][b] = first[pidx(&m, pi, pj, pk)] +
+                                       __builtin_popcount(mk & ((1u << (d - 1)) - 1u));
+                            float tt;
+                            crossing(&m, pi, pj, pk, d, ep[a][b], &tt);
+                        }
+                    /* Reference direction: from the inside corners' mean to the outside's. */
+                    float dirv[3] = {0, 0, 0};
+                    for (int q = 0; q < 4; ++q) {
+                        const float sgn = (in >> q & 1) ? -1.0f / (float)ni : 1.0f / (float)no;
+                        dirv[0] += sgn * (float)(c[q] & 1) * h->cell[0];
+                        dirv[1] += sgn * (float)(c[q] >> 1 & 1) * h->cell[1];
+                        dirv[2] += sgn * (float)(c[q] >> 2 & 1) * h->cell[2];
+                    }
+                    int32_t tv[2][3];
+                    const float *tp[2][3];
+                    if (ni == 1) {
+                        for (int b = 0; b < 3; ++b) { tv[0][b] = ev[0][b]; tp[0][b] = ep[0][b]; }
+                    } else if (ni == 3) {
+                        for (int a = 0; a < 3; ++a) { tv[0][a] = ev[a][0]; tp[0][a] = ep[a][0]; }
+                    } else { /* quad a0b0, a0b1, a1b1, a1b0 */
+                        const int qa[4] = {0, 0, 1, 1}, qb[4] = {0, 1, 1, 0};
+                        const int use[2][3] = {{0, 1, 2}, {0, 2, 3}};
+                        for (int s = 0; s < 2; ++s)
+                            for (int q = 0; q < 3; ++q) {
+                                tv[s][q] = ev[qa[use[s][q]]][qb[use[s][q]]];
+                                tp[s][q] = ep[qa[use[s][q]]][qb[use[s][q]]];
+                            }
+                    }
+                    for (int s = 0; s < nt; ++s) {
+                        float e1[3], e2[3], cr[3];
+                        for (int q = 0; q < 3; ++q) {
+                            e1[q] = tp[s][1][q] - tp[s][0][q];
+                            e2[q] = tp[s][2][q] - tp[s][0][q];
+                        }
+                        cr[0] = e1[1] * e2[2] - e1[2] * e2[1];
+                        cr[1] = e1[2] * e2[0] - e1[0] * e2[2];
+                        cr[2] = e1[0] * e2[1] - e1[1] * e2[0];
+                        const int flip = cr[0] * dirv[0] + cr[1] * dirv[1] + cr[2] * dirv[2] < 0.0f;
+                        tri[3 * out] = tv[s][0];
+                        tri[3 * out + 1] = tv[s][flip ? 2 : 1];
+                        tri[3 * out + 2] = tv[s][flip ? 1 : 2];
+                        ++out;
+                    }
+                }
+            }
+        }
+    if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto done; }
+    free(h->mesh_pos); free(h->mesh_nrm); free(h->mesh_tri);
+    h->mesh_pos = pos; h->mesh_nrm = nrm; h->mesh_tri = tri;
+    pos = nrm = NULL;
+    tri = NULL;
+    h->mesh_nv = NV;
+    h->mesh_nt = NT;
+    h->ms[3] = (omp_get_wtime() - t0) * 1e3;
+done:
+    free(mask); free(first); free(row_v); free(row_t);
+    free(pos); free(nrm); free(tri);
+    if (r == HBK_ERR_CANCELLED) return hbk_fail(&h->msg, r, "surface: cancelled");
+    if (r == HBK_ERR_OUT_OF_MEMORY && !h->msg.text[0])
+        return hbk_fail(&h->msg, r, "surface: out of memory");
+    return r;
+}
+
+hbk_result_t hbk_fluid_mesh_counts(hbk_fluid_t *h, int32_t *vertices, int32_t *triangles)
+{
+    if (!h) return HBK_ERR_INVALID_ARGUMENT;
+    hbk_message_clear(&h->msg);
+    if (vertices) *vertices = h->mesh_nv;
+    if (triangles) *triangles = h->mesh_nt;
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32_t *tris,
+                                float *uvw_a, float *uvw_b, float *blend, float *features)
+{
+    if (!h) return HBK_ERR_INVALID_ARGUMENT;
+    hbk_message_clear(&h->msg);
+    const int32_t nv = h->mesh_nv, K = h->K, F = HBK_FLUID_FEATURE_COUNT;
+    if (pos) memcpy(pos, h->mesh_pos, 3 * (size_t)nv * sizeof(float));
+    if (normal) memcpy(normal, h->mesh_nrm, 3 * (size_t)nv * sizeof(float));
+    if (tris) memcpy(tris, h->mesh_tri, 3 * (size_t)h->mesh_nt * sizeof(int32_t));
+    if (!uvw_a && !uvw_b && !blend && !features) return HBK_OK;
+    const int threads = HBK_OMP_THREADS(h);
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t v = 0; v < nv; ++v) {
+        const float *x = h->mesh_pos + 3 * (size_t)v;
+        float g[3];
+        for (int a = 0; a < 3; ++a) g[a] = (x[a] - h->p.box_min[a]) * h->inv_cell[a];
+        hbk_fluid_lerp_t l;
+        hbk_fluid_lerp_at(h, g, &l);
+        if (uvw_a) hbk_fluid_sample_wrapped_l(h, h->v.uvw[0], h->v.wrap[0], &l, uvw_a + 3 * (size_t)v);
+        if (uvw_b) hbk_fluid_sample_wrapped_l(h, h->v.uvw[1], h->v.wrap[1], &l, uvw_b + 3 * (size_t)v);
+        if (blend) {
+            /* Blend of the 8 corners, each already normalised, then trilinear. */
+            float c[8][HBK_FLUID_MAX_TEXTURES], *o = blend + (size_t)K * (size_t)v, s = 0.0f;
+            const size_t sx = 1, sy = (size_t)h->nv[0], sz = sy * (size_t)h->nv[1];
+            const size_t off[8] = {0, sx, sy, sx + sy, sz, sz + sx, sz + sy, sz + sx + sy};
+            for (int q = 0; q < 8; ++q) hbk_fluid_blend_at(h, h->v.base, h->v.paint, h->v.life, l.base + off[q], c[q]);
+            const float *t = l.t;
+            for (int k = 0; k < K; ++k) {
+                const float a = c[0][k] + t[0] * (c[1][k] - c[0][k]), b = c[2][k] + t[0] * (c[3][k] - c[2][k]);
+                const float d = c[4][k] + t[0] * (c[5][k] - c[4][k]), e = c[6][k] + t[0] * (c[7][k] - c[6][k]);
+                const float f = a + t[1] * (b - a), gg = d + t[1] * (e - d);
+                o[k] = f + t[2] * (gg - f);
+                s += o[k];
+            }
+            if (s > 0.0f) for (int k = 0; k < K; ++k) o[k] /= s;
+        }
+        if (features) {
+            float *o = features + (size_t)F * (size_t)v, vm[3];
+            hbk_fluid_sample_field(h, h->features, F, &l, o);
+            hbk_fluid_sample_field(h, h->motion, 3, &l, vm);
+            const float *n = h->mesh_nrm + 3 * (size_t)v;
+            const float vv = sqrtf(vm[0] * vm[0] + vm[1] * vm[1] + vm[2] * vm[2]);
+            float ang = (float)(0.5 * M_PI);
+            if (vv > 0.0f) {
+                float cs = (vm[0] * n[0] + vm[1] * n[1] + vm[2] * n[2]) / vv;
+                cs = cs > 1.0f ? 1.0f : cs < -1.0f ? -1.0f : cs;
+                if (n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f) ang = acosf(cs);
+            }
+            o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang;
+        }
+    }
+    return HBK_OK;
+}

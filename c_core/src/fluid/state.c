@@ -1,0 +1,169 @@
+/* Checkpoints of the fluid handle: a header, then fixed sections in a fixed order. */
+#include "internal_fluid.h"
+#include <stdlib.h>
+#include <string.h>
+
+static const char k_magic[8] = {'H', 'B', 'K', 'F', 'L', 'U', 'I', 'D'};
+enum { STATE_VERSION = 1, STATE_HEADER = 64 };
+
+typedef struct header {
+    char magic[8];
+    uint32_t version;
+    int32_t res[3], textures, max_particles, count, n_obs;
+    int32_t have_fields, paint_active, has_in_vel, has_in_surface;
+    uint64_t frame;
+} header_t;
+_Static_assert(sizeof(header_t) <= STATE_HEADER, "header fits");
+
+typedef struct section { void *p; size_t bytes; } section_t;
+
+/* The sections of a handle, given its particle count and input flags. */
+static int sections(hbk_fluid_t *h, int32_t count, int has_vel, int has_surf, section_t *s)
+{
+    const size_t nv = h->n_vert, nvox = h->n_vox, K = (size_t)h->K, F = HBK_FLUID_FEATURE_COUNT;
+    int n = 0;
+    s[n++] = (section_t){h->pos, 3 * (size_t)count * sizeof(float)};
+    s[n++] = (section_t){h->vel, 3 * (size_t)count * sizeof(float)};
+    s[n++] = (section_t){h->obs, sizeof h->obs};
+    s[n++] = (section_t){h->in_vel, has_vel ? 3 * nv * sizeof(float) : 0};
+    s[n++] = (section_t){h->in_surface, has_surf ? nv * sizeof(float) : 0};
+    s[n++] = (section_t){h->v.uvw[0], 3 * nv * sizeof(float)};
+    s[n++] = (section_t){h->v.uvw[1], 3 * nv * sizeof(float)};
+    s[n++] = (section_t){h->v.wrap[0], nvox};
+    s[n++] = (section_t){h->v.wrap[1], nvox};
+    s[n++] = (section_t){h->v.base, K * nv * sizeof(float)};
+    s[n++] = (section_t){h->v.paint, K * nv * sizeof(float)};
+    s[n++] = (section_t){h->v.life, nv * sizeof(float)};
+    s[n++] = (section_t){h->motion, 3 * nv * sizeof(float)};
+    s[n++] = (section_t){h->density, nv * sizeof(float)};
+    s[n++] = (section_t){h->surface, nv * sizeof(float)};
+    s[n++] = (section_t){h->features, F * nv * sizeof(float)};
+    s[n++] = (section_t){h->rule_on, sizeof h->rule_on};
+    s[n++] = (section_t){h->rule_lo, sizeof h->rule_lo};
+    s[n++] = (section_t){h->rule_hi, sizeof h->rule_hi};
+    return n;
+}
+#define MAX_SECTIONS 24
+
+static size_t total(const section_t *s, int n)
+{
+    size_t t = STATE_HEADER;
+    for (int i = 0; i < n; ++i) t += s[i].bytes;
+    return t;
+}
+
+size_t hbk_fluid_state_size(const hbk_fluid_t *h)
+{
+    if (!h) return 0;
+    section_t s[MAX_SECTIONS];
+    const int n = sections((hbk_fluid_t *)h, h->count, h->in_vel != NULL, h->in_surface != NULL, s);
+    return total(s, n);
+}
+
+hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size)
+{
+    if (!h) return HBK_ERR_INVALID_ARGUMENT;
+    hbk_message_clear(&h->msg);
+    if (!buffer) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "buffer: must not be NULL");
+    section_t s[MAX_SECTIONS];
+    const int n = sections(h, h->count, h->in_vel != NULL, h->in_surface != NULL, s);
+    const size_t need = total(s, n);
+    if (size < need)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "size = %zu: must be >= hbk_fluid_state_size() = %zu", size, need);
+    header_t hd;
+    memset(&hd, 0, sizeof hd);
+    memcpy(hd.magic, k_magic, 8);
+    hd.version = STATE_VERSION;
+    for (int a = 0; a < 3; ++a) hd.res[a] = h->p.resolution[a];
+    hd.textures = h->K;
+    hd.max_particles = h->p.max_particles;
+    hd.count = h->count;
+    hd.n_obs = h->n_obs;
+    hd.have_fields = h->have_fields;
+    hd.paint_active = h->paint_active;
+    hd.has_in_vel = h->in_vel != NULL;
+    hd.has_in_surface = h->in_surface != NULL;
+    hd.frame = h->frame;
+    unsigned char *at = buffer;
+    memset(at, 0, STATE_HEADER);
+    memcpy(at, &hd, sizeof hd);
+    at += STATE_HEADER;
+    for (int i = 0; i < n; ++i) {
+        if (s[i].bytes) memcpy(at, s[i].p, s[i].bytes);
+        at += s[i].bytes;
+    }
+    return HBK_OK;
+}
+
+static int finite_floats(const unsigned char *p, size_t n)
+{
+    for (size_t i = 0; i < n; ++i) {
+        float f;
+        memcpy(&f, p + 4 * i, 4);
+        if (!isfinite(f)) return 0;
+    }
+    return 1;
+}
+
+hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t size)
+{
+    if (!h) return HBK_ERR_INVALID_ARGUMENT;
+    hbk_message_clear(&h->msg);
+    if (!buffer) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "buffer: must not be NULL");
+    header_t hd;
+    if (size < STATE_HEADER) return hbk_fail(&h->msg, HBK_ERR_FORMAT, "buffer: not a fluid state (too short)");
+    memcpy(&hd, buffer, sizeof hd);
+    if (memcmp(hd.magic, k_magic, 8))
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT, "buffer: not a fluid state (bad header)");
+    if (hd.version != STATE_VERSION)
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state version = %u: this library reads %u",
+                        hd.version, (unsigned)STATE_VERSION);
+    for (int a = 0; a < 3; ++a)
+        if (hd.res[a] != h->p.resolution[a])
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                            "state resolution[%d] = %d: must equal the handle's, %d", a, hd.res[a],
+                            h->p.resolution[a]);
+    if (hd.textures != h->K)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "state textures = %d: must equal the handle's, %d", hd.textures, h->K);
+    if (hd.count < 0 || hd.count > h->p.max_particles)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "state particle count = %d: must be in [0, %d] (max_particles)", hd.count,
+                        h->p.max_particles);
+    if (hd.n_obs < 0 || hd.n_obs > HBK_FLUID_MAX_OBSTACLES)
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state obstacle count = %d: invalid", hd.n_obs);
+    section_t s[MAX_SECTIONS];
+    const int n = sections(h, hd.count, hd.has_in_vel != 0, hd.has_in_surface != 0, s);
+    const size_t need = total(s, n);
+    if (size < need)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "size = %zu: this state needs %zu bytes",
+                        size, need);
+    /* Check before changing anything: a NaN would spread through the simulation. */
+    const unsigned char *body = (const unsigned char *)buffer + STATE_HEADER;
+    if (!finite_floats(body, 6 * (size_t)hd.count))
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state particles: not all finite");
+    float *nv_in = NULL, *ns_in = NULL;
+    if (hd.has_in_vel && !h->in_vel && !(nv_in = malloc(s[3].bytes)))
+        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "state: out of memory");
+    if (hd.has_in_surface && !h->in_surface && !(ns_in = malloc(s[4].bytes))) {
+        free(nv_in);
+        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "state: out of memory");
+    }
+    if (nv_in) h->in_vel = nv_in;
+    if (ns_in) h->in_surface = ns_in;
+    if (!hd.has_in_vel) { free(h->in_vel); h->in_vel = NULL; }
+    if (!hd.has_in_surface) { free(h->in_surface); h->in_surface = NULL; }
+    sections(h, hd.count, hd.has_in_vel != 0, hd.has_in_surface != 0, s); /* the new input buffers */
+    const unsigned char *at = body;
+    for (int i = 0; i < n; ++i) {
+        if (s[i].bytes) memcpy(s[i].p, at, s[i].bytes);
+        at += s[i].bytes;
+    }
+    h->count = hd.count;
+    h->n_obs = hd.n_obs;
+    h->have_fields = hd.have_fields;
+    h->paint_active = hd.paint_active;
+    h->frame = hd.frame;
+    return HBK_OK;
+}

@@ -1,0 +1,718 @@
+/* Solid fluid texturing: exact advection of uvw (also across the wrap), still fluid unchanged,
+ * short-way interpolation, normalised blends, SPH density and rest, a closed surface and a
+ * sphere's area and volume, cross-fade weights, determinism, checkpoints, cancel, refusals. */
+#include "test.h"
+#include "fluid/internal_fluid.h"
+#include <float.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+static hbk_fluid_params_t params(int32_t res, int32_t source)
+{
+    hbk_fluid_params_t p;
+    hbk_fluid_params_default(&p);
+    for (int a = 0; a < 3; ++a) p.resolution[a] = res;
+    p.source = source;
+    p.threads = 1;
+    return p;
+}
+
+static hbk_fluid_t *make(const hbk_fluid_params_t *p)
+{
+    hbk_fluid_t *h = NULL;
+    hbk_message_t m;
+    if (hbk_fluid_create(&h, p, &m) != HBK_OK) {
+        fprintf(stderr, "create: %s\n", m.text);
+        return NULL;
+    }
+    return h;
+}
+
+/* Circular distance of two uvw values. */
+static double cdist(double a, double b)
+{
+    double d = fabs(a - b);
+    d -= floor(d);
+    return d < 1.0 - d ? d : 1.0 - d;
+}
+
+static float *volume(hbk_fluid_t *h, int which)
+{
+    size_t n = hbk_fluid_volume_size(h, which);
+    float *v = malloc(n * sizeof *v);
+    if (v && hbk_fluid_get_volume(h, which, v, n) != HBK_OK) { free(v); return NULL; }
+    return v;
+}
+
+static void uniform_grid(hbk_fluid_t *h, const float vel[3])
+{
+    size_t nv = hbk_fluid_grid_vertices(h, NULL);
+    float *v = malloc(3 * nv * sizeof *v);
+    for (size_t i = 0; i < nv; ++i) for (int a = 0; a < 3; ++a) v[3 * i + a] = vel[a];
+    hbk_fluid_set_velocity_grid(h, v, NULL);
+    free(v);
+}
+
+void test_fluid_params_rejects(void)
+{
+    size_t n = 0;
+    const hbk_param_info_t *info = hbk_fluid_params_info(&n);
+    CHECK(n > 20);
+    hbk_message_t m;
+    hbk_fluid_params_t p;
+    hbk_fluid_params_default(&p);
+    CHECK_OK(hbk_fluid_params_check(&p, &m));
+    for (size_t i = 0; i < n; ++i) {
+        /* Above the maximum (or NaN for floats) must be refused, naming the field. */
+        hbk_fluid_params_default(&p);
+        unsigned char *at = (unsigned char *)&p + info[i].offset;
+        if (info[i].type == HBK_PARAM_F32) { float f = NAN; memcpy(at, &f, 4); }
+        else if (info[i].type == HBK_PARAM_U64) continue; /* every seed is valid */
+        else { int32_t v = (int32_t)info[i].max + 1; memcpy(at, &v, 4); }
+        hbk_fluid_t *h = NULL;
+        CHECK(hbk_fluid_create(&h, &p, &m) == HBK_ERR_INVALID_ARGUMENT);
+        CHECK(h == NULL);
+        if (!strstr(m.text, info[i].name)) fprintf(stderr, "message '%s' lacks '%s'\n", m.text, info[i].name);
+        CHECK(strstr(m.text, info[i].name) != NULL);
+    }
+    hbk_fluid_params_default(&p);
+    p.box_max[1] = p.box_min[1];
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "box_max"));
+    hbk_fluid_params_default(&p);
+    p.smoothing_length = 5.0f * p.particle_spacing;
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "smoothing_length"));
+    hbk_fluid_params_default(&p);
+    p.metaball_radius = 0.5f * p.particle_spacing;
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "metaball_radius"));
+    hbk_fluid_params_default(&p);
+    p.default_texture = p.textures;
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "default_texture"));
+    hbk_fluid_params_default(&p);
+    p.size = 4;
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_VERSION);
+    /* Setters and calls refuse by name and change nothing. */
+    p = params(8, HBK_FLUID_SIMULATE);
+    p.max_particles = 10;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const float out_of_box[3] = {0.5f, 2.0f, 0.5f};
+    CHECK(hbk_fluid_set_particles(h, out_of_box, NULL, 1) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "pos[0][1]") && hbk_fluid_particle_count(h) == 0);
+    CHECK(hbk_fluid_set_particles(h, out_of_box, NULL, 11) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "count"));
+    const float c[3] = {0.5f, 0.5f, 0.5f};
+    CHECK(hbk_fluid_paint_sphere(h, 3, c, 0.1f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "texture"));
+    CHECK(hbk_fluid_paint_sphere(h, 0, c, -1.0f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "radius"));
+    float lo[5] = {0, 0, 0, 0, 0}, hi[5] = {1, 1, 1, 1, -1};
+    CHECK(hbk_fluid_set_feature_rule(h, 0, lo, hi) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "hi[4]"));
+    const float lo3[3] = {0, 0, 0}, hi3[3] = {1, 1, 1};
+    CHECK(hbk_fluid_fill_box(h, lo3, hi3, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "max_particles") && hbk_fluid_particle_count(h) == 0);
+    hbk_fluid_obstacle_t ob = {2, {0, 0, 0}, {1, 1, 1}};
+    CHECK(hbk_fluid_set_obstacles(h, &ob, 1) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "obs[0].type"));
+    float one = 0.0f;
+    CHECK(hbk_fluid_get_volume(h, HBK_FLUID_VOL_UVW_A, &one, 1) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h), "count"));
+    CHECK(hbk_noise3d_tileable(&one, 4, 5, 1, 0.5f, 0, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(m.text, "period"));
+    hbk_fluid_destroy(h);
+}
+
+/* Uniform flow along x shifts u by v dt / cell voxels per frame, across the wrap too; v and w
+ * stay bitwise. The rest mapping is u = frac(i cell / tile): with tile = 4 cells it wraps every
+ * 4 vertices. */
+void test_fluid_uniform_flow_shift(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
+    p.reset_period = 0.0f;
+    p.uvw_tile = 4.0f / 16.0f;
+    p.dt = 0.1f;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const double d = 0.3; /* voxels per frame */
+    const float vel[3] = {(float)(d / 16.0 / 0.1), 0.0f, 0.0f};
+    uniform_grid(h, vel);
+    float *u0 = volume(h, HBK_FLUID_VOL_UVW_A);
+    for (int f = 1; f <= 3; ++f) {
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        float *u = volume(h, HBK_FLUID_VOL_UVW_A);
+        double worst = 0.0;
+        int wrapped = 0;
+        for (int k = 0; k <= 16; ++k)
+            for (int j = 0; j <= 16; ++j)
+                for (int i = 0; i <= 16; ++i) {
+                    size_t vi = (size_t)i + 17u * ((size_t)j + 17u * (size_t)k);
+                    CHECK(u[3 * vi + 1] == u0[3 * vi + 1] && u[3 * vi + 2] == u0[3 * vi + 2]);
+                    const double src = i - f * d;
+                    if (i < 2 * f) continue; /* the inflow border reaches one vertex per frame */
+                    const double want = src / 4.0 - floor(src / 4.0);
+                    const double e = cdist(u[3 * vi], want);
+                    worst = e > worst ? e : worst;
+                    wrapped |= floor(src / 4.0) != floor(i / 4.0);
+                }
+        free(u);
+        CHECK(wrapped);
+        if (worst > 2e-6) fprintf(stderr, "frame %d worst %g\n", f, worst);
+        CHECK(worst <= 2e-6);
+    }
+    free(u0);
+    hbk_fluid_destroy(h);
+}
+
+/* Still fluid: nothing moves, bit for bit, also with paint and particles at rest. */
+void test_fluid_zero_flow_bitwise(void)
+{
+    hbk_fluid_params_t p = params(12, HBK_FLUID_PARTICLES);
+    p.reset_period = 0.0f;
+    p.paint_duration = 100.0f;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const float lo[3] = {0.2f, 0.2f, 0.0f}, hi[3] = {0.8f, 0.8f, 0.4f}, c[3] = {0.5f, 0.5f, 0.2f};
+    CHECK_OK(hbk_fluid_fill_box(h, lo, hi, 0.3f));
+    CHECK_OK(hbk_fluid_paint_sphere(h, 1, c, 0.2f, 0.1f));
+    int vols[4] = {HBK_FLUID_VOL_UVW_A, HBK_FLUID_VOL_UVW_B, HBK_FLUID_VOL_BLEND, HBK_FLUID_VOL_WRAP};
+    float *before[4];
+    for (int q = 0; q < 4; ++q) before[q] = volume(h, vols[q]);
+    for (int f = 0; f < 5; ++f) CHECK_OK(hbk_fluid_step(h, NULL));
+    for (int q = 0; q < 4; ++q) {
+        float *after = volume(h, vols[q]);
+        CHECK(!memcmp(before[q], after, hbk_fluid_volume_size(h, vols[q]) * sizeof(float)));
+        free(after);
+        free(before[q]);
+    }
+    hbk_fluid_destroy(h);
+}
+
+/* Fig. 4: 0.9 next to 0.1 interpolates through 0/1, 0.1 next to 0.3 directly. */
+void test_fluid_wrap_short_way(void)
+{
+    hbk_fluid_params_t p = params(4, HBK_FLUID_VELOCITY_GRID);
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const size_t nv = h->n_vert;
+    for (size_t i = 0; i < nv; ++i) {
+        const int x = (int)(i % 5);
+        h->v.uvw[0][3 * i] = x == 0 ? 0.9f : x == 1 ? 0.1f : x == 2 ? 0.3f : x == 3 ? 0.8f : 0.2f;
+        h->v.uvw[0][3 * i + 1] = 0.5f;
+        h->v.uvw[0][3 * i + 2] = 0.5f;
+    }
+    memset(h->v.wrap[0], 0, h->n_vox);
+    const float still[3] = {0, 0, 0};
+    uniform_grid(h, still); /* a still frame re-derives the flags from the corners */
+    CHECK_OK(hbk_fluid_step(h, NULL));
+    float w[3 * 64];
+    CHECK_OK(hbk_fluid_get_volume(h, HBK_FLUID_VOL_WRAP, w, 3 * 64));
+    CHECK(w[0] == 1.0f && w[3] == 0.0f && w[6] == 0.0f && w[9] == 1.0f); /* 0.8 -> 0.2 wraps */
+    CHECK(w[1] == 0.0f && w[2] == 0.0f);
+    float uvw[3];
+    const float mid01[3] = {0.5f / 4.0f, 0.3f, 0.6f}, mid12[3] = {1.5f / 4.0f, 0.3f, 0.6f},
+                q34[3] = {3.25f / 4.0f, 0.1f, 0.1f};
+    CHECK_OK(hbk_fluid_sample_uvw(h, 0, mid01, uvw));
+    CHECK(cdist(uvw[0], 0.0) < 1e-6 && uvw[0] >= 0.0f && uvw[0] < 1.0f);
+    CHECK_NEAR(uvw[1], 0.5, 0.0);
+    CHECK_OK(hbk_fluid_sample_uvw(h, 0, mid12, uvw));
+    CHECK_NEAR(uvw[0], 0.2, 1e-6);
+    CHECK_OK(hbk_fluid_sample_uvw(h, 0, q34, uvw)); /* 0.8 + 0.25 * 0.4 = 0.9 */
+    CHECK_NEAR(uvw[0], 0.9, 1e-6);
+    hbk_fluid_destroy(h);
+}
+
+/* Blend weights sum to one after advection by a swirl, paint strokes, fading and feature
+ * rules, on the grid and on the surface. */
+void test_fluid_blend_normalised(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
+    p.textures = 4;
+    p.paint_duration = 0.1f;
+    p.paint_fade = 0.2f;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    size_t nv = hbk_fluid_grid_vertices(h, NULL);
+    float *vel = malloc(3 * nv * sizeof *vel), *surf = malloc(nv * sizeof *surf);
+    for (size_t i = 0; i < nv; ++i) {
+        const float x = (float)(i % 17) / 16.0f - 0.5f, y = (float)(i / 17 % 17) / 16.0f - 0.5f,
+                    z = (float)(i / 289) / 16.0f - 0.5f;
+        vel[3 * i] = -y * 3.0f; vel[3 * i + 1] = x * 3.0f; vel[3 * i + 2] = 0.2f * x;
+        surf[i] = 1.0f - sqrtf(x * x + y * y + z * z) / 0.4f;
+    }
+    CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
+    const float c1[3] = {0.3f, 0.5f, 0.5f}, c2[3] = {0.6f, 0.4f, 0.5f};
+    CHECK_OK(hbk_fluid_paint_sphere(h, 1, c1, 0.1f, 0.1f));
+    const float lo[5] = {0.5f, -FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
+    const float hi[5] = {FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX};
+    CHECK_OK(hbk_fluid_set_feature_rule(h, 3, lo, hi));
+    for (int f = 0; f < 12; ++f) {
+        if (f == 3) CHECK_OK(hbk_fluid_paint_sphere(h, 2, c2, 0.15f, 0.05f));
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        float *b = volume(h, HBK_FLUID_VOL_BLEND);
+        for (size_t i = 0; i < nv; ++i) {
+            double s = 0.0;
+            for (int t = 0; t < 4; ++t) { CHECK(b[4 * i + t] >= 0.0f && b[4 * i + t] <= 1.0f + 1e-6f); s += b[4 * i + t]; }
+            CHECK_NEAR(s, 1.0, 1e-5);
+        }
+        free(b);
+    }
+    /* The rule's texture owns the dense core; the surface carries normalised blends too. */
+    CHECK_OK(hbk_fluid_update_surface(h, NULL));
+    int32_t mv = 0, mt = 0;
+    CHECK_OK(hbk_fluid_mesh_counts(h, &mv, &mt));
+    CHECK(mv > 100);
+    float *mb = malloc((size_t)mv * 4 * sizeof *mb);
+    CHECK_OK(hbk_fluid_get_mesh(h, NULL, NULL, NULL, NULL, NULL, mb, NULL));
+    for (int32_t i = 0; i < mv; ++i) CHECK_NEAR(mb[4 * i] + mb[4 * i + 1] + mb[4 * i + 2] + mb[4 * i + 3], 1.0, 1e-5);
+    free(mb);
+    float *b = volume(h, HBK_FLUID_VOL_BLEND);
+    const size_t centre = 8 + 17 * (8 + 17 * 8);
+    CHECK(b[4 * centre + 3] == 1.0f);
+    free(b);
+    free(vel);
+    free(surf);
+    hbk_fluid_destroy(h);
+}
+
+/* Poly6 kernel sum in double, the analytic reference. */
+static double lattice_kernel_sum(double s, double H, double ox, double oy, double oz)
+{
+    double sum = 0.0;
+    for (int k = -6; k <= 6; ++k)
+        for (int j = -6; j <= 6; ++j)
+            for (int i = -6; i <= 6; ++i) {
+                const double x = i * s + ox, y = j * s + oy, z = k * s + oz, r2 = x * x + y * y + z * z;
+                if (r2 < H * H) sum += 315.0 / (64.0 * M_PI * pow(H, 9)) * pow(H * H - r2, 3);
+            }
+    return sum;
+}
+
+/* Particles on a lattice: the density at interior vertices equals m sum W (and rest density
+ * where the vertices sit on particles); at rest its rate and the acceleration are zero. */
+void test_fluid_density_lattice(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_PARTICLES);
+    p.particle_spacing = 1.0f / 16.0f;
+    p.smoothing_length = 2.0f / 16.0f;
+    p.metaball_radius = 2.0f / 16.0f;
+    p.max_particles = 17 * 17 * 17;
+    const double s = 1.0 / 16.0, H = 2.0 / 16.0;
+    const double mass = 1000.0 / lattice_kernel_sum(s, H, 0, 0, 0);
+    for (int shifted = 0; shifted < 2; ++shifted) {
+        hbk_fluid_t *h = make(&p);
+        CHECK(h);
+        const int n = shifted ? 16 : 17;
+        float *pos = malloc(3 * (size_t)n * n * n * sizeof *pos);
+        int q = 0;
+        for (int k = 0; k < n; ++k)
+            for (int j = 0; j < n; ++j)
+                for (int i = 0; i < n; ++i, ++q) {
+                    pos[3 * q] = (float)((i + 0.5 * shifted) * s);
+                    pos[3 * q + 1] = (float)((j + 0.5 * shifted) * s);
+                    pos[3 * q + 2] = (float)((k + 0.5 * shifted) * s);
+                }
+        CHECK_OK(hbk_fluid_set_particles(h, pos, NULL, q));
+        CHECK_OK(hbk_fluid_update_fields(h));
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        float *d = volume(h, HBK_FLUID_VOL_DENSITY), *f = volume(h, HBK_FLUID_VOL_FEATURES);
+        const double want = mass * lattice_kernel_sum(s, H, 0.5 * s * shifted, 0.5 * s * shifted,
+                                                      0.5 * s * shifted);
+        if (!shifted) CHECK_NEAR(want, 1000.0, 1e-9);
+        for (int k = 3; k <= 13; ++k)
+            for (int j = 3; j <= 13; ++j)
+                for (int i = 3; i <= 13; ++i) {
+                    const size_t vi = (size_t)i + 17u * ((size_t)j + 17u * (size_t)k);
+                    CHECK_NEAR(d[vi], want, 1e-4 * want);
+                    CHECK(f[5 * vi + HBK_FLUID_FEATURE_DENSITY_RATE] == 0.0f);
+                    CHECK(f[5 * vi + HBK_FLUID_FEATURE_ACCELERATION] == 0.0f);
+                    CHECK(f[5 * vi + HBK_FLUID_FEATURE_DIVERGENCE] == 0.0f);
+                }
+        free(d);
+        free(f);
+        free(pos);
+        hbk_fluid_destroy(h);
+    }
+}
+
+static double max_speed(hbk_fluid_t *h, float *vel)
+{
+    const int32_t n = hbk_fluid_particle_count(h);
+    hbk_fluid_get_particles(h, NULL, vel, n);
+    double m = 0.0;
+    for (int32_t i = 0; i < n; ++i) {
+        const double v = sqrt(vel[3 * i] * vel[3 * i] + vel[3 * i + 1] * vel[3 * i + 1] + vel[3 * i + 2] * vel[3 * i + 2]);
+        m = v > m ? v : m;
+    }
+    return m;
+}
+
+/* Two and three particles closer than the rest spacing, far from the walls: the pressure pushes
+ * them apart, pairwise equal and opposite (zero total momentum). With h = one spacing a lone
+ * particle is exactly at rest density, so any closer neighbour raises the pressure. */
+static void sph_push_apart(int n)
+{
+    hbk_fluid_params_t p = params(8, HBK_FLUID_SIMULATE);
+    p.particle_spacing = p.smoothing_length = 0.02f;
+    p.metaball_radius = 0.02f;
+    p.gravity[2] = 0.0f;
+    p.viscosity = 0.0f;
+    p.substeps = 1;
+    p.dt = 1e-4f;
+    p.max_particles = 3;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const float pos[9] = {0.5f, 0.5f, 0.5f, 0.512f, 0.5f, 0.5f, 0.506f, 0.51f, 0.503f};
+    CHECK_OK(hbk_fluid_set_particles(h, pos, NULL, n));
+    CHECK_OK(hbk_fluid_step(h, NULL));
+    float v[9];
+    CHECK_OK(hbk_fluid_get_particles(h, NULL, v, n));
+    double c[3] = {0, 0, 0}, sum[3] = {0, 0, 0}, vmax = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) {
+            c[a] += pos[3 * i + a] / n;
+            sum[a] += v[3 * i + a];
+            vmax = fmax(vmax, fabs(v[3 * i + a]));
+        }
+    CHECK(vmax > 1e-4);
+    for (int a = 0; a < 3; ++a) CHECK(fabs(sum[a]) <= 1e-5 * vmax);
+    for (int i = 0; i < n; ++i) {
+        double out = 0.0;
+        for (int a = 0; a < 3; ++a) out += (pos[3 * i + a] - c[a]) * v[3 * i + a];
+        CHECK(out > 0.0);
+    }
+    hbk_fluid_destroy(h);
+}
+
+/* A column settled under gravity stays still, and no particle leaves the box. */
+void test_fluid_sph_rest(void)
+{
+    sph_push_apart(2);
+    sph_push_apart(3);
+
+    hbk_fluid_params_t p = params(8, HBK_FLUID_SIMULATE);
+    p.box_max[0] = p.box_max[1] = 0.2f;
+    p.box_max[2] = 0.4f;
+    p.max_particles = 2000;
+    p.damping = 5.0f;
+    hbk_fluid_t *settle = make(&p);
+    CHECK(settle);
+    const float lo[3] = {0, 0, 0}, hi[3] = {0.2f, 0.2f, 0.2f};
+    CHECK_OK(hbk_fluid_fill_box(settle, lo, hi, 0.0f));
+    const int32_t n = hbk_fluid_particle_count(settle);
+    CHECK(n == 1000);
+    for (int f = 0; f < 48; ++f) CHECK_OK(hbk_fluid_step(settle, NULL));
+    size_t sz = hbk_fluid_state_size(settle);
+    void *buf = malloc(sz);
+    CHECK_OK(hbk_fluid_save_state(settle, buf, sz));
+    p.damping = 0.0f; /* now real fluid: it must stay at rest by itself */
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    CHECK_OK(hbk_fluid_load_state(h, buf, sz));
+    float *pos0 = malloc(3 * (size_t)n * sizeof *pos0), *pos = malloc(3 * (size_t)n * sizeof *pos),
+          *vel = malloc(3 * (size_t)n * sizeof *vel);
+    CHECK_OK(hbk_fluid_get_particles(h, pos0, NULL, n));
+    double worst_v = 0.0;
+    for (int f = 0; f < 48; ++f) {
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        const double v = max_speed(h, vel);
+        worst_v = v > worst_v ? v : worst_v;
+        CHECK_OK(hbk_fluid_get_particles(h, pos, NULL, n));
+        for (int32_t i = 0; i < n; ++i)
+            for (int a = 0; a < 3; ++a)
+                CHECK(pos[3 * i + a] >= p.box_min[a] && pos[3 * i + a] <= p.box_max[a]);
+    }
+    double worst_d = 0.0;
+    for (int32_t i = 0; i < 3 * n; ++i) worst_d = fmax(worst_d, fabs(pos[i] - pos0[i]));
+    fprintf(stderr, "sph_rest: max speed %.4g m/s, max drift %.4g m over 2 s\n", worst_v, worst_d);
+    CHECK(worst_v < 0.05);
+    /* Not 0.25 spacing: a free surface has no shear stiffness, so its particles creep into the
+     * hollows of the settled lattice at the speeds allowed above (~0.8 spacing in 2 s). */
+    CHECK(worst_d < 1.0 * p.particle_spacing);
+    free(pos0); free(pos); free(vel); free(buf);
+    hbk_fluid_destroy(settle);
+    hbk_fluid_destroy(h);
+}
+
+static int cmp(const void *x, const void *y)
+{
+    const uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
+    return a < b ? -1 : a > b;
+}
+
+/* Every edge in exactly two triangles, once in each direction (consistent winding). */
+static int watertight(const int32_t *tri, int32_t nt, int32_t nv)
+{
+    /* Sort directed edges as 64-bit keys. */
+    size_t ne = 3 * (size_t)nt;
+    uint64_t *e = malloc(ne * sizeof *e);
+    for (int32_t t = 0; t < nt; ++t)
+        for (int k = 0; k < 3; ++k) {
+            uint32_t a = (uint32_t)tri[3 * t + k], b = (uint32_t)tri[3 * t + (k + 1) % 3];
+            if (a >= (uint32_t)nv || b >= (uint32_t)nv || a == b) { free(e); return 0; }
+            e[3 * (size_t)t + k] = (uint64_t)a << 32 | b;
+        }
+    qsort(e, ne, sizeof *e, cmp);
+    int ok = 1;
+    for (size_t i = 0; i < ne && ok; ++i) {
+        if (i + 1 < ne && e[i] == e[i + 1]) ok = 0; /* same direction twice */
+        const uint64_t rev = (e[i] & 0xffffffffu) << 32 | e[i] >> 32;
+        if (!bsearch(&rev, e, ne, sizeof *e, cmp)) ok = 0;
+    }
+    free(e);
+    return ok;
+}
+
+/* A closed blob of random particles, one touching the box floor: closed surfaces. */
+void test_fluid_mc_closed(void)
+{
+    hbk_fluid_params_t p = params(24, HBK_FLUID_PARTICLES);
+    p.max_particles = 600;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    float pos[3 * 600];
+    for (int i = 0; i < 600; ++i) {
+        float r[3];
+        hbk_rng_fill_uniform(7, 1, (uint64_t)i, r, 3);
+        const int wall = i >= 400;
+        pos[3 * i] = wall ? 0.2f + 0.2f * r[0] : 0.35f + 0.3f * r[0];
+        pos[3 * i + 1] = wall ? 0.2f + 0.2f * r[1] : 0.4f + 0.25f * r[1];
+        pos[3 * i + 2] = wall ? 0.01f + 0.1f * r[2] : 0.45f + 0.3f * r[2];
+    }
+    CHECK_OK(hbk_fluid_set_particles(h, pos, NULL, 600));
+    CHECK_OK(hbk_fluid_update_fields(h));
+    CHECK_OK(hbk_fluid_update_surface(h, NULL));
+    int32_t nv = 0, nt = 0;
+    CHECK_OK(hbk_fluid_mesh_counts(h, &nv, &nt));
+    CHECK(nt > 200);
+    int32_t *tri = malloc(3 * (size_t)nt * sizeof *tri);
+    float *mp = malloc(3 * (size_t)nv * sizeof *mp);
+    CHECK_OK(hbk_fluid_get_mesh(h, mp, NULL, tri, NULL, NULL, NULL, NULL));
+    CHECK(watertight(tri, nt, nv));
+    float zmin = 1.0f;
+    for (int32_t i = 0; i < nv; ++i) zmin = mp[3 * i + 2] < zmin ? mp[3 * i + 2] : zmin;
+    CHECK(zmin == 0.0f); /* capped on the floor */
+    free(tri);
+    free(mp);
+    hbk_fluid_destroy(h);
+}
+
+/* A sphere of radius R from a smooth field: area, volume and normals near analytic. */
+void test_fluid_mc_sphere(void)
+{
+    hbk_fluid_params_t p = params(48, HBK_FLUID_VELOCITY_GRID);
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const double R = 0.3;
+    size_t nvg = hbk_fluid_grid_vertices(h, NULL);
+    float *vel = calloc(3 * nvg, sizeof *vel), *surf = malloc(nvg * sizeof *surf);
+    for (size_t i = 0; i < nvg; ++i) {
+        const double x = (double)(i % 49) / 48 - 0.5, y = (double)(i / 49 % 49) / 48 - 0.5,
+                     z = (double)(i / (49 * 49)) / 48 - 0.5;
+        surf[i] = (float)(0.5 + 0.5 * (R - sqrt(x * x + y * y + z * z)) / R);
+    }
+    CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
+    CHECK_OK(hbk_fluid_update_fields(h));
+    CHECK_OK(hbk_fluid_update_surface(h, NULL));
+    int32_t nv = 0, nt = 0;
+    CHECK_OK(hbk_fluid_mesh_counts(h, &nv, &nt));
+    int32_t *tri = malloc(3 * (size_t)nt * sizeof *tri);
+    float *mp = malloc(3 * (size_t)nv * sizeof *mp), *mn = malloc(3 * (size_t)nv * sizeof *mn);
+    CHECK_OK(hbk_fluid_get_mesh(h, mp, mn, tri, NULL, NULL, NULL, NULL));
+    CHECK(watertight(tri, nt, nv));
+    double area = 0.0, vol = 0.0;
+    for (int32_t t = 0; t < nt; ++t) {
+        const float *a = mp + 3 * tri[3 * t], *b = mp + 3 * tri[3 * t + 1], *c = mp + 3 * tri[3 * t + 2];
+        double u[3], v[3], w[3], cr[3];
+        for (int k = 0; k < 3; ++k) { u[k] = b[k] - a[k]; v[k] = c[k] - a[k]; w[k] = a[k] - 0.5; }
+        cr[0] = u[1] * v[2] - u[2] * v[1]; cr[1] = u[2] * v[0] - u[0] * v[2]; cr[2] = u[0] * v[1] - u[1] * v[0];
+        area += 0.5 * sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+        vol += (w[0] * cr[0] + w[1] * cr[1] + w[2] * cr[2]) / 6.0;
+    }
+    fprintf(stderr, "mc_sphere: area %.5f (%.5f), volume %.5f (%.5f), %d triangles\n", area,
+            4 * M_PI * R * R, vol, 4.0 / 3.0 * M_PI * R * R * R, nt);
+    CHECK_NEAR(vol, 4.0 / 3.0 * M_PI * R * R * R, 0.01 * 4.0 / 3.0 * M_PI * R * R * R);
+    CHECK_NEAR(area, 4 * M_PI * R * R, 0.03 * 4 * M_PI * R * R);
+    for (int32_t i = 0; i < nv; ++i) {
+        double r[3], rr = 0, dot = 0;
+        for (int k = 0; k < 3; ++k) { r[k] = mp[3 * i + k] - 0.5; rr += r[k] * r[k]; }
+        for (int k = 0; k < 3; ++k) dot += r[k] / sqrt(rr) * mn[3 * i + k];
+        CHECK(dot > 0.995);
+    }
+    free(tri); free(mp); free(mn); free(vel); free(surf);
+    hbk_fluid_destroy(h);
+}
+
+/* The two uvw fields' weights sum to one; each is invisible when reset; a reset restores the
+ * rest mapping. */
+void test_fluid_crossfade(void)
+{
+    hbk_fluid_params_t p = params(8, HBK_FLUID_VELOCITY_GRID);
+    p.dt = 0.1f;
+    p.reset_period = 0.8f; /* 8 frames */
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const float vel[3] = {0.05f, 0.02f, 0.0f};
+    uniform_grid(h, vel);
+    float *rest = volume(h, HBK_FLUID_VOL_UVW_A);
+    for (int f = 1; f <= 16; ++f) {
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        const float wa = hbk_fluid_uvw_weight(h), wb = 1.0f - wa;
+        CHECK(wa >= 0.0f && wa <= 1.0f);
+        CHECK_NEAR(wa + wb, 1.0, 0.0);
+        if (f % 8 == 0 || f % 8 == 4) {
+            float *u = volume(h, f % 8 == 0 ? HBK_FLUID_VOL_UVW_A : HBK_FLUID_VOL_UVW_B);
+            CHECK(!memcmp(u, rest, hbk_fluid_volume_size(h, HBK_FLUID_VOL_UVW_A) * sizeof(float)));
+            CHECK(f % 8 == 0 ? wa == 0.0f : wa == 1.0f);
+            free(u);
+        } else {
+            CHECK(wa > 0.0f && wa < 1.0f);
+        }
+    }
+    free(rest);
+    hbk_fluid_destroy(h);
+}
+
+/* A full scene: SPH with obstacles, paint, rules and the surface. */
+static hbk_fluid_t *scene(int threads)
+{
+    hbk_fluid_params_t p = params(24, HBK_FLUID_SIMULATE);
+    p.threads = threads;
+    p.max_particles = 4000;
+    p.substeps = 10;
+    p.seed = 1234;
+    p.reset_period = 0.25f;
+    hbk_fluid_t *h = make(&p);
+    if (!h) return NULL;
+    const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.3f, 0.3f, 0.3f}, c[3] = {0.15f, 0.15f, 0.2f};
+    if (hbk_fluid_fill_box(h, lo, hi, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
+    const hbk_fluid_obstacle_t obs[2] = {{0, {0.5f, 0.5f, 0.1f}, {0.1f, 0, 0}},
+                                         {1, {0.7f, 0.3f, 0.1f}, {0.1f, 0.05f, 0.1f}}};
+    hbk_fluid_set_obstacles(h, obs, 2);
+    hbk_fluid_paint_sphere(h, 1, c, 0.1f, 0.05f);
+    const float rlo[5] = {-FLT_MAX, -FLT_MAX, 0.0f, 1.0f, -FLT_MAX};
+    const float rhi[5] = {FLT_MAX, FLT_MAX, 1.0f, FLT_MAX, FLT_MAX};
+    hbk_fluid_set_feature_rule(h, 2, rlo, rhi);
+    return h;
+}
+
+static unsigned char *snapshot(hbk_fluid_t *h, size_t *size)
+{
+    *size = hbk_fluid_state_size(h);
+    unsigned char *b = malloc(*size);
+    if (hbk_fluid_save_state(h, b, *size) != HBK_OK) { free(b); return NULL; }
+    return b;
+}
+
+void test_fluid_threads_identical(void)
+{
+    hbk_fluid_t *a = scene(1), *b = scene(2);
+    CHECK(a && b);
+    for (int f = 0; f < 4; ++f) {
+        CHECK_OK(hbk_fluid_step(a, NULL));
+        CHECK_OK(hbk_fluid_step(b, NULL));
+    }
+    size_t sa, sb;
+    unsigned char *xa = snapshot(a, &sa), *xb = snapshot(b, &sb);
+    CHECK(sa == sb && !memcmp(xa, xb, sa));
+    CHECK_OK(hbk_fluid_update_surface(a, NULL));
+    CHECK_OK(hbk_fluid_update_surface(b, NULL));
+    int32_t va, ta, vb, tb;
+    hbk_fluid_mesh_counts(a, &va, &ta);
+    hbk_fluid_mesh_counts(b, &vb, &tb);
+    CHECK(va == vb && ta == tb && ta > 0);
+    float *pa = malloc((size_t)va * 16 * sizeof(float)), *pb = malloc((size_t)va * 16 * sizeof(float));
+    int32_t *ia = malloc((size_t)ta * 3 * sizeof(int32_t)), *ib = malloc((size_t)ta * 3 * sizeof(int32_t));
+    CHECK_OK(hbk_fluid_get_mesh(a, pa, pa + 3 * va, ia, pa + 6 * va, pa + 9 * va, pa + 12 * va, NULL));
+    CHECK_OK(hbk_fluid_get_mesh(b, pb, pb + 3 * va, ib, pb + 6 * va, pb + 9 * va, pb + 12 * va, NULL));
+    CHECK(!memcmp(pa, pb, (size_t)va * 15 * sizeof(float)) && !memcmp(ia, ib, (size_t)ta * 3 * sizeof(int32_t)));
+    CHECK(watertight(ia, ta, va));
+    free(pa); free(pb); free(ia); free(ib); free(xa); free(xb);
+    hbk_fluid_destroy(a);
+    hbk_fluid_destroy(b);
+}
+
+void test_fluid_state_roundtrip(void)
+{
+    hbk_fluid_t *a = scene(2), *b = scene(2);
+    CHECK(a && b);
+    for (int f = 0; f < 2; ++f) CHECK_OK(hbk_fluid_step(a, NULL));
+    size_t s0;
+    unsigned char *x0 = snapshot(a, &s0);
+    for (int f = 0; f < 3; ++f) CHECK_OK(hbk_fluid_step(a, NULL));
+    CHECK_OK(hbk_fluid_load_state(b, x0, s0));
+    for (int f = 0; f < 3; ++f) CHECK_OK(hbk_fluid_step(b, NULL));
+    size_t sa, sb;
+    unsigned char *xa = snapshot(a, &sa), *xb = snapshot(b, &sb);
+    CHECK(sa == sb && !memcmp(xa, xb, sa));
+    /* Refusals leave the handle as it was. */
+    x0[0] = 'X';
+    CHECK(hbk_fluid_load_state(b, x0, s0) == HBK_ERR_FORMAT);
+    x0[0] = 'H';
+    CHECK(hbk_fluid_load_state(b, x0, s0 - 1) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(b), "size"));
+    float nan = NAN;
+    memcpy(x0 + 64, &nan, 4);
+    CHECK(hbk_fluid_load_state(b, x0, s0) == HBK_ERR_FORMAT);
+    unsigned char *xc = snapshot(b, &sb);
+    CHECK(!memcmp(xa, xc, sa));
+    free(x0); free(xa); free(xb); free(xc);
+    hbk_fluid_destroy(a);
+    hbk_fluid_destroy(b);
+}
+
+void test_fluid_cancel(void)
+{
+    hbk_fluid_t *h = scene(2);
+    CHECK(h);
+    CHECK_OK(hbk_fluid_step(h, NULL));
+    CHECK_OK(hbk_fluid_update_surface(h, NULL));
+    int32_t v0, t0, v1, t1;
+    hbk_fluid_mesh_counts(h, &v0, &t0);
+    size_t s0, s1;
+    unsigned char *x0 = snapshot(h, &s0);
+    hbk_progress_t pr = {1, 0.0f};
+    CHECK(hbk_fluid_step(h, &pr) == HBK_ERR_CANCELLED);
+    CHECK(strstr(hbk_fluid_message(h), "cancel"));
+    CHECK(hbk_fluid_update_surface(h, &pr) == HBK_ERR_CANCELLED);
+    hbk_fluid_mesh_counts(h, &v1, &t1);
+    CHECK(v0 == v1 && t0 == t1);
+    unsigned char *x1 = snapshot(h, &s1);
+    CHECK(s0 == s1 && !memcmp(x0, x1, s0));
+    CHECK(hbk_fluid_frame(h) == 1);
+    free(x0); free(x1);
+    hbk_fluid_destroy(h);
+}
+
+/* The noise repeats with period 1 exactly, fills [0, 1], and depends only on the seed. */
+void test_fluid_noise_tileable(void)
+{
+    const float pts[4][3] = {{0.1f, 0.2f, 0.3f}, {0.7f, 0.05f, 0.9f}, {0.5f, 0.5f, 0.5f}, {0.0f, 0.99f, 0.25f}};
+    for (int i = 0; i < 4; ++i) {
+        const float a = hbk_noise3d_sample(pts[i][0], pts[i][1], pts[i][2], 4, 3, 0.5f, 9);
+        const float b = hbk_noise3d_sample(pts[i][0] + 1.0f, pts[i][1] - 2.0f, pts[i][2] + 3.0f, 4, 3, 0.5f, 9);
+        CHECK_NEAR(a, b, 1e-6);
+    }
+    const int S = 16;
+    float *t = malloc((size_t)S * S * S * sizeof *t), *u = malloc((size_t)S * S * S * sizeof *u);
+    hbk_message_t m;
+    CHECK_OK(hbk_noise3d_tileable(t, S, 4, 3, 0.5f, 9, &m));
+    CHECK_OK(hbk_noise3d_tileable(u, S, 4, 3, 0.5f, 10, &m));
+    double mean = 0.0, lo = 1.0, hi = 0.0, seam = 0.0, inner = 0.0;
+    int differ = 0;
+    for (int i = 0; i < S * S * S; ++i) {
+        mean += t[i]; lo = fmin(lo, t[i]); hi = fmax(hi, t[i]);
+        differ |= t[i] != u[i];
+    }
+    mean /= S * S * S;
+    /* Across the tile border (x = S-1 -> 0) the noise changes no more than inside. */
+    for (int k = 0; k < S; ++k)
+        for (int j = 0; j < S; ++j) {
+            seam += fabs(t[(j + S * k) * S] - t[(j + S * k) * S + S - 1]);
+            inner += fabs(t[(j + S * k) * S + 8] - t[(j + S * k) * S + 7]);
+        }
+    CHECK(differ && lo >= 0.0 && hi <= 1.0 && hi - lo > 0.3 && fabs(mean - 0.5) < 0.1);
+    CHECK(seam < 2.0 * inner);
+    free(t);
+    free(u);
+}
