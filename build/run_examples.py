@@ -53,12 +53,15 @@ for scene in bpy.data.scenes:
         scene.cycles.samples = args.samples
     if args.resolution:
         render.resolution_percentage = args.resolution
-    still = scene.get("hydrobake_still_frame", scene.frame_current)
-    scene.frame_set(int(still))
+    still = int(scene.get("hydrobake_still_frame", scene.frame_current))
     render.filepath = os.path.join(os.path.abspath(args.out), f"{bpy.path.clean_name(scene.name)}.png")
     render.image_settings.file_format = "PNG"
     t0 = time.monotonic()
-    bpy.ops.render.render(write_still=True, scene=scene.name)
+    # Render with this scene as the context scene: otherwise the render re-evaluates at the
+    # context scene's frame and frame handlers (baked meshes, flakes) load the wrong frame.
+    with bpy.context.temp_override(scene=scene):
+        scene.frame_set(still)
+        bpy.ops.render.render(write_still=True, scene=scene.name)
     print(f"run_examples: rendered {render.filepath} in {time.monotonic() - t0:.1f}s", flush=True)
 bpy.ops.wm.save_mainfile()
 sys.exit(1 if failed else 0)

@@ -25,7 +25,8 @@ def test_examples_match_the_golden_set(blender, tmp_path):
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
     assert "0 regressions" in r.stdout
     rep = json.loads((report / "report.json").read_text())
-    assert rep["passed"] and len(rep["files"]) == 2 * (4 + 2 * 3 + 3)  # caustics, snow x 3, rain
+    # Per frame: caustics 4 files, snow 3 objects x 2, rain 3, fluid 2.
+    assert rep["passed"] and len(rep["files"]) == 2 * (4 + 3 * 2 + 3 + 2)
 
 
 def test_a_changed_setting_is_caught(blender, tmp_path):

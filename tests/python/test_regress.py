@@ -89,3 +89,16 @@ def test_vdb_grids_compare_voxels_and_values(tmp_path):
     ch = rep["files"][0]["channels"]["density"]
     assert ch["voxels"] == 27 and ch["voxel_delta"] == 0 and ch["max_abs"] == 0.5
     assert not rep["passed"]
+
+
+def test_empty_vdb_grids_compare_cleanly(tmp_path):
+    for name in ("golden", "new"):
+        folder = tmp_path / name / "b"
+        folder.mkdir(parents=True)
+        vdb.write(str(folder / "fluid_0001.vdb"), [dict(name="density",
+                                                        array=np.zeros((4, 4, 4), np.float32))])
+        c = BakeCache(folder)
+        m = c.start({"effect": "fluid", "streams": ["fluid"]})
+        c.add_frame(m, 1, ["fluid_0001.vdb"])
+    rep = regress.compare(tmp_path / "new", tmp_path / "golden")
+    assert rep["passed"] and rep["files"][0]["channels"]["density"]["voxels"] == 0

@@ -49,11 +49,19 @@ def property_for(p):
                                        precision=4, **rng, **common)
     if p.type == P.BOOL:
         return bpy.props.BoolProperty(default=bool(p.default), **common)
+    if p.type == P.ENUM and p.count > 1:  # Blender has no enum arrays: indices, listed
+        return bpy.props.IntVectorProperty(
+            size=p.count, min=0, max=len(p.items) - 1, default=tuple(int(v) for v in p.default),
+            name=common["name"], description=common["description"] + ". Values: " + ", ".join(
+                f"{i} = {it}" for i, it in enumerate(p.items)))
     if p.type == P.ENUM:
         items = [(it.upper().replace(" ", "_"), it, "") for it in p.items]
         return bpy.props.EnumProperty(items=items, default=items[int(p.default)][0], **common)
     # I32 / U64: Blender ints are 32-bit signed, so u64 seeds are offered in [0, 2^31).
     lo, hi = max(p.min, -2**31), min(p.max, 2**31 - 1)
+    if p.count > 1:
+        return bpy.props.IntVectorProperty(size=p.count, min=int(lo), max=int(hi),
+                                           default=tuple(int(v) for v in p.default), **common)
     return bpy.props.IntProperty(default=int(min(max(p.default, lo), hi)), min=int(lo),
                                  max=int(hi), **common)
 
@@ -64,7 +72,7 @@ def _group_to_dict(spec, pg):
         if p.name in HIDDEN:
             continue
         v = getattr(pg, p.name)
-        if p.type == P.ENUM:
+        if p.type == P.ENUM and p.count == 1:
             v = [it.upper().replace(" ", "_") for it in p.items].index(v)
         elif p.count > 1:
             v = tuple(v)
@@ -85,7 +93,7 @@ def from_params(groups, settings, values):
             p = spec.by_name.get(name)
             if p is None or name in HIDDEN:
                 continue
-            if p.type == P.ENUM and isinstance(v, int):
+            if p.type == P.ENUM and p.count == 1 and isinstance(v, int):
                 v = p.items[v].upper().replace(" ", "_")
             setattr(pg, name, v)
 

@@ -89,20 +89,21 @@ def compare_vdb(new_path, golden_path):
             out[name] = {"error": f"grid {name} only in {'golden' if name in b else 'new'}"}
             continue
         ga, gb = a[name], b[name]
-        lo = [min(x, y) for x, y in zip(ga.evalActiveVoxelBoundingBox()[0],
-                                        gb.evalActiveVoxelBoundingBox()[0])]
-        hi = [max(x, y) for x, y in zip(ga.evalActiveVoxelBoundingBox()[1],
-                                        gb.evalActiveVoxelBoundingBox()[1])]
-        shape = tuple(h - l + 1 for l, h in zip(lo, hi))
+        boxes = [g.evalActiveVoxelBoundingBox() for g in (ga, gb) if g.activeVoxelCount()]
         vec = ga.valueTypeName.startswith("vec3")
+        if not boxes:  # both empty
+            out[name] = {"max_abs": 0.0, "mean_abs": 0.0, "voxels": 0, "voxel_delta": 0}
+            continue
+        lo = [min(bx[0][i] for bx in boxes) for i in range(3)]
+        hi = [max(bx[1][i] for bx in boxes) for i in range(3)]
+        shape = tuple(h - l + 1 for l, h in zip(lo, hi))
         arrs = []
         for g in (ga, gb):
             arr = np.zeros(shape + ((3,) if vec else ()), np.float32)
-            if all(s > 0 for s in shape):
+            if g.activeVoxelCount():
                 g.copyToArray(arr, ijk=tuple(lo))
             arrs.append(arr)
-        m = image_metrics(arrs[0], arrs[1]) if arrs[0].size else {"max_abs": 0.0,
-                                                                    "mean_abs": 0.0}
+        m = image_metrics(arrs[0], arrs[1])
         m["voxels"] = int(ga.activeVoxelCount())
         m["voxel_delta"] = int(ga.activeVoxelCount()) - int(gb.activeVoxelCount())
         out[name] = m

@@ -2,7 +2,7 @@
 back into materials and objects. Each module defines one BlenderEffect subclass."""
 from ...core import effects as core_effects
 
-_MODULES = ("caustics", "snow", "rain")
+_MODULES = ("caustics", "snow", "rain", "fluid")
 BLENDER_EFFECTS = {}
 
 

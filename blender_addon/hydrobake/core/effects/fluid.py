@@ -87,7 +87,10 @@ class FluidEffect(Effect):
             blend = blend[..., None]
         grids += [dict(name=f"blend_{k}", array=np.ascontiguousarray(blend[..., k]), **common)
                   for k in range(blend.shape[3])]
-        return {"fluid": ("vdb", grids, {}), "surface": ("npz", dict(self.mesh), {})}
+        mesh = dict(self.mesh)
+        # The cross-fade weight of uvw A, per vertex so a shader can read it as an attribute.
+        mesh["uvw_weight"] = np.full(len(mesh["positions"]), weight, np.float32)
+        return {"fluid": ("vdb", grids, {}), "surface": ("npz", mesh, {})}
 
     def save_state(self):
         return self.fluid.save_state()
