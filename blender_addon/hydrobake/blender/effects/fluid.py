@@ -5,7 +5,7 @@ with a material that blends two solid textures at the advected uvw, cross-fading
 import bpy
 import numpy as np
 
-from ..bridge import materials, mesh_sequence, meshes, volumes
+from ..bridge import frame_meshes, materials, meshes, volumes
 from . import register_effect
 from .base import BlenderEffect
 
@@ -103,8 +103,10 @@ class FluidBlender(BlenderEffect):
         vol.display_type = "BOUNDS"
         mat = bpy.data.materials.get(f"HBK_{obj.name}_textured") or cls._material(
             f"HBK_{obj.name}_textured")
-        mesh_sequence.attach(f"HBK_{obj.name}_surface", folder, "surface",
-                             context.scene.frame_current, collection=coll, material=mat)
+        frame = obj.users_scene[0].frame_current if obj.users_scene else \
+            context.scene.frame_current
+        frame_meshes.attach(f"HBK_{obj.name}_surface", "surface", folder, "surface", frame,
+                            collection=coll, material=mat)
         # The domain is only a box: show the fluid, not the box (Free Bake shows it again).
         obj.display_type = "BOUNDS"
         obj.hide_render = True
@@ -158,7 +160,7 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        mesh_sequence.detach(f"HBK_{obj.name}_surface")
+        frame_meshes.detach(f"HBK_{obj.name}_surface")
         vol = bpy.data.objects.get(f"HBK_{obj.name}_volume")
         if vol is not None:
             data = vol.data
@@ -170,12 +172,11 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def register_extra(cls):
-        if mesh_sequence.on_frame not in bpy.app.handlers.frame_change_post:
-            bpy.app.handlers.frame_change_post.append(mesh_sequence.on_frame)
+        frame_meshes.ensure_handler()
 
     @classmethod
     def unregister_extra(cls):
-        mesh_sequence.unregister()
+        frame_meshes.unregister()
 
     @classmethod
     def draw_settings(cls, layout, settings):

@@ -5,7 +5,7 @@ material of the object non-destructively (Free Bake takes them out again)."""
 import bpy
 import numpy as np
 
-from ..bridge import images, materials, mesh_data, points
+from ..bridge import frame_meshes, images, materials, mesh_data, points
 from . import register_effect
 from .base import BlenderEffect
 
@@ -104,12 +104,11 @@ class SnowBlender(BlenderEffect):
         bpy.utils.register_class(HYDROBAKE_PT_snow_material)
         bpy.types.Material.hydrobake_snow = bpy.props.PointerProperty(
             type=HYDROBAKE_PG_snow_material)
-        if points.on_frame not in bpy.app.handlers.frame_change_post:
-            bpy.app.handlers.frame_change_post.append(points.on_frame)  # saved flake objects
+        frame_meshes.ensure_handler()  # flake objects saved in a .blend follow the frame
 
     @classmethod
     def unregister_extra(cls):
-        points.unregister()
+        frame_meshes.unregister()
         del bpy.types.Material.hydrobake_snow
         bpy.utils.unregister_class(HYDROBAKE_PT_snow_material)
         bpy.utils.unregister_class(HYDROBAKE_PG_snow_material)
@@ -270,13 +269,14 @@ class SnowBlender(BlenderEffect):
         if "flakes" in manifest.get("streams", []):
             white = bpy.data.materials.get("HBK Snow Flake") or _flake_material()
             points.attach(f"HBK_{obj.name}_flakes", folder, "flakes",
-                          settings.snow.flake_radius * 2.0, context.scene.frame_current,
+                          settings.snow.flake_radius * 2.0,
+                          (obj.users_scene[0] if obj.users_scene else context.scene).frame_current,
                           collection=obj.users_collection[0] if obj.users_collection else None,
                           material=white)
 
     @classmethod
     def remove(cls, context, obj, settings):
-        points.detach(f"HBK_{obj.name}_flakes")
+        frame_meshes.detach(f"HBK_{obj.name}_flakes")
         if obj.type == "MESH" and cls.BOX_UV in obj.data.uv_layers:
             obj.data.uv_layers.remove(obj.data.uv_layers[cls.BOX_UV])
         for slot in obj.material_slots:

@@ -1,0 +1,102 @@
+"""Mesh objects rebuilt on every frame change from a baked ``<stream>_####.npz`` sequence:
+points (falling flakes) and surfaces (the fluid's mesh with its attributes)."""
+import os
+
+import bpy
+import numpy as np
+
+PROP = "hydrobake_sequence"  # on the object: "kind|folder|stream"
+
+
+def _points(mesh, data):
+    pos = np.ascontiguousarray(data["positions"], np.float32)
+    mesh.vertices.add(len(pos))
+    mesh.vertices.foreach_set("co", pos.ravel())
+
+
+def _surface(mesh, data):
+    pos, tris = data["positions"], data["triangles"]
+    mesh.vertices.add(len(pos))
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(pos, np.float32).ravel())
+    n = len(tris)
+    mesh.loops.add(3 * n)
+    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(tris, np.int32).ravel())
+    mesh.polygons.add(n)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * n, 3, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(n, 3, np.int32))
+    mesh.polygons.foreach_set("use_smooth", np.ones(n, bool))
+    # uvw_a, uvw_b: vectors; uvw_weight: one value; blend, features: an attribute per column.
+    for name in data.files:
+        if name in ("positions", "triangles", "normals"):
+            continue
+        arr = np.ascontiguousarray(data[name], np.float32)
+        if arr.ndim == 2 and arr.shape[1] == 3:
+            mesh.attributes.new(name, "FLOAT_VECTOR", "POINT").data.foreach_set(
+                "vector", arr.ravel())
+        elif arr.ndim == 1:
+            mesh.attributes.new(name, "FLOAT", "POINT").data.foreach_set("value", arr)
+        else:
+            cols = arr.reshape(len(pos), -1)
+            for k in range(cols.shape[1]):
+                mesh.attributes.new(f"{name}_{k}", "FLOAT", "POINT").data.foreach_set(
+                    "value", np.ascontiguousarray(cols[:, k]))
+
+
+LOADERS = {"points": _points, "surface": _surface}
+
+
+def load(obj, frame):
+    """Rebuilds the object's mesh from the file baked for ``frame`` (empty if there is none)."""
+    kind, folder, stream = obj[PROP].split("|", 2)
+    path = os.path.join(folder, f"{stream}_{frame:04d}.npz")
+    mesh = obj.data
+    mesh.clear_geometry()
+    if os.path.isfile(path):
+        with np.load(path) as data:
+            LOADERS[kind](mesh, data)
+    mesh.update()
+
+
+@bpy.app.handlers.persistent
+def on_frame(scene, *_args):
+    # Each object follows the frame of the scene it is in (a handler may be called for
+    # another scene than the one that changed).
+    for obj in bpy.data.objects:
+        if PROP in obj and obj.type == "MESH":
+            own = obj.users_scene[0] if obj.users_scene else scene
+            load(obj, own.frame_current)
+
+
+def ensure_handler():
+    if on_frame not in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.append(on_frame)
+
+
+def attach(name, kind, folder, stream, frame, collection=None, material=None):
+    """The object ``name`` (made or reused) showing ``folder``/``stream`` at every frame."""
+    if kind not in LOADERS:
+        raise ValueError(f"kind = {kind!r}: must be one of {', '.join(LOADERS)}")
+    obj = bpy.data.objects.get(name)
+    if obj is None:
+        obj = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+        (collection or bpy.context.scene.collection).objects.link(obj)
+    obj[PROP] = f"{kind}|{folder}|{stream}"
+    if material is not None and not obj.data.materials:
+        obj.data.materials.append(material)
+    load(obj, frame)
+    ensure_handler()
+    return obj
+
+
+def detach(name):
+    obj = bpy.data.objects.get(name)
+    if obj is not None:
+        mesh = obj.data
+        bpy.data.objects.remove(obj)
+        if mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+
+
+def unregister():
+    if on_frame in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.remove(on_frame)
