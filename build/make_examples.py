@@ -428,8 +428,9 @@ def rain_scene():
 
 
 def fluid_scene():
-    """A dam break: a column of water collapses along a tank; the surface carries two solid
-    textures at the advected uvw (noise and waves), blended by the baked weights."""
+    """A dam break with the paper's three sample textures: noise as the base, waves wherever
+    the flow accelerates hard (a feature rule), cells painted into the column before it falls
+    (local paint, carried along by the flow)."""
     scene = new_scene("Fluid")
     scene.frame_start, scene.frame_end = 1, 36
     scene["hydrobake_still_frame"] = 30
@@ -449,8 +450,20 @@ def fluid_scene():
     s.fluid.smoothing_length = 0.04
     s.fluid.metaball_radius = 0.035
     s.fluid.substeps = 16
-    s.fluid.textures = 2
+    s.fluid.textures = 3
     s.fluid.reset_period = 1.0
+    rule = s.rules.add()
+    rule.texture, rule.feature, rule.low, rule.high = 1, "ACCELERATION", 30.0, 1e9
+    brush = bpy.data.objects.new("Paint Brush", None)
+    brush.empty_display_type, brush.empty_display_size = "SPHERE", 0.12
+    brush.location = (0.17, 0.25, 0.3)
+    strokes = bpy.data.collections.new("Fluid Paint")
+    scene.collection.children.link(strokes)
+    strokes.objects.link(brush)
+    brush.hydrobake_fluid_paint.enabled = True
+    brush.hydrobake_fluid_paint.texture, brush.hydrobake_fluid_paint.frame = 2, 1
+    s.paint_collection = strokes
+    s.fluid.paint_duration, s.fluid.paint_fade = 2.0, 1.0
     sun_data = bpy.data.lights.new("Key", "SUN")
     sun_data.energy = 3.0
     sun = bpy.data.objects.new("Key", sun_data)

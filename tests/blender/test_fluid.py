@@ -4,3 +4,8 @@
 def test_bake_volume_and_textured_surface(blender, tmp_path):
     r = blender.run("bake_fluid.py", tmp_path)
     assert "FLUID BLENDER OK" in r.stdout
+
+
+def test_paint_with_an_empty_and_capture_a_feature_rule(blender, tmp_path):
+    r = blender.run("fluid_paint.py", tmp_path)
+    assert "FLUID PAINT OK" in r.stdout

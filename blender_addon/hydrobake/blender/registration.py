@@ -17,6 +17,7 @@ def _cancel_on_load(*_args):
 def register():
     classes, settings = [properties.HydrobakeSceneSettings, *operators.CLASSES], {}
     for name, beffect in effects.load_all().items():
+        classes.extend(beffect.extra_classes())
         pgs = properties.make_settings_classes(name, beffect.core_class().groups(),
                                                beffect.extra_properties())
         classes.extend(pgs)

@@ -18,6 +18,11 @@ class BlenderEffect:
     def poll(cls, obj):
         return obj is not None and obj.type in cls.object_types
 
+    @staticmethod
+    def extra_classes():
+        """Classes the effect's settings refer to (registered before them)."""
+        return ()
+
     @classmethod
     def register_extra(cls):
         """Registers what the effect keeps elsewhere (e.g. per-material settings)."""
