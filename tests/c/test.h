@@ -42,6 +42,18 @@ extern int hbk_test_failed;
 /* A scratch folder for files, made by the runner: HBK_TEST_TMP or /tmp. */
 const char *hbk_test_tmpdir(void);
 
+/* A zeroed float buffer with its image view (free(g.v) when done). */
+typedef struct {
+    float *v;
+    hbk_image_t img;
+} grid_t;
+grid_t grid_new(int32_t w, int32_t h, int32_t channels);
+
+/* Puts parameter `p` of the params struct at `params` out of its range (the last element of
+ * an array): side 0 below the minimum, 1 above the maximum, 2 NaN. Returns 0 where that side
+ * does not apply (NaN for an integer, any side for a u64 seed, which takes every value). */
+int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
+
 /* Every test, one line each as X-macro entries of group and name; the runner and CMake
  * (tests/c/CMakeLists.txt) both read this list. */
 #define HBK_TEST_LIST(X)                 \
