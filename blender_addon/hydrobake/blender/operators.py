@@ -156,13 +156,6 @@ class HYDROBAKE_OT_free_bake(_EffectTarget, bpy.types.Operator):
         return {"FINISHED"}
 
 
-def _preset_items(self, context):
-    try:
-        return [(n, n, "") for n in effects.get(self.effect).presets] or [("", "None", "")]
-    except KeyError:
-        return [("", "None", "")]
-
-
 class HYDROBAKE_OT_apply_preset(_EffectTarget, bpy.types.Operator):
     """Set this effect's parameters from a preset"""
     bl_idname = "hydrobake.apply_preset"

@@ -8,7 +8,9 @@ from . import errors
 from ._lib import Image
 
 FLOAT_PTR = ctypes.POINTER(ctypes.c_float)
+# argtypes for float* / int32_t* parameters: a wrong dtype or layout fails before the call.
 float_array = np.ctypeslib.ndpointer(np.float32, flags="C_CONTIGUOUS")
+int_array = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
 
 
 def as_image(arr, name, channels=None, writable=False):

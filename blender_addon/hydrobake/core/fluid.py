@@ -6,7 +6,7 @@ import ctypes
 
 import numpy as np
 
-from . import _lib, errors
+from . import _lib, arrays, errors
 from ._lib import Message, P, Progress, check_message
 from .handle import Handle
 
@@ -22,8 +22,7 @@ class Obstacle(ctypes.Structure):
 
 
 _lib.check_mirror(Obstacle, "hbk_fluid_obstacle_t")
-_f32 = np.ctypeslib.ndpointer(np.float32, flags="C_CONTIGUOUS")
-_i32 = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
+_f32 = arrays.float_array
 _V3 = ctypes.c_float * 3
 Handle.declare("fluid", [
     ("set_particles", [_f32, ctypes.c_void_p, ctypes.c_int32]),

@@ -25,11 +25,9 @@ class Stats(ctypes.Structure):
 
 _lib.check_mirror(Material, "hbk_snow_material_t")
 _lib.check_mirror(Stats, "hbk_snow_stats_t")
-_f32p = np.ctypeslib.ndpointer(np.float32, flags="C_CONTIGUOUS")
-_i32p = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
 Handle.declare("snow", [
     ("set_materials", [P(Material), ctypes.c_int32]),
-    ("set_mesh", [_f32p, ctypes.c_int32, _i32p, ctypes.c_void_p, ctypes.c_void_p,
+    ("set_mesh", [arrays.float_array, ctypes.c_int32, arrays.int_array, ctypes.c_void_p, ctypes.c_void_p,
                   ctypes.c_int32]),
     ("step", [ctypes.c_int32, P(Progress)]),
     ("coverage", [P(Image)]), ("depth", [P(Image)]),

@@ -57,14 +57,17 @@ def load(obj, frame):
     mesh.update()
 
 
+def _frame_of(obj, fallback):
+    """The frame of the scene the object is in (a handler may be called for another scene
+    than the one that changed)."""
+    return (obj.users_scene[0] if obj.users_scene else fallback).frame_current
+
+
 @bpy.app.handlers.persistent
 def on_frame(scene, *_args):
-    # Each object follows the frame of the scene it is in (a handler may be called for
-    # another scene than the one that changed).
     for obj in bpy.data.objects:
         if PROP in obj and obj.type == "MESH":
-            own = obj.users_scene[0] if obj.users_scene else scene
-            load(obj, own.frame_current)
+            load(obj, _frame_of(obj, scene))
 
 
 def ensure_handler():
@@ -72,8 +75,9 @@ def ensure_handler():
         bpy.app.handlers.frame_change_post.append(on_frame)
 
 
-def attach(name, kind, folder, stream, frame, collection=None, material=None):
-    """The object ``name`` (made or reused) showing ``folder``/``stream`` at every frame."""
+def attach(name, kind, folder, stream, collection=None, material=None):
+    """The object ``name`` (made or reused, linked to ``collection``) showing
+    ``folder``/``stream`` at every frame, starting with its scene's current one."""
     if kind not in LOADERS:
         raise ValueError(f"kind = {kind!r}: must be one of {', '.join(LOADERS)}")
     obj = bpy.data.objects.get(name)
@@ -83,7 +87,7 @@ def attach(name, kind, folder, stream, frame, collection=None, material=None):
     obj[PROP] = f"{kind}|{folder}|{stream}"
     if material is not None and not obj.data.materials:
         obj.data.materials.append(material)
-    load(obj, frame)
+    load(obj, _frame_of(obj, bpy.context.scene))
     ensure_handler()
     return obj
 

@@ -25,8 +25,8 @@ def _instancer(radius):
     return ng
 
 
-def attach(name, folder, stream, radius, frame, collection=None, material=None):
-    obj = frame_meshes.attach(name, "points", folder, stream, frame, collection, material)
+def attach(name, folder, stream, radius, collection=None, material=None):
+    obj = frame_meshes.attach(name, "points", folder, stream, collection, material)
     mod = obj.modifiers.get("HBK Instances") or obj.modifiers.new("HBK Instances", "NODES")
     mod.node_group = _instancer(radius)
     return obj

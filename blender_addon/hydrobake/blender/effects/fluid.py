@@ -219,10 +219,8 @@ class FluidBlender(BlenderEffect):
         vol.display_type = "BOUNDS"
         mat = bpy.data.materials.get(f"HBK_{obj.name}_textured") or cls._material(
             f"HBK_{obj.name}_textured")
-        frame = obj.users_scene[0].frame_current if obj.users_scene else \
-            context.scene.frame_current
         surf = frame_meshes.attach(f"HBK_{obj.name}_surface", "surface", folder, "surface",
-                                   frame, collection=coll, material=mat)
+                                   collection=coll, material=mat)
         surf["hydrobake_domain"] = obj.name  # for Capture Feature Rule
         # The domain is only a box: show the fluid, not the box (Free Bake shows it again).
         obj.display_type = "BOUNDS"

@@ -270,7 +270,6 @@ class SnowBlender(BlenderEffect):
             white = bpy.data.materials.get("HBK Snow Flake") or _flake_material()
             points.attach(f"HBK_{obj.name}_flakes", folder, "flakes",
                           settings.snow.flake_radius * 2.0,
-                          (obj.users_scene[0] if obj.users_scene else context.scene).frame_current,
                           collection=obj.users_collection[0] if obj.users_collection else None,
                           material=white)
 
