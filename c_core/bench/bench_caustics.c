@@ -96,13 +96,20 @@ static double caustic_ms(int n, int m, int threads, int colour, int reps, float 
     hbk_image_t hi = {h, n, n, 1, (size_t)n}, gi = {g, n, n, 1, (size_t)n};
     hbk_image_t oi = {map, m, m, 3, (size_t)m * 3};
     const hbk_caustics_params_t p = sea_params(threads, colour);
+    /* A bake renders frame after frame with one workspace: time that, scratch already warm. */
+    hbk_caustics_workspace_t *ws = NULL;
+    if (hbk_caustics_workspace_create(&ws, NULL) ||
+        hbk_caustics_render_with(ws, &p, &hi, &gi, (float)(k_tile / n), &oi, NULL, NULL, NULL))
+        return NAN;
     double best = 1e30;
     for (int r = 0; r < reps; ++r) {
         const double t0 = now();
-        if (hbk_caustics_render(&p, &hi, &gi, (float)(k_tile / n), &oi, NULL, NULL, NULL)) return NAN;
+        if (hbk_caustics_render_with(ws, &p, &hi, &gi, (float)(k_tile / n), &oi, NULL, NULL, NULL))
+            return NAN;
         const double t = now() - t0;
         best = t < best ? t : best;
     }
+    hbk_caustics_workspace_destroy(ws);
     free(h);
     free(g);
     return best * 1e3;

@@ -113,6 +113,27 @@ HBK_EXPORT hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p,
                                             hbk_image_t *out, hbk_caustics_stats_t *stats,
                                             hbk_progress_t *progress, hbk_message_t *msg);
 
+/* A workspace keeps a render's scratch buffers (about 10 MB for a 256^2 surface and a 1024^2
+ * map) between renders, so a sequence of frames does not pay for fresh memory every frame.
+ * One workspace serves one render at a time; results are the same bytes as without it. */
+typedef struct hbk_caustics_workspace hbk_caustics_workspace_t;
+
+/* Returns HBK_ERR_INVALID_ARGUMENT (out NULL), HBK_ERR_OUT_OF_MEMORY. */
+HBK_EXPORT hbk_result_t hbk_caustics_workspace_create(hbk_caustics_workspace_t **out,
+                                                      hbk_message_t *msg);
+HBK_EXPORT void hbk_caustics_workspace_destroy(hbk_caustics_workspace_t *ws);
+/* Bytes of scratch the workspace holds now. */
+HBK_EXPORT size_t hbk_caustics_workspace_bytes(const hbk_caustics_workspace_t *ws);
+
+/* hbk_caustics_render with its scratch kept in `ws` (not NULL). Same results and errors. */
+HBK_EXPORT hbk_result_t hbk_caustics_render_with(hbk_caustics_workspace_t *ws,
+                                                 const hbk_caustics_params_t *p,
+                                                 const hbk_image_t *water_height,
+                                                 const hbk_image_t *ground_height,
+                                                 float cell_size, hbk_image_t *out,
+                                                 hbk_caustics_stats_t *stats,
+                                                 hbk_progress_t *progress, hbk_message_t *msg);
+
 /* View refraction (paper §3.2): for every surface sample, the ray from `camera` (m, same frame)
  * to the water surface is refracted (index ior[1]) and marched to the ground; its hit becomes
  * texture coordinates of the ground over the extent (0..1, same convention as the map).

@@ -95,6 +95,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(caustics, view_uv)                 \
     X(caustics, lit_ground)              \
     X(caustics, cancel)                  \
+    X(caustics, workspace_reuse)         \
     X(snow, formulas)                    \
     X(snow, params)                      \
     X(snow, sticking_statistics)         \

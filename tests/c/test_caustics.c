@@ -557,3 +557,53 @@ void test_caustics_cancel(void)
     CHECK(pr.fraction == 1.0f);
     free(w.v); free(g.v); free(out.v);
 }
+
+/* One workspace through a sequence of different renders (sizes up and down, mono and
+ * dispersive, periodic and shoreline, one cancelled) gives the stateless render's bytes. */
+void test_caustics_workspace_reuse(void)
+{
+    const double dx = 0.025;
+    grid_t w = waves(80, 60, 0.0f, 0.01, 0, 0), g = grid_new(80, 60, 1), b = beach(80, 60, dx);
+    grid_t ws_small = waves(24, 20, 0.0f, 0.01, 0, 0), g_small = grid_new(24, 20, 1);
+    grid_fill(&g, -0.6f);
+    grid_fill(&g_small, -0.4f);
+    hbk_caustics_params_t mono = sun(0.3, 0.2), disp = sun(-0.4, 0.1);
+    mono.periodic = 1;
+    disp.ior[0] = 1.32f; disp.ior[2] = 1.35f; disp.absorption[1] = 0.2f; disp.fresnel = 1;
+    struct { const hbk_caustics_params_t *p; grid_t *w, *g; int32_t mw, mh; int cancel; } runs[] = {
+        {&mono, &w, &g, 333, 222, 0}, {&disp, &w, &b, 256, 160, 0}, {&mono, &ws_small, &g_small, 64, 50, 0},
+        {&disp, &w, &b, 256, 160, 1}, {&mono, &w, &g, 400, 300, 0}, {&disp, &w, &b, 128, 96, 0},
+    };
+    hbk_caustics_workspace_t *ws = NULL;
+    hbk_message_t m;
+    CHECK(hbk_caustics_workspace_create(NULL, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK_OK(hbk_caustics_workspace_create(&ws, &m));
+    CHECK(hbk_caustics_workspace_bytes(ws) == 0);
+    for (size_t k = 0; k < sizeof runs / sizeof runs[0]; ++k) {
+        grid_t a = grid_new(runs[k].mw, runs[k].mh, 3), c = grid_new(runs[k].mw, runs[k].mh, 3);
+        hbk_caustics_stats_t sa, sc;
+        hbk_progress_t pr = {runs[k].cancel, 0.0f};
+        const hbk_result_t r = hbk_caustics_render_with(ws, runs[k].p, &runs[k].w->img,
+                                                        &runs[k].g->img, (float)dx, &c.img, &sc,
+                                                        &pr, &m);
+        if (runs[k].cancel) {
+            CHECK(r == HBK_ERR_CANCELLED);
+        } else {
+            CHECK_OK(r);
+            CHECK_OK(hbk_caustics_render(runs[k].p, &runs[k].w->img, &runs[k].g->img, (float)dx,
+                                         &a.img, &sa, NULL, &m));
+            CHECK(!memcmp(a.v, c.v, sizeof(float) * 3 * (size_t)runs[k].mw * (size_t)runs[k].mh));
+            CHECK(!memcmp(&sa, &sc, sizeof sa));
+            CHECK(hbk_caustics_workspace_bytes(ws) > 0);
+        }
+        free(a.v);
+        free(c.v);
+    }
+    grid_t out = grid_new(16, 16, 3);
+    CHECK(hbk_caustics_render_with(NULL, &mono, &w.img, &g.img, (float)dx, &out.img, NULL, NULL,
+                                   &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(m.text, "workspace"));
+    hbk_caustics_workspace_destroy(ws);
+    hbk_caustics_workspace_destroy(NULL);
+    free(w.v); free(g.v); free(b.v); free(ws_small.v); free(g_small.v); free(out.v);
+}

@@ -179,3 +179,20 @@ def test_effect_bakes_the_view_preview(tmp_path):
     v = exr.read(tmp_path / "view_0002.exr")
     assert set(v) == {"R", "G", "B"} and v["R"].shape == (24, 24)
     assert 0.2 < float(v["G"].mean()) < 0.6  # grey ground, mostly transmitted
+
+
+def test_workspace_keeps_scratch_and_changes_no_byte():
+    y, x = np.mgrid[0:40, 0:48]
+    wh = (0.01 * np.sin(x * 0.4) * np.cos(y * 0.3)).astype(np.float32)
+    gh = np.where(x > 30, 0.02 * (x - 30) - 0.3, -0.3).astype(np.float32)  # a beach
+    params = {"light_direction": (0.3, 0.1, 1.0), "ior": (1.33, 1.333, 1.34)}
+    with caustics.Workspace() as ws:
+        assert ws.nbytes == 0
+        for size in ((96, 80), (200, 160), (64, 48)):
+            ref, ref_stats = caustics.render(wh, gh, 0.05, size, params)
+            got, stats = caustics.render(wh, gh, 0.05, size, params, workspace=ws)
+            assert ref.tobytes() == got.tobytes()
+            assert ref_stats.as_dict() == stats.as_dict()
+            assert ws.nbytes > 0
+    with pytest.raises(errors.StateError, match="closed"):
+        caustics.render(wh, gh, 0.05, (8, 8), workspace=ws)

@@ -1,11 +1,13 @@
 """Caustic maps (hbk_caustics_*): light refracted by a height-field water surface onto the
-ground, exact-area rasterised, energy conserving. Stateless calls on numpy arrays."""
+ground, exact-area rasterised, energy conserving. Calls on numpy arrays; a Workspace keeps a
+render's scratch memory from one frame to the next."""
 import ctypes
 
 import numpy as np
 
 from . import _lib, arrays
 from ._lib import Image, Message, P, Progress, check_message, hbk_result_t
+from .handle import Owner
 from .params import ParamSpec
 
 
@@ -22,6 +24,13 @@ _lib.declare([
     ("hbk_caustics_render", hbk_result_t,
      [ctypes.c_void_p, P(Image), P(Image), ctypes.c_float, P(Image), P(Stats), P(Progress),
       P(Message)], check_message),
+    ("hbk_caustics_render_with", hbk_result_t,
+     [ctypes.c_void_p, ctypes.c_void_p, P(Image), P(Image), ctypes.c_float, P(Image), P(Stats),
+      P(Progress), P(Message)], check_message),
+    ("hbk_caustics_workspace_create", hbk_result_t, [P(ctypes.c_void_p), P(Message)],
+     check_message),
+    ("hbk_caustics_workspace_destroy", None, [ctypes.c_void_p]),
+    ("hbk_caustics_workspace_bytes", ctypes.c_size_t, [ctypes.c_void_p]),
     ("hbk_caustics_view", hbk_result_t,
      [ctypes.c_void_p, P(Image), P(Image), ctypes.c_float, P(ctypes.c_float * 3), P(Image),
       P(Image), P(Message)], check_message),
@@ -43,21 +52,39 @@ def _struct(params):
     return params if isinstance(params, spec().struct) else spec().to_struct(params or {})
 
 
+class Workspace(Owner):
+    """Scratch memory of caustic renders (hbk_caustics_workspace_t), kept between frames: a
+    sequence of renders then does not pay for fresh memory each frame. Same results."""
+
+    def __init__(self):
+        h = ctypes.c_void_p()
+        _lib.lib.hbk_caustics_workspace_create(ctypes.byref(h), Message())
+        self._own(h.value, _lib.lib.hbk_caustics_workspace_destroy)
+
+    @property
+    def nbytes(self):
+        return int(_lib.lib.hbk_caustics_workspace_bytes(self.h))
+
+
 def render(water_height, ground_height, cell_size, size, params=None, progress=None,
-           out=None):
+           out=None, workspace=None):
     """The caustic map, (size[1], size[0], 4) float32 RGBA (A = 1), and the Stats.
 
-    ``water_height``/``ground_height``: (H, W) heights in m at cell centres."""
+    ``water_height``/``ground_height``: (H, W) heights in m at cell centres. ``workspace``: a
+    Workspace to keep scratch memory in (for frame after frame), or None."""
     p = _struct(params)
     wh = np.ascontiguousarray(water_height, dtype=np.float32)
     gh = np.ascontiguousarray(ground_height, dtype=np.float32)
     if out is None:
         out = np.zeros((size[1], size[0], 4), np.float32)
     stats = Stats()
-    _lib.lib.hbk_caustics_render(ctypes.byref(p), arrays.as_image(wh, "water_height", 1),
-                                 arrays.as_image(gh, "ground_height", 1), float(cell_size),
-                                 arrays.as_image(out, "out", (3, 4), writable=True), stats,
-                                 progress, Message())
+    args = (ctypes.byref(p), arrays.as_image(wh, "water_height", 1),
+            arrays.as_image(gh, "ground_height", 1), float(cell_size),
+            arrays.as_image(out, "out", (3, 4), writable=True), stats, progress, Message())
+    if workspace is None:
+        _lib.lib.hbk_caustics_render(*args)
+    else:
+        _lib.lib.hbk_caustics_render_with(workspace.h, *args)
     return out, stats
 
 

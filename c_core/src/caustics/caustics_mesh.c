@@ -298,11 +298,11 @@ hbk_result_t hbk_caustics_build_triangles(hbk_caustics_ctx_t *c)
 {
     const size_t ncells = (size_t)c->ncx * (size_t)c->ncy;
     for (int g = 0; g < c->ng; ++g)
-        if (!(c->triw[g] = malloc(ncells * 2 * (size_t)c->nch * sizeof *c->triw[g])))
+        if (!(c->triw[g] = hbk_cs_get(c->ws, CS_TRIW + g, ncells * 2 * (size_t)c->nch * sizeof *c->triw[g], 0)))
             return HBK_ERR_OUT_OF_MEMORY;
-    size_t *row_loose = calloc((size_t)c->ncy + 1, sizeof *row_loose);
-    uint8_t *cell_loose = malloc(ncells);
-    c->row_stats = calloc((size_t)c->ncy * 9, sizeof *c->row_stats);
+    size_t *row_loose = hbk_cs_get(c->ws, CS_ROW_LOOSE, ((size_t)c->ncy + 1) * sizeof *row_loose, 1);
+    uint8_t *cell_loose = hbk_cs_get(c->ws, CS_CELL_LOOSE, ncells, 0);
+    c->row_stats = hbk_cs_get(c->ws, CS_ROW_STATS, (size_t)c->ncy * 9 * sizeof *c->row_stats, 1);
     hbk_result_t r = HBK_OK;
     if (!row_loose || !cell_loose || !c->row_stats) {
         r = HBK_ERR_OUT_OF_MEMORY;
@@ -324,7 +324,7 @@ hbk_result_t hbk_caustics_build_triangles(hbk_caustics_ctx_t *c)
     for (int32_t j = 0; j < c->ncy; ++j) row_loose[j + 1] += row_loose[j];
     c->nloose = row_loose[c->ncy];
     if (!c->nloose) goto done;
-    if (!(c->loose = malloc(c->nloose * sizeof *c->loose))) {
+    if (!(c->loose = hbk_cs_get(c->ws, CS_LOOSE, c->nloose * sizeof *c->loose, 0))) {
         r = HBK_ERR_OUT_OF_MEMORY;
         goto done;
     }
@@ -338,7 +338,5 @@ hbk_result_t hbk_caustics_build_triangles(hbk_caustics_ctx_t *c)
                 at += (size_t)cell(c, i, j, c->loose + at, unused);
     }
 done:
-    free(row_loose);
-    free(cell_loose);
     return r;
 }

@@ -406,6 +406,75 @@ static void group_rows(const hbk_caustics_ctx_t *c, group_t *gr)
     gr->hi = (int64_t)hi;
 }
 
+/* One row's prefix sum, x from 0: the pixel values; also clears the accumulator. */
+#define PREFIX_MONO(R)                                                                       \
+    do {                                                                                     \
+        s[R] += a[R][x];                                                                     \
+        a[R][x] = 0.0;                                                                       \
+        const double v = s[R] > 0.0 ? s[R] : 0.0; /* below 0 only by rounding */            \
+        float *q = px[R] + (size_t)x * (size_t)nc;                                           \
+        q[0] = (float)(v * e0);                                                              \
+        q[1] = (float)(v * e1);                                                              \
+        q[2] = (float)(v * e2);                                                              \
+        if (nc == 4) q[3] = 1.0f;                                                            \
+    } while (0)
+
+/* Writes rows [y, y + n) of the map (n <= 4) from the band's accumulator by prefix sums along
+ * each row, and clears the accumulator for the next band. A row's sum is one chain of
+ * dependent additions; a mono map runs four rows side by side so four chains overlap (each
+ * row still adds in x order: the same bytes). */
+static void prefix_rows(const hbk_caustics_ctx_t *c, const band_t *b, int32_t y, int32_t n,
+                        hbk_image_t *out)
+{
+    const int nc = out->channels;
+    const double e0 = c->escale[0], e1 = c->escale[1], e2 = c->escale[2];
+    double *a[4];
+    float *px[4];
+    for (int r = 0; r < 4; ++r) {
+        const int32_t yy = y + (r < n ? r : n - 1);
+        a[r] = b->buf + (size_t)(yy - b->B0) * b->rowlen;
+        px[r] = out->data + (size_t)yy * out->row_stride;
+    }
+    if (c->ps == 1 && n == 4) {
+        double s[4] = {0.0, 0.0, 0.0, 0.0};
+        for (int32_t x = 0; x < c->MW; ++x) {
+            PREFIX_MONO(0);
+            PREFIX_MONO(1);
+            PREFIX_MONO(2);
+            PREFIX_MONO(3);
+        }
+    } else if (c->ps == 1) {
+        for (int32_t r = 0; r < n; ++r) {
+            double s[1] = {0.0};
+            double *const a0 = a[r];
+            float *const p0 = px[r];
+            a[0] = a0;
+            px[0] = p0;
+            for (int32_t x = 0; x < c->MW; ++x) PREFIX_MONO(0);
+        }
+    } else {
+        for (int32_t r = 0; r < n; ++r) {
+            double s0 = 0.0, s1 = 0.0, s2 = 0.0, *q = a[r];
+            float *o = px[r];
+            for (int32_t x = 0; x < c->MW; ++x, q += 3, o += nc) {
+                s0 += q[0];
+                s1 += q[1];
+                s2 += q[2];
+                q[0] = q[1] = q[2] = 0.0;
+                o[0] = s0 > 0.0 ? (float)s0 : 0.0f;
+                o[1] = s1 > 0.0 ? (float)s1 : 0.0f;
+                o[2] = s2 > 0.0 ? (float)s2 : 0.0f;
+                if (nc == 4) o[3] = 1.0f;
+            }
+        }
+    }
+    /* The two pixels past the edge take writes that affect no pixel: clear them too. */
+    for (int32_t r = 0; r < n; ++r)
+        memset(b->buf + (size_t)(y + r - b->B0) * b->rowlen + (size_t)c->ps * (size_t)c->MW, 0,
+               (size_t)c->ps * 2 * sizeof(double));
+}
+#undef PREFIX_MONO
+
 hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
                                     hbk_progress_t *progress)
 {
@@ -422,8 +491,9 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
         ngroups += (size_t)rows * (size_t)((cols + HBK_GROUP - 1) / HBK_GROUP);
     }
     ngroups *= (size_t)c->ng;
-    group_t *groups = malloc((ngroups ? ngroups : 1) * sizeof *groups);
-    size_t *start = calloc((size_t)nb + 1, sizeof *start), *fillat = calloc((size_t)nb, sizeof *fillat);
+    group_t *groups = hbk_cs_get(c->ws, CS_GROUPS, (ngroups ? ngroups : 1) * sizeof *groups, 0);
+    size_t *start = hbk_cs_get(c->ws, CS_BAND_START, ((size_t)nb + 1) * sizeof *start, 1);
+    size_t *fillat = hbk_cs_get(c->ws, CS_BAND_FILL, (size_t)nb * sizeof *fillat, 1);
     uint32_t *list = NULL;
     double *bufs = NULL;
     hbk_result_t res = HBK_OK;
@@ -458,7 +528,7 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
             start[bb + 1] += start[bb];
             fillat[bb] = start[bb];
         }
-        if (ngroups > UINT32_MAX || !(list = malloc((start[nb] ? start[nb] : 1) * sizeof *list))) {
+        if (ngroups > UINT32_MAX || !(list = hbk_cs_get(c->ws, CS_BAND_LIST, (start[nb] ? start[nb] : 1) * sizeof *list, 0))) {
             res = HBK_ERR_OUT_OF_MEMORY;
             goto done;
         }
@@ -467,13 +537,14 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
         res = HBK_ERR_CANCELLED;
         goto done;
     }
-    bufs = calloc((size_t)T * (size_t)BH * rowlen, sizeof *bufs);
+    /* Zeroed here (a cancelled render may have left a band dirty); the prefix pass below
+     * zeroes what it reads. */
+    bufs = hbk_cs_get(c->ws, CS_BAND_BUFS, (size_t)T * (size_t)BH * rowlen * sizeof *bufs, 1);
     if (!bufs) {
         res = HBK_ERR_OUT_OF_MEMORY;
         goto done;
     }
     int cancelled = 0;
-    const int nc = out->channels;
 #pragma omp parallel for num_threads(T) schedule(dynamic, 1)
     for (int32_t bb = 0; bb < nb; ++bb) {
         if (__atomic_load_n(&cancelled, __ATOMIC_RELAXED) || hbk_cancelled(progress)) {
@@ -482,46 +553,12 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
         }
         band_t b = {c, bufs + (size_t)omp_get_thread_num() * (size_t)BH * rowlen, rowlen,
                     bb * BH, bb * BH + BH < c->MH ? bb * BH + BH : c->MH};
-        /* The buffers start zeroed (calloc) and the prefix pass below zeroes what it read. */
         for (size_t k = start[bb]; k < start[bb + 1]; ++k) draw_group(&b, &groups[list[k]]);
-        const double e0 = c->escale[0], e1 = c->escale[1], e2 = c->escale[2];
-        for (int32_t y = b.B0; y < b.B1; ++y) {
-            double *a = b.buf + (size_t)(y - b.B0) * rowlen;
-            float *px = out->data + (size_t)y * out->row_stride;
-            double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-            if (c->ps == 1) {
-                for (int32_t x = 0; x < c->MW; ++x, ++a, px += nc) {
-                    s0 += a[0];
-                    a[0] = 0.0;
-                    const double v = s0 > 0.0 ? s0 : 0.0; /* below 0 only by rounding */
-                    px[0] = (float)(v * e0);
-                    px[1] = (float)(v * e1);
-                    px[2] = (float)(v * e2);
-                    if (nc == 4) px[3] = 1.0f;
-                }
-            } else {
-                for (int32_t x = 0; x < c->MW; ++x, a += 3, px += nc) {
-                    s0 += a[0];
-                    s1 += a[1];
-                    s2 += a[2];
-                    a[0] = a[1] = a[2] = 0.0;
-                    px[0] = s0 > 0.0 ? (float)s0 : 0.0f;
-                    px[1] = s1 > 0.0 ? (float)s1 : 0.0f;
-                    px[2] = s2 > 0.0 ? (float)s2 : 0.0f;
-                    if (nc == 4) px[3] = 1.0f;
-                }
-            }
-            /* The two pixels past the edge take writes that affect no pixel: clear them too. */
-            memset(a, 0, (size_t)c->ps * 2 * sizeof *a);
-        }
+        for (int32_t y = b.B0; y < b.B1; y += 4)
+            prefix_rows(c, &b, y, b.B1 - y < 4 ? b.B1 - y : 4, out);
         if (omp_get_thread_num() == 0) hbk_report(progress, 0.5f + 0.5f * (float)(bb + 1) / (float)nb);
     }
     if (cancelled) res = HBK_ERR_CANCELLED;
 done:
-    free(groups);
-    free(start);
-    free(fillat);
-    free(list);
-    free(bufs);
     return res;
 }

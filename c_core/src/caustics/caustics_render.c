@@ -44,10 +44,12 @@ hbk_result_t hbk_caustics_check_inputs(const hbk_caustics_params_t *p, const hbk
     return HBK_OK;
 }
 
-void hbk_caustics_init(hbk_caustics_ctx_t *c, const hbk_caustics_params_t *p,
-                       const hbk_image_t *water, const hbk_image_t *ground, float cell_size)
+void hbk_caustics_init(hbk_caustics_ctx_t *c, hbk_caustics_workspace_t *ws,
+                       const hbk_caustics_params_t *p, const hbk_image_t *water,
+                       const hbk_image_t *ground, float cell_size)
 {
     memset(c, 0, sizeof *c);
+    c->ws = ws;
     c->p = p;
     c->water = water->data;
     c->ground = ground->data;
@@ -94,26 +96,45 @@ void hbk_caustics_init(hbk_caustics_ctx_t *c, const hbk_caustics_params_t *p,
     }
 }
 
-void hbk_caustics_free(hbk_caustics_ctx_t *c)
+void *hbk_cs_get(hbk_caustics_workspace_t *ws, int slot, size_t bytes, int zero)
 {
-    free(c->bmax);
-    free(c->vxs);
-    free(c->vys);
-    free(c->vsi);
-    free(c->vsj);
-    free(c->vz);
-    free(c->vb);
-    free(c->vwet);
-    for (int g = 0; g < 3; ++g) {
-        free(c->ipx[g]);
-        free(c->ipy[g]);
-        free(c->ihz[g]);
-        free(c->iatt[g]);
-        free(c->triw[g]);
+    if (!bytes) bytes = 1;
+    if (bytes > ws->cap[slot]) {
+        free(ws->p[slot]);
+        ws->cap[slot] = 0;
+        if (!(ws->p[slot] = malloc(bytes))) return NULL;
+        ws->cap[slot] = bytes;
     }
-    free(c->loose);
-    free(c->row_stats);
-    memset(c, 0, sizeof *c);
+    if (zero) memset(ws->p[slot], 0, bytes);
+    return ws->p[slot];
+}
+
+void hbk_cs_release(hbk_caustics_workspace_t *ws)
+{
+    for (int k = 0; k < CS_COUNT; ++k) free(ws->p[k]);
+    memset(ws, 0, sizeof *ws);
+}
+
+hbk_result_t hbk_caustics_workspace_create(hbk_caustics_workspace_t **out, hbk_message_t *msg)
+{
+    hbk_message_clear(msg);
+    if (!out) return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "out: must not be NULL");
+    *out = calloc(1, sizeof **out);
+    return *out ? HBK_OK : hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "workspace: out of memory");
+}
+
+void hbk_caustics_workspace_destroy(hbk_caustics_workspace_t *ws)
+{
+    if (!ws) return;
+    hbk_cs_release(ws);
+    free(ws);
+}
+
+size_t hbk_caustics_workspace_bytes(const hbk_caustics_workspace_t *ws)
+{
+    size_t n = 0;
+    for (int k = 0; ws && k < CS_COUNT; ++k) n += ws->cap[k];
+    return n;
 }
 
 hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p, const hbk_image_t *water_height,
@@ -121,8 +142,22 @@ hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p, const hbk_image
                                  hbk_image_t *out, hbk_caustics_stats_t *stats,
                                  hbk_progress_t *progress, hbk_message_t *msg)
 {
+    hbk_caustics_workspace_t ws = {0};
+    const hbk_result_t r = hbk_caustics_render_with(&ws, p, water_height, ground_height, cell_size,
+                                                    out, stats, progress, msg);
+    hbk_cs_release(&ws);
+    return r;
+}
+
+hbk_result_t hbk_caustics_render_with(hbk_caustics_workspace_t *ws, const hbk_caustics_params_t *p,
+                                      const hbk_image_t *water_height,
+                                      const hbk_image_t *ground_height, float cell_size,
+                                      hbk_image_t *out, hbk_caustics_stats_t *stats,
+                                      hbk_progress_t *progress, hbk_message_t *msg)
+{
     hbk_message_clear(msg);
     if (stats) memset(stats, 0, sizeof *stats);
+    if (!ws) return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "workspace: must not be NULL");
     hbk_result_t r = hbk_caustics_check_inputs(p, water_height, ground_height, cell_size, msg);
     if (r || (r = hbk_image_check(out, "out", msg))) return r;
     if (out->channels < 3)
@@ -139,7 +174,7 @@ hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p, const hbk_image
                             "(highest surface %g m)", (double)p->light_position[2], (double)top);
     }
     hbk_caustics_ctx_t c;
-    hbk_caustics_init(&c, p, water_height, ground_height, cell_size);
+    hbk_caustics_init(&c, ws, p, water_height, ground_height, cell_size);
     c.progress = progress;
     c.MW = out->width;
     c.MH = out->height;
@@ -188,11 +223,9 @@ hbk_result_t hbk_caustics_render(const hbk_caustics_params_t *p, const hbk_image
         }
     }
     hbk_report(progress, 1.0f);
-    hbk_caustics_free(&c);
     return HBK_OK;
 fail:;
     const int32_t W = c.W, H = c.H, MW = c.MW, MH = c.MH;
-    hbk_caustics_free(&c);
     if (stats) memset(stats, 0, sizeof *stats);
     if (r == HBK_ERR_CANCELLED) return hbk_fail(msg, r, "render cancelled; out is incomplete");
     return hbk_fail(msg, r, "caustics scratch for a %d x %d surface and a %d x %d map: out of "

@@ -30,11 +30,10 @@ static inline float gs(const hbk_caustics_ctx_t *c, int32_t i, int32_t j)
     return c->ground[(size_t)sidx(c, j, c->H) * c->ground_stride + (size_t)sidx(c, i, c->W)];
 }
 
+/* Wet samples, from the mask setup_ground made. */
 static inline int wet_at(const hbk_caustics_ctx_t *c, int32_t i, int32_t j)
 {
-    const size_t at = (size_t)j * c->water_stride + (size_t)i;
-    return (double)c->water[at] - (double)c->ground[(size_t)j * c->ground_stride + (size_t)i] >
-           c->wet_depth;
+    return c->swet[(size_t)j * (size_t)c->W + (size_t)i];
 }
 
 int hbk_caustics_wet(const hbk_caustics_ctx_t *c, int32_t i, int32_t j) { return wet_at(c, i, j); }
@@ -134,9 +133,9 @@ hbk_result_t hbk_caustics_setup_ground(hbk_caustics_ctx_t *c)
     c->ncv = c->periodic ? c->H : c->H - 1;
     c->nbu = (c->ncu + 7) / 8;
     c->nbv = (c->ncv + 7) / 8;
-    c->bmax = malloc((size_t)c->nbu * (size_t)c->nbv * sizeof *c->bmax);
+    c->bmax = hbk_cs_get(c->ws, CS_BMAX, (size_t)c->nbu * (size_t)c->nbv * sizeof *c->bmax, 0);
     if (!c->bmax) return HBK_ERR_OUT_OF_MEMORY;
-    float gmax = -INFINITY;
+    float gmax = -INFINITY, gmin = INFINITY;
     for (int32_t bv = 0; bv < c->nbv; ++bv)
         for (int32_t bu = 0; bu < c->nbu; ++bu) {
             float m = -INFINITY;
@@ -147,7 +146,18 @@ hbk_result_t hbk_caustics_setup_ground(hbk_caustics_ctx_t *c)
             c->bmax[(size_t)bv * (size_t)c->nbu + (size_t)bu] = m;
             gmax = fmaxf(gmax, m);
         }
+    /* Which samples are wet: read by every normal (four neighbours each) and vertex. */
+    c->swet = hbk_cs_get(c->ws, CS_SWET, (size_t)c->W * (size_t)c->H, 0);
+    if (!c->swet) return HBK_ERR_OUT_OF_MEMORY;
+    for (int32_t j = 0; j < c->H; ++j)
+        for (int32_t i = 0; i < c->W; ++i) {
+            const float g = c->ground[(size_t)j * c->ground_stride + (size_t)i];
+            const float h = c->water[(size_t)j * c->water_stride + (size_t)i];
+            gmin = g < gmin ? g : gmin;
+            c->swet[(size_t)j * (size_t)c->W + (size_t)i] = (double)h - (double)g > c->wet_depth;
+        }
     c->gmax = gmax;
+    c->gflat = gmin == gmax;
     return HBK_OK;
 }
 
@@ -201,6 +211,7 @@ double hbk_caustics_march(const hbk_caustics_ctx_t *c, const double o[3], const 
     const double u0 = o[0] * inv - 0.5, v0 = o[1] * inv - 0.5, z0 = o[2];
     const double du = r[0] * inv, dv = r[1] * inv, dz = r[2];
     double t = 0.0;
+    if (c->gflat) return z0 > c->gmax ? (z0 - c->gmax) / -dz : 0.0; /* a flat floor: a plane */
     if (z0 > c->gmax) { /* nothing to hit above the highest ground */
         t = (z0 - c->gmax) / -dz;
         if (c->gmax <= ground_bilinear(c, u0 + t * du, v0 + t * dv)) return t; /* flat floors */
@@ -282,13 +293,13 @@ hbk_result_t hbk_caustics_setup_mesh(hbk_caustics_ctx_t *c)
     c->ncx = c->nvx - 1;
     c->ncy = c->nvy - 1;
     const size_t nv = (size_t)c->nvx * (size_t)c->nvy;
-    c->vxs = malloc((size_t)c->nvx * sizeof *c->vxs);
-    c->vys = malloc((size_t)c->nvy * sizeof *c->vys);
-    c->vsi = malloc((size_t)c->nvx * sizeof *c->vsi);
-    c->vsj = malloc((size_t)c->nvy * sizeof *c->vsj);
-    c->vz = malloc(nv * sizeof *c->vz);
-    c->vb = malloc(nv * sizeof *c->vb);
-    c->vwet = malloc(nv);
+    c->vxs = hbk_cs_get(c->ws, CS_VXS, (size_t)c->nvx * sizeof *c->vxs, 0);
+    c->vys = hbk_cs_get(c->ws, CS_VYS, (size_t)c->nvy * sizeof *c->vys, 0);
+    c->vsi = hbk_cs_get(c->ws, CS_VSI, (size_t)c->nvx * sizeof *c->vsi, 0);
+    c->vsj = hbk_cs_get(c->ws, CS_VSJ, (size_t)c->nvy * sizeof *c->vsj, 0);
+    c->vz = hbk_cs_get(c->ws, CS_VZ, nv * sizeof *c->vz, 0);
+    c->vb = hbk_cs_get(c->ws, CS_VB, nv * sizeof *c->vb, 0);
+    c->vwet = hbk_cs_get(c->ws, CS_VWET, nv, 0);
     if (!c->vxs || !c->vys || !c->vsi || !c->vsj || !c->vz || !c->vb || !c->vwet)
         return HBK_ERR_OUT_OF_MEMORY;
     for (int axis = 0; axis < 2; ++axis) {
@@ -315,10 +326,10 @@ hbk_result_t hbk_caustics_setup_mesh(hbk_caustics_ctx_t *c)
             c->vz[v] = wet ? c->water[(size_t)j * c->water_stride + (size_t)i] : c->vb[v];
         }
     for (int g = 0; g < c->ng; ++g) {
-        c->ipx[g] = malloc(nv * sizeof *c->ipx[g]);
-        c->ipy[g] = malloc(nv * sizeof *c->ipy[g]);
-        c->ihz[g] = malloc(nv * sizeof *c->ihz[g]);
-        c->iatt[g] = malloc(nv * (size_t)c->nch * sizeof *c->iatt[g]);
+        c->ipx[g] = hbk_cs_get(c->ws, CS_IPX + g, nv * sizeof *c->ipx[g], 0);
+        c->ipy[g] = hbk_cs_get(c->ws, CS_IPY + g, nv * sizeof *c->ipy[g], 0);
+        c->ihz[g] = hbk_cs_get(c->ws, CS_IHZ + g, nv * sizeof *c->ihz[g], 0);
+        c->iatt[g] = hbk_cs_get(c->ws, CS_IATT + g, nv * (size_t)c->nch * sizeof *c->iatt[g], 0);
         if (!c->ipx[g] || !c->ipy[g] || !c->ihz[g] || !c->iatt[g]) return HBK_ERR_OUT_OF_MEMORY;
     }
     return HBK_OK;

@@ -38,10 +38,11 @@ hbk_result_t hbk_caustics_view(const hbk_caustics_params_t *p, const hbk_image_t
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "camera[2] = %g: the camera must be above the water (highest surface "
                         "%g m)", (double)camera[2], (double)top);
+    hbk_caustics_workspace_t ws = {0};
     hbk_caustics_ctx_t c;
-    hbk_caustics_init(&c, p, water_height, ground_height, cell_size);
+    hbk_caustics_init(&c, &ws, p, water_height, ground_height, cell_size);
     if ((r = hbk_caustics_setup_ground(&c))) {
-        hbk_caustics_free(&c);
+        hbk_cs_release(&ws);
         return hbk_fail(msg, r, "view: out of memory");
     }
     double ex0 = 0.0, ey0 = 0.0, ex1 = W * c.dx, ey1 = H * c.dx;
@@ -82,7 +83,7 @@ hbk_result_t hbk_caustics_view(const hbk_caustics_params_t *p, const hbk_image_t
                 for (int k = 0; k < 3; ++k) q[k] = (float)(d * n[k] - v[k]);
             }
         }
-    hbk_caustics_free(&c);
+    hbk_cs_release(&ws);
     return HBK_OK;
 }
 

@@ -23,7 +23,30 @@ typedef struct {
     uint8_t used[3];           /* [pass]: has any weight */
 } hbk_loose_tri_t;
 
+/* Scratch buffers by role. A workspace keeps them between renders: a render of a 256^2 surface
+ * into a 1024^2 map touches about 10 MB of scratch, and fresh pages from the system cost a
+ * sixth of the render. Per-pass slots come in threes. */
+enum {
+    CS_BMAX, CS_SWET, CS_VXS, CS_VYS, CS_VSI, CS_VSJ, CS_VZ, CS_VB, CS_VWET,
+    CS_IPX, CS_IPY = CS_IPX + 3, CS_IHZ = CS_IPY + 3, CS_IATT = CS_IHZ + 3, CS_TRIW = CS_IATT + 3,
+    CS_ROW_LOOSE = CS_TRIW + 3, CS_CELL_LOOSE, CS_ROW_STATS, CS_LOOSE,
+    CS_GROUPS, CS_BAND_START, CS_BAND_FILL, CS_BAND_LIST, CS_BAND_BUFS,
+    CS_COUNT
+};
+
+struct hbk_caustics_workspace {
+    void *p[CS_COUNT];
+    size_t cap[CS_COUNT];
+};
+
+/* Slot `slot` with room for `bytes` (contents undefined; zeroed if `zero`), or NULL when out of
+ * memory. The workspace keeps it; the caller never frees it. */
+void *hbk_cs_get(hbk_caustics_workspace_t *ws, int slot, size_t bytes, int zero);
+/* Frees every slot (the workspace itself stays usable). */
+void hbk_cs_release(hbk_caustics_workspace_t *ws);
+
 typedef struct {
+    hbk_caustics_workspace_t *ws; /* where every scratch buffer below lives */
     /* Inputs. */
     const hbk_caustics_params_t *p;
     const float *water, *ground; /* samples, row stride in floats below */
@@ -50,6 +73,8 @@ typedef struct {
     float *bmax;
     int32_t nbu, nbv, ncu, ncv;  /* blocks; bilinear cells along u and v */
     float gmax;
+    uint8_t *swet;               /* W x H: sample is wet (depth > wet_depth) */
+    int gflat;                   /* the ground is one height everywhere */
     /* Mesh: nvx x nvy vertices, ncx x ncy cells. */
     int32_t nvx, nvy, ncx, ncy;
     double *vxs, *vys;           /* world x of each vertex column, y of each vertex row */
@@ -94,14 +119,14 @@ void hbk_caustics_trace_vertices(hbk_caustics_ctx_t *c);
 hbk_result_t hbk_caustics_build_triangles(hbk_caustics_ctx_t *c);
 hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
                                     hbk_progress_t *progress);
-void hbk_caustics_free(hbk_caustics_ctx_t *c);
 
 /* Shared input checks of render and view: images, sizes, cell size, finite heights. */
 hbk_result_t hbk_caustics_check_inputs(const hbk_caustics_params_t *p, const hbk_image_t *water,
                                        const hbk_image_t *ground, float cell_size,
                                        hbk_message_t *msg);
-/* Fills the input and light fields of *c from checked arguments. */
-void hbk_caustics_init(hbk_caustics_ctx_t *c, const hbk_caustics_params_t *p,
-                       const hbk_image_t *water, const hbk_image_t *ground, float cell_size);
+/* Fills the input and light fields of *c from checked arguments; scratch comes from ws. */
+void hbk_caustics_init(hbk_caustics_ctx_t *c, hbk_caustics_workspace_t *ws,
+                       const hbk_caustics_params_t *p, const hbk_image_t *water,
+                       const hbk_image_t *ground, float cell_size);
 
 #endif

@@ -49,6 +49,7 @@ class CausticsEffect(Effect):
     def __init__(self, params=None, inputs=None):
         super().__init__(params, inputs)
         self.water = Water(self.params_dict()["water"])
+        self.workspace = caustics.Workspace()
         shape = self.water.shape
         ground = self.inputs.get("ground")
         self.ground = (np.zeros(shape, np.float32) if ground is None
@@ -106,7 +107,8 @@ class CausticsEffect(Effect):
                 self._depth = np.maximum(self.surface - self.ground, 0.0).astype(np.float32)
                 self._velocity = ((1.0 - a) * self._velocity).astype(np.float32)
         self._map, self.stats = caustics.render(self.surface, self.ground, self.cell_size,
-                                                self.map_size, self.params["light"], progress)
+                                                self.map_size, self.params["light"], progress,
+                                                workspace=self.workspace)
 
     def outputs(self, frame):
         periodic = bool(self.params["water"].periodic)
@@ -154,3 +156,4 @@ class CausticsEffect(Effect):
 
     def close(self):
         self.water.close()
+        self.workspace.close()
