@@ -396,8 +396,12 @@ def rain_scene():
     s.substeps = 2
     r = s.rain
     r.cell_size = 0.002
-    r.rain_rate = 14000.0
-    r.drop_mass = 25.0
+    # A steady shower: distinct drops, and the blades' sweeps stay clear for a moment.
+    r.rain_rate = 3000.0
+    r.drop_mass = 15.0
+    r.trail_mass = 1.0  # trail beads a few texels wide, not single-texel specks
+    r.trail_spacing = 0.006
+    r.height_scale = 0.0022  # caps of ~60 degrees, as on clean glass: lenses, not beads
     r.radius_scale = 1.25
     r.wiper_count, r.wiper_mode = 2, "PIVOT"
     r.wiper_pivot = (0.30, -0.03, 0.95, -0.03)

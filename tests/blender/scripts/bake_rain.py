@@ -35,12 +35,30 @@ assert bpy.data.images["HBK_Windshield_rain_preview"].source == "SEQUENCE"
 
 tree = glass.data.materials[0].node_tree
 bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
-nm = bsdf.inputs["Normal"].links[0].from_node
+assert bsdf.inputs["Transmission"].default_value == 1.0
+assert abs(bsdf.inputs["IOR"].default_value - 1.33) < 1e-6
+# Drop normals on the faces rays leave by, the flat normal on those they enter by.
+side = bsdf.inputs["Normal"].links[0].from_node
+assert side.get("hydrobake") == "rain.side"
+assert side.inputs["Fac"].links[0].from_socket.name == "Backfacing"
+assert side.inputs["Color1"].links[0].from_node.type == "NEW_GEOMETRY"
+nm = side.inputs["Color2"].links[0].from_node
 assert nm.get("hydrobake") == "rain.normalmap" and nm.space == "TANGENT"
 out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
-assert out.inputs["Surface"].links[0].from_node.get("hydrobake") == "rain.mix"
+assert out.inputs["Surface"].links[0].from_node == bsdf
+mod = next(m for m in glass.modifiers if m.type == "SOLIDIFY")  # two faces: a lens
+assert 0.001 <= mod.thickness <= 0.01
+# A re-bake grids the glass's own surface, not the two faces of the thickness.
+with bpy.context.temp_override(scene=scene):
+    assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Windshield") == {"FINISHED"}
+    glass.modifiers.new("User Thickness", "SOLIDIFY").thickness = 0.006
+    assert bpy.ops.hydrobake.bake(effect="rain", object_name="Windshield") == {"FINISHED"}
+m2 = json.load(open(os.path.join(s.bake_folder, "manifest.json")))
+assert m2["params"]["rain"]["width"] == p["width"], (m2["params"]["rain"]["width"], p["width"])
+assert [m.name for m in glass.modifiers] == ["User Thickness"]  # theirs is kept, none added
+assert all(m.show_viewport for m in glass.modifiers)
 
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Windshield") == {"FINISHED"}
 assert not any(n.get("hydrobake") for n in tree.nodes)
-assert out.inputs["Surface"].links[0].from_node == bsdf
+assert [m.name for m in glass.modifiers] == ["User Thickness"]
 print("RAIN BLENDER OK")

@@ -1,7 +1,8 @@
 """Windshield rain in Blender: the glass object's UV layout is the simulation grid (curved
 glass: gravity and airflow act along each cell's own tangents, taken from the mesh), the
 glass's physical size sets the grid, a car object's animation gives speed and acceleration.
-The normal-map sequence is wired into the glass material (tangent space, its UV map)."""
+The normal-map sequence is wired into the glass material (tangent space, its UV map) on the
+glass's outer face, the glass given a thickness so drops refract as lenses."""
 import bpy
 import numpy as np
 from mathutils import Vector
@@ -10,6 +11,7 @@ from ..bridge import images, materials, mesh_data, uv_grid
 from . import register_effect
 from .base import BlenderEffect
 
+THICKNESS = "HBK Glass Thickness"  # the Solidify modifier apply adds to a one-face glass
 AXES = {"-Y": (0, -1, 0), "+Y": (0, 1, 0), "-X": (-1, 0, 0), "+X": (1, 0, 0)}
 
 
@@ -59,7 +61,15 @@ class RainBlender(BlenderEffect):
     @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
-        pos, tris, uvs, _ = mesh_data.triangles(obj, context.evaluated_depsgraph_get())
+        # The glass's own surface: without the thickness the bake adds (two faces per UV).
+        thick = [m for m in obj.modifiers if m.type == "SOLIDIFY" and m.show_viewport]
+        for m in thick:
+            m.show_viewport = False
+        try:
+            pos, tris, uvs, _ = mesh_data.triangles(obj, context.evaluated_depsgraph_get())
+        finally:
+            for m in thick:
+                m.show_viewport = True
         if uvs is None:
             raise ValueError(f"{obj.name}: needs a UV map (the glass is simulated in UV space)")
         rp = params["rain"]
@@ -123,7 +133,19 @@ class RainBlender(BlenderEffect):
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
+        """A drop is a thin water lens on the glass's outer face. Light enters the glass
+        through its flat inner face and leaves through the drop's surface: only the two faces
+        together bend it by the drop's slope alone (a single face would bend every ray towards
+        its normal, and the glass would show the sky). So the glass gets a thickness (a
+        Solidify modifier when it has none) and one refracting material with the water's index;
+        its normal is the drop normal map on the faces rays leave by (back-facing), the flat
+        normal on those they enter by. Dry glass is then an exact parallel plate."""
         frames = sorted(int(f) for f in manifest["frames"])
+        if not any(m.type == "SOLIDIFY" for m in obj.modifiers):
+            mod = obj.modifiers.new(THICKNESS, "SOLIDIFY")
+            mod.thickness = 0.004
+            mod.offset = 0.0
+            mod.use_even_offset = True
         mat = materials.ensure_material(obj, f"HBK_{obj.name}_glass")
         tree = mat.node_tree
         bsdf = materials.principled(tree)
@@ -132,62 +154,41 @@ class RainBlender(BlenderEffect):
         if not mat.get("hydrobake_glass_setup"):
             bsdf.inputs["Transmission"].default_value = 1.0
             bsdf.inputs["Roughness"].default_value = 0.0
-            bsdf.inputs["IOR"].default_value = 1.33  # the drops' surface is water
+            bsdf.inputs["IOR"].default_value = 1.33  # glass and drops as one water plate
             mat["hydrobake_glass_setup"] = 1
         uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
         x, y = bsdf.location
-        uvn = materials.add_node(tree, "ShaderNodeUVMap", "rain.uv", (x - 900, y - 300))
+        uvn = materials.add_node(tree, "ShaderNodeUVMap", "rain.uv", (x - 1100, y - 300))
         uvn.uv_map = uv
-        tex = materials.add_node(tree, "ShaderNodeTexImage", "rain.normal", (x - 650, y - 300))
+        tex = materials.add_node(tree, "ShaderNodeTexImage", "rain.normal", (x - 850, y - 300))
         tex.image = images.load_sequence(folder, "normal", frames[0], len(frames),
                                          name=f"HBK_{obj.name}_rain_normal")
         tex.extension = "EXTEND"
         images.configure_user(tex.image_user, frames[0], len(frames))
         tree.links.new(uvn.outputs["UV"], tex.inputs["Vector"])
-        nm = materials.add_node(tree, "ShaderNodeNormalMap", "rain.normalmap", (x - 300, y - 300))
+        nm = materials.add_node(tree, "ShaderNodeNormalMap", "rain.normalmap", (x - 550, y - 300))
         nm.space = "TANGENT"
         nm.uv_map = uv
         tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-        tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
-        # Dry glass lets light straight through; only the drops (height > 0) refract, as
-        # thin lenses: mix a Transparent BSDF and the glass shader by the height map.
-        out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output),
-                   None)
-        if out is not None and out.inputs["Surface"].is_linked:
-            ht = materials.add_node(tree, "ShaderNodeTexImage", "rain.height", (x - 650, y + 250))
-            ht.image = images.load_sequence(folder, "height", frames[0], len(frames),
-                                            name=f"HBK_{obj.name}_rain_height")
-            ht.extension = "EXTEND"
-            images.configure_user(ht.image_user, frames[0], len(frames))
-            tree.links.new(uvn.outputs["UV"], ht.inputs["Vector"])
-            gt = materials.add_node(tree, "ShaderNodeMath", "rain.wet", (x - 350, y + 250))
-            gt.operation = "GREATER_THAN"
-            gt.inputs[1].default_value = 1e-6
-            tree.links.new(ht.outputs["Color"], gt.inputs[0])
-            clear = materials.add_node(tree, "ShaderNodeBsdfTransparent", "rain.clear",
-                                       (x - 100, y + 350))
-            mix = materials.add_node(tree, "ShaderNodeMixShader", "rain.mix", (x + 300, y + 200))
-            src = out.inputs["Surface"].links[0].from_socket
-            if src.node is not mix:
-                tree.links.new(src, mix.inputs[2])
-            tree.links.new(clear.outputs["BSDF"], mix.inputs[1])
-            tree.links.new(gt.outputs["Value"], mix.inputs["Fac"])
-            tree.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+        geo = materials.add_node(tree, "ShaderNodeNewGeometry", "rain.geometry", (x - 550, y - 50))
+        side = materials.add_node(tree, "ShaderNodeMixRGB", "rain.side", (x - 250, y - 200))
+        side.use_clamp = False
+        tree.links.new(geo.outputs["Backfacing"], side.inputs["Fac"])
+        tree.links.new(geo.outputs["Normal"], side.inputs["Color1"])
+        tree.links.new(nm.outputs["Normal"], side.inputs["Color2"])
+        tree.links.new(side.outputs["Color"], bsdf.inputs["Normal"])
         if "preview" in manifest.get("streams", []) and settings.background_image is not None:
             images.load_sequence(folder, "preview", frames[0], len(frames),
                                  name=f"HBK_{obj.name}_rain_preview", colorspace="Linear")
 
     @classmethod
     def remove(cls, context, obj, settings):
+        mod = obj.modifiers.get(THICKNESS)
+        if mod is not None:
+            obj.modifiers.remove(mod)
         for slot in obj.material_slots:
             if slot.material and slot.material.node_tree:
-                tree = slot.material.node_tree
-                mix = materials.tagged(tree, "rain.mix")
-                if mix is not None and mix.inputs[2].is_linked:
-                    src = mix.inputs[2].links[0].from_socket
-                    for link in list(mix.outputs["Shader"].links):
-                        tree.links.new(src, link.to_socket)
-                materials.remove_tagged(tree, "rain.")
+                materials.remove_tagged(slot.material.node_tree, "rain.")
         img = bpy.data.images.get(f"HBK_{obj.name}_rain_preview")
         if img is not None and img.users == 0:
             bpy.data.images.remove(img)
