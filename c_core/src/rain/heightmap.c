@@ -137,7 +137,7 @@ typedef float v8f __attribute__((vector_size(32)));
 typedef int32_t v8i __attribute__((vector_size(32)));
 
 /* Adds (or, for discs, sets to 1 inside) one ball into a band buffer holding rows [r0, r1]
- * with `stride` floats per row (room for 7 more than the map width): over the ball's bounding
+ * with `stride` floats per row (room for 15 more than the map width): over the ball's bounding
  * box, L texels at a time (vector types VF / VI), each lane masked to 0 outside the ball's
  * support (h > support * R) or past the box. A per-row span would need a square root and two
  * roundings per row, and a scalar remainder loop; at the ~16 x 16 texels a drop covers those
@@ -185,6 +185,15 @@ __attribute__((target("avx2"))) static void splat8(const float *b, float *band, 
                                                    int32_t r0, int32_t r1, int disc)
 {
     SPLAT_BODY(v8f, v8i, 8)
+}
+/* Sixteen where AVX-512 is there: a drop's box (10 to 16 texels wide at 2048^2) in one go. */
+typedef float v16f __attribute__((vector_size(64)));
+typedef int32_t v16i __attribute__((vector_size(64)));
+__attribute__((target("avx512f"))) static void splat16(const float *b, float *band,
+                                                      size_t stride, int32_t r0, int32_t r1,
+                                                      int disc)
+{
+    SPLAT_BODY(v16f, v16i, 16)
 }
 #endif
 #undef SPLAT_BODY
@@ -263,8 +272,8 @@ static hbk_result_t render(hbk_rain_t *h, hbk_image_t *img, int disc)
     const hbk_rain_params_t *p = &h->p;
     const int32_t W = img->width, H = img->height, nbands = (H + BAND - 1) / BAND;
     const int threads = p->threads > 0 ? p->threads : omp_get_max_threads();
-    /* Room for a last 8-lane group of the splat, and whole 16-texel groups for finalize_row. */
-    const size_t stride = ((size_t)W + 7 + 15) & ~(size_t)15;
+    /* Room for a last 16-lane group of the splat, and whole 16-texel groups for finalize_row. */
+    const size_t stride = ((size_t)W + 15 + 15) & ~(size_t)15;
     const size_t per = stride * BAND;
     if ((size_t)threads * per > h->band_buf_size) {
         /* Kept zeroed between uses: each band is cleared as it is written out. */
@@ -281,6 +290,7 @@ static hbk_result_t render(hbk_rain_t *h, hbk_image_t *img, int disc)
     finalize_init(&fin, p);
 #ifdef RAIN_HAVE_SPLAT8
     const int wide = __builtin_cpu_supports("avx2");
+    const int wider = __builtin_cpu_supports("avx512f");
 #endif
     const float now = (float)h->time, life = p->wet_lifetime;
     const float cw = (float)p->width / (float)W, ch = (float)p->height / (float)H;
@@ -305,6 +315,10 @@ static hbk_result_t render(hbk_rain_t *h, hbk_image_t *img, int disc)
         for (uint32_t k = h->band_start[band]; k < h->band_start[band + 1]; ++k) {
             const float *b = h->balls + (size_t)h->band_items[k] * B_N;
 #ifdef RAIN_HAVE_SPLAT8
+            if (wider) {
+                splat16(b, buf, stride, r0, r1, disc);
+                continue;
+            }
             if (wide) {
                 splat8(b, buf, stride, r0, r1, disc);
                 continue;
