@@ -210,6 +210,57 @@ static int shoreline_cell(const hbk_caustics_ctx_t *c, int32_t i, int32_t j, pol
 /* Weight of triangle t (0 or 1) of cell `cell` in pass g, channel ch. */
 #define TRIW(c, g, cell, t, ch) ((c)->triw[g][((size_t)(cell) * 2 + (t)) * (size_t)(c)->nch + (ch)])
 
+/* triangle() for one pass of one weight under a sun, with the corners read in place from the
+ * vertex arrays (no corner copies): the regular cells of a one-index map. The same operations
+ * in the same order, so the same bytes. Returns 0 (and writes nothing) when the image is
+ * degenerate: the caller then takes the general path. */
+static inline int fast_triangle(const hbk_caustics_ctx_t *c, int wet, int32_t ka, int32_t la,
+                                int32_t kb, int32_t lb, int32_t kd, int32_t ld, float *w,
+                                double st[3])
+{
+    const size_t va = (size_t)la * (size_t)c->nvx + (size_t)ka;
+    const size_t vb = (size_t)lb * (size_t)c->nvx + (size_t)kb;
+    const size_t vd = (size_t)ld * (size_t)c->nvx + (size_t)kd;
+    const double as[3] = {c->vxs[ka], c->vys[la], c->vz[va]};
+    const double e1[3] = {c->vxs[kb] - as[0], c->vys[lb] - as[1], c->vz[vb] - as[2]};
+    const double e2[3] = {c->vxs[kd] - as[0], c->vys[ld] - as[1], c->vz[vd] - as[2]};
+    const double n2[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                          e1[0] * e2[1] - e1[1] * e2[0]};
+    const double proj2 = n2[0] * c->L[0] + n2[1] * c->L[1] + n2[2] * c->L[2];
+    if (!(proj2 > 0.0)) {
+        *w = 0.0f;
+        return 1;
+    }
+    double T = 1.0;
+    if (wet && c->p->fresnel) {
+        const double len = sqrt(n2[0] * n2[0] + n2[1] * n2[1] + n2[2] * n2[2]);
+        T = hbk_caustics_fresnel_t(proj2 / len, c->ior[0]);
+    }
+    const double through = 0.5 * proj2 * T * 1.0;
+    const double *px = c->ipx[0], *py = c->ipy[0];
+    const float *hz = c->ihz[0];
+    const double f1[3] = {(px[vb] - px[va]) * c->inv_sx, (py[vb] - py[va]) * c->inv_sy,
+                          (double)hz[vb] - (double)hz[va]};
+    const double f2[3] = {(px[vd] - px[va]) * c->inv_sx, (py[vd] - py[va]) * c->inv_sy,
+                          (double)hz[vd] - (double)hz[va]};
+    const double m2[3] = {f1[1] * f2[2] - f1[2] * f2[1], f1[2] * f2[0] - f1[0] * f2[2],
+                          f1[0] * f2[1] - f1[1] * f2[0]};
+    const double s2 = f1[2] == 0.0 && f2[2] == 0.0
+                          ? fabs(m2[2]) : sqrt(m2[0] * m2[0] + m2[1] * m2[1] + m2[2] * m2[2]);
+    if (!(0.5 * fabs(m2[2]) * c->sx * c->sy >= HBK_CAUSTICS_TINY_PX2)) return 0; /* a splat */
+    const float *at = c->iatt[0];
+    const double att = wet ? (at[va] + at[vb] + at[vd]) / 3.0 : 1.0;
+    const double P = c->Ew[0] * through * att;
+    if (wet) {
+        st[0] += c->Ew[0] * through;
+        st[1] += c->Ew[0] * through * (1.0 - att);
+    } else {
+        st[2] += P;
+    }
+    *w = (float)(P / (0.5 * s2) * (m2[2] > 0.0 ? 1.0 : -1.0));
+    return 1;
+}
+
 /* Processes cell (i, j): regular cells write their two triangle weights; shoreline cells and
  * degenerate images produce loose triangles, written to `loose` when it is not NULL. Returns
  * the number of loose triangles. */
@@ -226,6 +277,21 @@ static int cell(hbk_caustics_ctx_t *c, int32_t i, int32_t j, hbk_loose_tri_t *lo
             for (int t = 0; t < 2; ++t)
                 for (int ch = 0; ch < c->nch; ++ch) TRIW(c, g, ci, t, ch) = 0.0f;
         return 0;
+    }
+    if (!mixed && c->ng == 1 && c->nch == 1 && !c->point) {
+        /* T0 = (00, 10, 11), T1 = (00, 11, 01); the stats are committed only when both are
+         * regular (else the general path below redoes the cell). */
+        double st[3] = {stats[0], stats[3], stats[6]};
+        float w0f, w1f;
+        if (fast_triangle(c, w0, i, j, i + 1, j, i + 1, j + 1, &w0f, st) &&
+            fast_triangle(c, w0, i, j, i + 1, j + 1, i, j + 1, &w1f, st)) {
+            TRIW(c, 0, ci, 0, 0) = w0f;
+            TRIW(c, 0, ci, 1, 0) = w1f;
+            stats[0] = st[0]; /* added in triangle()'s order: T0's, then T1's */
+            stats[3] = st[1];
+            stats[6] = st[2];
+            return 0;
+        }
     }
     if (!mixed) {
         corner_t q[4];
