@@ -9,3 +9,8 @@ def test_bake_volume_and_textured_surface(blender, tmp_path):
 def test_paint_with_an_empty_and_capture_a_feature_rule(blender, tmp_path):
     r = blender.run("fluid_paint.py", tmp_path)
     assert "FLUID PAINT OK" in r.stdout
+
+
+def test_mantaflow_liquid_cache_drives_the_textures(blender, tmp_path):
+    r = blender.run("fluid_mantaflow.py", tmp_path)
+    assert "FLUID MANTAFLOW OK" in r.stdout

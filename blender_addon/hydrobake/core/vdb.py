@@ -73,3 +73,18 @@ def read(path):
     """All grids of ``path`` as pyopenvdb grids, keyed by name."""
     grids, _meta = _vdb().readAll(path)
     return {g.name: g for g in grids}
+
+
+def read_grid(path, name):
+    """One grid of ``path`` as a dense array [x, y, z(, 3)] over index (0, 0, 0) to the grid's
+    active bounding box's upper corner (zero where inactive)."""
+    try:
+        grid = _vdb().read(path, name)
+    except (KeyError, LookupError) as exc:
+        raise errors.FormatError(f"{path}: no grid named {name!r}") from exc
+    _lo, hi = grid.evalActiveVoxelBoundingBox()
+    shape = tuple(max(int(h) + 1, 1) for h in hi)
+    vector = type(grid).__name__.startswith("Vec3")
+    out = np.zeros(shape + ((3,) if vector else ()), np.float32)
+    grid.copyToArray(out, ijk=(0, 0, 0))
+    return out

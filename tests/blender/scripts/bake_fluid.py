@@ -31,6 +31,29 @@ s.fluid.resolution = (16, 8, 8)
 s.fluid.substeps = 8
 s.fluid.textures = 2
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
+s.fluid.texture_scale[0] = 2.0
+# Texture 0 is the user's node group (a checker at uvw); texture 1 the built-in waves.
+grp = bpy.data.node_groups.new("Checks", "ShaderNodeTree")
+grp.inputs.new("NodeSocketVector", "UVW")
+grp.outputs.new("NodeSocketColor", "Color")
+gin, gout = grp.nodes.new("NodeGroupInput"), grp.nodes.new("NodeGroupOutput")
+chk = grp.nodes.new("ShaderNodeTexChecker")
+grp.links.new(gin.outputs["UVW"], chk.inputs["Vector"])
+grp.links.new(chk.outputs["Color"], gout.inputs["Color"])
+bad = bpy.data.node_groups.new("No Input", "ShaderNodeTree")
+bad.outputs.new("NodeSocketColor", "Color")
+with bpy.context.temp_override(object=domain):
+    assert bpy.ops.hydrobake.fluid_sample(action="ADD") == {"FINISHED"}
+    assert bpy.ops.hydrobake.fluid_sample(action="ADD") == {"FINISHED"}
+    assert bpy.ops.hydrobake.fluid_sample(action="REMOVE") == {"FINISHED"}
+assert len(s.samples) == 1
+s.samples[0].group = bad
+try:
+    bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain")
+    raise AssertionError("baked with a group that has no vector input")
+except RuntimeError as exc:
+    assert "texture 0: node group 'No Input' needs a Vector input" in str(exc), exc
+s.samples[0].group = grp
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 vol = bpy.data.objects["HBK_Domain_volume"]
 scene.frame_set(2)
@@ -42,7 +65,20 @@ assert "uvw_weight" in surf.data.attributes and "blend_1" in surf.data.attribute
 n2 = len(surf.data.vertices)
 scene.frame_set(3)
 assert len(surf.data.vertices) > 0
-assert surf.data.materials[0].name == "HBK_Domain_textured"
+mat = surf.data.materials[0]
+assert mat.name == "HBK_Domain_textured"
+nodes = mat.node_tree.nodes
+groups = [n for n in nodes if n.type == "GROUP"]
+assert len(groups) == 2 and all(n.node_tree == grp for n in groups)  # fields A and B
+for n in groups:  # fed uvw_a or uvw_b times texture 0's scale
+    sc = n.inputs["UVW"].links[0].from_node
+    assert sc.operation == "SCALE" and sc.inputs["Scale"].default_value == 2.0
+    assert sc.inputs[0].links[0].from_node.attribute_name in ("uvw_a", "uvw_b")
+assert sum(n.type == "TEX_WAVE" for n in nodes) == 2  # texture 1: built-in
+blends = {n.attribute_name for n in nodes if n.type == "ATTRIBUTE"}
+assert {"blend_0", "blend_1", "uvw_weight"} <= blends and "blend_2" not in blends
+bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
+assert bsdf.inputs["Base Color"].is_linked
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 assert "HBK_Domain_volume" not in bpy.data.objects and "HBK_Domain_surface" not in bpy.data.objects
 print("FLUID BLENDER OK", n2)

@@ -52,3 +52,37 @@ def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=No
             if hit[0] is not None:
                 out[j, i] = hit[0].z
     return out
+
+
+def data_world_bounds(obj):
+    """(min xyz, max xyz) of the object's own mesh (before modifiers) in world space: a fluid
+    domain's box even while it shows its liquid."""
+    n = len(obj.data.vertices)
+    co = np.empty(n * 3, np.float64)
+    obj.data.vertices.foreach_get("co", co)
+    m = np.array(obj.matrix_world, np.float64)
+    pts = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def z_crossings(obj, xs, ys, z_lo, z_hi, depsgraph=None):
+    """Where the evaluated surface of ``obj`` crosses each vertical line (x, y) for x in xs, y
+    in ys, between z_lo and z_hi: (heights, counts (len(ys), len(xs))), heights line after line
+    (y rows, then x), ascending within a line."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    tree = _world_tree(obj, depsgraph)
+    up = Vector((0.0, 0.0, 1.0))
+    eps = 1e-6 * max(z_hi - z_lo, 1e-6)
+    counts = np.zeros((len(ys), len(xs)), np.int32)
+    heights = []
+    for j, y in enumerate(ys):
+        for i, x in enumerate(xs):
+            z = z_lo - eps
+            while True:
+                hit = tree.ray_cast(Vector((float(x), float(y), z)), up, z_hi + eps - z)
+                if hit[0] is None:
+                    break
+                heights.append(hit[0].z)
+                counts[j, i] += 1
+                z = hit[0].z + eps
+    return np.array(heights, np.float32), counts

@@ -1,10 +1,13 @@
 """Fluid texturing in Blender: the domain object's bounding box is the simulation box; the
-fluid is the built-in SPH (filling a Fill object's box) or a particle system's particles; the
-bake becomes a Volume object reading the VDB sequence and a surface mesh that follows the frame,
+fluid is the built-in SPH (filling a Fill object's box), a particle system's particles, or a
+baked Mantaflow liquid (its velocity cache, and its liquid mesh for the surface); the bake becomes a Volume object reading the VDB sequence and a surface mesh that follows the frame,
 with a material that blends two solid textures at the advected uvw, cross-fading fields A and B."""
+import os
+
 import bpy
 import numpy as np
 
+from ...core import mantaflow
 from ..bridge import frame_meshes, materials, meshes, volumes
 from . import register_effect
 from .base import BlenderEffect
@@ -36,6 +39,27 @@ class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
         description="The local feature the rule reads")
     low: bpy.props.FloatProperty(name="Low", default=0.0, description="Lower bound")
     high: bpy.props.FloatProperty(name="High", default=1.0, description="Upper bound")
+
+
+def _is_sample_group(_self, tree):
+    """A shader node group usable as a sample texture: a vector in, a colour out."""
+    return (tree.bl_idname == "ShaderNodeTree" and _group_socket(tree, "INPUT") is not None
+            and _group_socket(tree, "OUTPUT") is not None)
+
+
+def _group_socket(tree, side):
+    """Name of a node group's first vector input (side INPUT) or colour output (OUTPUT)."""
+    socks = tree.inputs if side == "INPUT" else tree.outputs
+    want = ("NodeSocketVector",) if side == "INPUT" else ("NodeSocketColor",)
+    return next((sk.name for sk in socks if sk.bl_socket_idname in want), None)
+
+
+class HYDROBAKE_PG_fluid_sample(bpy.types.PropertyGroup):
+    """One sample texture: a shader node group evaluated at the advected uvw."""
+    group: bpy.props.PointerProperty(
+        name="Node Group", type=bpy.types.NodeTree, poll=_is_sample_group,
+        description="A shader node group with a Vector input and a Color output, evaluated "
+                    "at the advected uvw (times the texture's scale). Empty: a built-in sample")
 
 
 class HYDROBAKE_PT_fluid_paint(bpy.types.Panel):
@@ -96,6 +120,30 @@ class HYDROBAKE_OT_fluid_capture_rule(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class HYDROBAKE_OT_fluid_sample(bpy.types.Operator):
+    """Add a sample texture slot (pick its node group), or remove the last one"""
+    bl_idname = "hydrobake.fluid_sample"
+    bl_label = "Sample Texture"
+    bl_options = {"REGISTER", "UNDO"}
+
+    action: bpy.props.EnumProperty(items=[("ADD", "Add", ""), ("REMOVE", "Remove", "")])
+
+    def execute(self, context):
+        obj = context.object
+        s = getattr(obj, "hydrobake_fluid", None) if obj else None
+        if s is None:
+            return {"CANCELLED"}
+        if self.action == "ADD":
+            if len(s.samples) >= s.fluid.textures:
+                self.report({"ERROR"}, f"textures = {s.fluid.textures}: raise it to add a "
+                                       "sample")
+                return {"CANCELLED"}
+            s.samples.add()
+        elif len(s.samples):
+            s.samples.remove(len(s.samples) - 1)
+        return {"FINISHED"}
+
+
 @register_effect
 class FluidBlender(BlenderEffect):
     name = "fluid"
@@ -116,12 +164,21 @@ class FluidBlender(BlenderEffect):
                 name="Particles", type=bpy.types.Object,
                 description="PARTICLES: the object whose first particle system is the fluid "
                             "(positions and velocities read every frame)"),
+            liquid_domain=bpy.props.PointerProperty(
+                name="Liquid Domain", type=bpy.types.Object,
+                description="VELOCITY_GRID: a Mantaflow liquid domain with a baked OpenVDB "
+                            "cache; its velocity moves the textures, its liquid mesh (Mesh "
+                            "baked) is the surface. Empty: this object, if it is one"),
             obstacles=bpy.props.PointerProperty(
                 name="Obstacles", type=bpy.types.Collection,
                 description="SIMULATE: objects the fluid flows around (their bounding boxes)"),
             paint_collection=bpy.props.PointerProperty(
                 name="Paint", type=bpy.types.Collection,
                 description="Empties with Paint Fluid on: local paint strokes (Object tab)"),
+            samples=bpy.props.CollectionProperty(
+                type=HYDROBAKE_PG_fluid_sample, name="Sample Textures",
+                description="Sample texture k is the k-th entry's node group; textures "
+                            "without an entry use the built-in noise, waves and cells"),
             rules=bpy.props.CollectionProperty(
                 type=HYDROBAKE_PG_fluid_rule, name="Feature Rules",
                 description="Feature paint: a texture wherever a feature lies in a range"),
@@ -129,7 +186,8 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def prepare(cls, context, obj, settings, params, frames):
-        lo, hi = meshes.world_bounds(obj)
+        # The object's own box (a liquid domain's bounds would be its liquid's).
+        lo, hi = meshes.data_world_bounds(obj) if obj.type == "MESH" else meshes.world_bounds(obj)
         fp = params["fluid"]
         fp["box_min"], fp["box_max"] = tuple(map(float, lo)), tuple(map(float, hi))
         fps = context.scene.render.fps / context.scene.render.fps_base
@@ -153,9 +211,15 @@ class FluidBlender(BlenderEffect):
             inputs["particles"] = cls._particles(context, settings.particle_object, frames,
                                                  lo, hi)
         else:
-            raise ValueError("source: VELOCITY_GRID (Mantaflow caches) is not wired into "
-                             "Blender yet; use SIMULATE or PARTICLES")
+            inputs["velocity"] = cls._mantaflow(context, obj, settings, fp, frames)
         ntex = fp["textures"]
+        if len(settings.samples) > ntex:
+            raise ValueError(f"Sample Textures: {len(settings.samples)} entries for textures "
+                             f"= {ntex}: remove some or raise textures")
+        for k, sm in enumerate(settings.samples):
+            if sm.group is not None and not _is_sample_group(None, sm.group):
+                raise ValueError(f"Sample Textures: texture {k}: node group {sm.group.name!r} "
+                                 "needs a Vector input and a Color output")
         if settings.paint_collection:
             strokes = {}
             for e in settings.paint_collection.all_objects:
@@ -180,6 +244,54 @@ class FluidBlender(BlenderEffect):
             rules.append((rule.texture, lo, hi))
         inputs["rules"] = rules
         return params, inputs
+
+    @staticmethod
+    def _mantaflow(context, obj, settings, fp, frames):
+        """The VELOCITY_GRID source from a baked Mantaflow liquid domain: velocity read per
+        frame from its cache (no bpy needed then), the surface from its liquid mesh, sampled
+        here (Blender owns the mesh) as crossings of the vertex columns."""
+        dom = settings.liquid_domain or obj
+        mod = next((m for m in dom.modifiers
+                    if m.type == "FLUID" and m.fluid_type == "DOMAIN"), None)
+        if mod is None:
+            raise ValueError(f"Liquid Domain: {dom.name} has no Fluid modifier of type Domain "
+                             "(VELOCITY_GRID reads a baked Mantaflow liquid)")
+        d = mod.domain_settings
+        if d.domain_type != "LIQUID":
+            raise ValueError(f"Liquid Domain: {dom.name} is a {d.domain_type.lower()} domain; "
+                             "only liquid domains are supported")
+        if d.cache_data_format != "OPENVDB":
+            raise ValueError(f"Liquid Domain: {dom.name}'s cache format is "
+                             f"{d.cache_data_format}; set Cache > Data to OpenVDB and re-bake")
+        if d.use_adaptive_domain:
+            raise ValueError(f"Liquid Domain: {dom.name} uses an adaptive domain; turn it off "
+                             "and re-bake (the cache must span the whole domain)")
+        cache = bpy.path.abspath(d.cache_directory)
+        missing = [f for f in range(frames[0], frames[1] + 1)
+                   if not os.path.isfile(mantaflow.data_path(cache, f))]
+        if missing:
+            raise ValueError(f"Liquid Domain: {dom.name}'s cache {cache} has no data for "
+                             f"frames {missing[0]}..{missing[-1]}: bake the liquid first")
+        dlo, dhi = meshes.data_world_bounds(dom)
+        res = fp["resolution"]
+        lo, hi = np.array(fp["box_min"]), np.array(fp["box_max"])
+        surfaces = None
+        if d.use_mesh:
+            xs = np.linspace(lo[0], hi[0], res[0] + 1)
+            ys = np.linspace(lo[1], hi[1], res[1] + 1)
+            scene = context.scene
+            keep = scene.frame_current
+            surfaces = {}
+            try:
+                for f in range(frames[0], frames[1] + 1):
+                    scene.frame_set(f)
+                    surfaces[f] = meshes.z_crossings(dom, xs, ys, lo[2], hi[2],
+                                                     context.evaluated_depsgraph_get())
+            finally:
+                scene.frame_set(keep)
+        fp["surface_threshold"] = 0.5  # the crossings' field is 0.5 on the liquid surface
+        return mantaflow.CacheSource(cache, range(frames[0], frames[1] + 1), dlo, dhi, lo, hi,
+                                     res, surfaces, d.time_scale)
 
     @staticmethod
     def _particles(context, pobj, frames, lo, hi):
@@ -217,8 +329,10 @@ class FluidBlender(BlenderEffect):
         # surface (enable the volume in renders to see the density as fog).
         vol.hide_render = True
         vol.display_type = "BOUNDS"
-        mat = bpy.data.materials.get(f"HBK_{obj.name}_textured") or cls._material(
-            f"HBK_{obj.name}_textured")
+        fp = manifest["params"]["fluid"]
+        groups = [sm.group for sm in settings.samples]
+        mat = cls._material(f"HBK_{obj.name}_textured", fp["textures"],
+                            fp["texture_scale"], groups)
         surf = frame_meshes.attach(f"HBK_{obj.name}_surface", "surface", folder, "surface",
                                    collection=coll, material=mat)
         surf["hydrobake_domain"] = obj.name  # for Capture Feature Rule
@@ -227,62 +341,90 @@ class FluidBlender(BlenderEffect):
         obj.hide_render = True
 
     @staticmethod
-    def _material(name):
-        """Three solid sample textures (noise, waves, cells) at the advected uvw, each
-        cross-faded between fields A and B by uvw_weight, blended by the baked weights."""
-        mat = bpy.data.materials.new(name)
+    def _material(name, count, scales, groups):
+        """The textured surface's material, rebuilt on every bake: sample texture k (its node
+        group, or a built-in noise, waves or cells) at the advected uvw times its scale, cross-
+        faded between fields A and B by uvw_weight, tinted, and summed with the baked blend
+        weights (they sum to one, so the sum is the blend)."""
+        mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
         mat.use_nodes = True
         tree = mat.node_tree
-        bsdf = materials.principled(tree)
+        tree.nodes.clear()
+        out_node = tree.nodes.new("ShaderNodeOutputMaterial")
+        out_node.location = (900, 0)
+        bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+        bsdf.location = (600, 0)
         bsdf.inputs["Roughness"].default_value = 0.25
+        tree.links.new(bsdf.outputs["BSDF"], out_node.inputs["Surface"])
 
         def attr(name, x, y, kind="Vector"):
             n = tree.nodes.new("ShaderNodeAttribute")
             n.attribute_name, n.location = name, (x, y)
             return n.outputs[kind]
 
-        def sample(kind, uvw, x, y):
+        def node(idname, x, y, **inputs):
+            n = tree.nodes.new(idname)
+            n.location = (x, y)
+            for key, value in inputs.items():
+                n.inputs[key].default_value = value
+            return n
+
+        def sample(k, uvw, x, y):
+            group = groups[k] if k < len(groups) else None
+            if group is not None:
+                t = node("ShaderNodeGroup", x, y)
+                t.node_tree = group
+                tree.links.new(uvw, t.inputs[_group_socket(group, "INPUT")])
+                return t.outputs[_group_socket(group, "OUTPUT")]
+            kind = ("noise", "wave", "voronoi")[k % 3]
             if kind == "noise":
-                t = tree.nodes.new("ShaderNodeTexNoise")
-                t.inputs["Scale"].default_value = 3.0
-                t.inputs["Detail"].default_value = 6.0
+                t = node("ShaderNodeTexNoise", x, y, Scale=3.0, Detail=6.0)
             elif kind == "voronoi":
-                t = tree.nodes.new("ShaderNodeTexVoronoi")
-                t.inputs["Scale"].default_value = 6.0
+                t = node("ShaderNodeTexVoronoi", x, y, Scale=6.0)
             else:
-                t = tree.nodes.new("ShaderNodeTexWave")
-                t.inputs["Scale"].default_value = 2.0
-                t.inputs["Distortion"].default_value = 4.0
-            t.location = (x, y)
+                t = node("ShaderNodeTexWave", x, y, Scale=2.0, Distortion=4.0)
             tree.links.new(uvw, t.inputs["Vector"])
             return t.outputs["Color"]
 
-        def mix(fac, a, b, x, y):
-            m = tree.nodes.new("ShaderNodeMixRGB")
-            m.location = (x, y)
-            tree.links.new(fac, m.inputs["Fac"])
-            tree.links.new(a, m.inputs["Color1"])
-            tree.links.new(b, m.inputs["Color2"])
-            return m.outputs["Color"]
-
-        ua, ub = attr("uvw_a", -1200, 200), attr("uvw_b", -1200, -100)
-        w = attr("uvw_weight", -1200, 400, "Fac")
-        tex = []
-        tints = ((0.15, 0.45, 0.9, 1), (0.95, 0.97, 1.0, 1), (1.0, 0.45, 0.1, 1))
-        for k, kind in enumerate(("noise", "wave", "voronoi")):
-            a = sample(kind, ua, -900, 300 - 300 * k)
-            b = sample(kind, ub, -900, 150 - 300 * k)
-            faded = mix(w, b, a, -700, 250 - 300 * k)  # fac = weight of A
-            tint = tree.nodes.new("ShaderNodeMixRGB")  # each sample its own colour
-            tint.blend_type, tint.location = "MULTIPLY", (-550, 250 - 300 * k)
-            tint.inputs["Fac"].default_value = 1.0
-            tint.inputs["Color2"].default_value = tints[k]
-            tree.links.new(faded, tint.inputs["Color1"])
-            tex.append(tint.outputs["Color"])
-        # Blend weights sum to one: texture 1 over 0 by blend_1, then texture 2 by blend_2.
-        out = mix(attr("blend_1", -600, 500, "Fac"), tex[0], tex[1], -300, 200)
-        out = mix(attr("blend_2", -300, 500, "Fac"), out, tex[2], -100, 200)
-        tree.links.new(out, bsdf.inputs["Base Color"])
+        ua, ub = attr("uvw_a", -1600, 200), attr("uvw_b", -1600, -100)
+        w = attr("uvw_weight", -1600, 400, "Fac")
+        tints = ((0.15, 0.45, 0.9, 1), (0.95, 0.97, 1.0, 1), (1.0, 0.45, 0.1, 1),
+                 (0.3, 0.8, 0.35, 1), (0.8, 0.3, 0.75, 1), (0.9, 0.85, 0.3, 1),
+                 (0.4, 0.4, 0.45, 1), (0.3, 0.8, 0.8, 1))
+        total = None
+        for k in range(int(count)):
+            y = 600 - 320 * k
+            scaled = []
+            for field, dy in ((ua, 0), (ub, -140)):
+                sc = node("ShaderNodeVectorMath", -1350, y + dy)
+                sc.operation = "SCALE"
+                sc.inputs["Scale"].default_value = float(scales[k])
+                tree.links.new(field, sc.inputs[0])
+                scaled.append(sc.outputs["Vector"])
+            a, b = sample(k, scaled[0], -1100, y), sample(k, scaled[1], -1100, y - 140)
+            fade = node("ShaderNodeMixRGB", -850, y)  # fac = weight of A
+            tree.links.new(w, fade.inputs["Fac"])
+            tree.links.new(b, fade.inputs["Color1"])
+            tree.links.new(a, fade.inputs["Color2"])
+            colour = fade.outputs["Color"]
+            if k >= len(groups) or groups[k] is None:  # a built-in: give it its own colour
+                tint = node("ShaderNodeMixRGB", -650, y, Fac=1.0, Color2=tints[k % len(tints)])
+                tint.blend_type = "MULTIPLY"
+                tree.links.new(colour, tint.inputs["Color1"])
+                colour = tint.outputs["Color"]
+            part = node("ShaderNodeVectorMath", -400, y)
+            part.operation = "SCALE"
+            tree.links.new(colour, part.inputs[0])
+            tree.links.new(attr(f"blend_{k}", -650, y + 120, "Fac"), part.inputs["Scale"])
+            if total is None:
+                total = part.outputs["Vector"]
+            else:
+                add = node("ShaderNodeVectorMath", -150, y + 60)
+                add.operation = "ADD"
+                tree.links.new(total, add.inputs[0])
+                tree.links.new(part.outputs["Vector"], add.inputs[1])
+                total = add.outputs["Vector"]
+        tree.links.new(total, bsdf.inputs["Base Color"])
         return mat
 
     @classmethod
@@ -301,7 +443,7 @@ class FluidBlender(BlenderEffect):
     def register_extra(cls):
         frame_meshes.ensure_handler()
         for c in (HYDROBAKE_PG_fluid_paint, HYDROBAKE_PT_fluid_paint,
-                  HYDROBAKE_OT_fluid_capture_rule):
+                  HYDROBAKE_OT_fluid_capture_rule, HYDROBAKE_OT_fluid_sample):
             bpy.utils.register_class(c)
         bpy.types.Object.hydrobake_fluid_paint = bpy.props.PointerProperty(
             type=HYDROBAKE_PG_fluid_paint)
@@ -310,19 +452,20 @@ class FluidBlender(BlenderEffect):
     def unregister_extra(cls):
         frame_meshes.unregister()
         del bpy.types.Object.hydrobake_fluid_paint
-        for c in (HYDROBAKE_OT_fluid_capture_rule, HYDROBAKE_PT_fluid_paint,
-                  HYDROBAKE_PG_fluid_paint):
+        for c in (HYDROBAKE_OT_fluid_sample, HYDROBAKE_OT_fluid_capture_rule,
+                  HYDROBAKE_PT_fluid_paint, HYDROBAKE_PG_fluid_paint):
             bpy.utils.unregister_class(c)
 
     @staticmethod
     def extra_classes():
-        """Registered before the settings, which hold rules of this type."""
-        return (HYDROBAKE_PG_fluid_rule,)
+        """Registered before the settings, which hold rules and samples of these types."""
+        return (HYDROBAKE_PG_fluid_rule, HYDROBAKE_PG_fluid_sample)
 
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("fill_object", "particle_object", "obstacles", "paint_collection"):
+        for name in ("fill_object", "particle_object", "liquid_domain", "obstacles",
+                     "paint_collection"):
             col.prop(settings, name)
         box = col.box()
         box.label(text=f"Feature rules: {len(settings.rules)}")
@@ -333,4 +476,12 @@ class FluidBlender(BlenderEffect):
             row.prop(rule, "low", text="")
             row.prop(rule, "high", text="")
         box.operator("hydrobake.fluid_capture_rule", icon="EYEDROPPER")
+        box = col.box()
+        box.label(text=f"Sample textures: {settings.fluid.textures} (node groups: "
+                       f"{len(settings.samples)})")
+        for k, sm in enumerate(settings.samples):
+            box.prop(sm, "group", text=f"Texture {k}")
+        row = box.row(align=True)
+        row.operator("hydrobake.fluid_sample", text="Add", icon="ADD").action = "ADD"
+        row.operator("hydrobake.fluid_sample", text="Remove", icon="REMOVE").action = "REMOVE"
         super().draw_settings(layout, settings)
