@@ -335,43 +335,133 @@ hbk_result_t hbk_caustics_setup_mesh(hbk_caustics_ctx_t *c)
     return HBK_OK;
 }
 
+/* Traces vertex (k, l): its image per pass, ground z and attenuation. */
+static void trace_vertex(hbk_caustics_ctx_t *c, int32_t k, int32_t l)
+{
+    const size_t v = (size_t)l * (size_t)c->nvx + (size_t)k;
+    const double s[3] = {c->vxs[k], c->vys[l], c->vz[v]};
+    double n[3], L[3];
+    if (c->vwet[v]) {
+        normal_at(c, c->vsi[k], c->vsj[l], n);
+        if (c->point) {
+            double len = 0.0;
+            for (int a = 0; a < 3; ++a) len += (c->lpos[a] - s[a]) * (c->lpos[a] - s[a]);
+            len = sqrt(len);
+            for (int a = 0; a < 3; ++a) L[a] = (c->lpos[a] - s[a]) / len;
+        } else {
+            for (int a = 0; a < 3; ++a) L[a] = c->L[a];
+        }
+    }
+    for (int g = 0; g < c->ng; ++g) {
+        double hit[3] = {s[0], s[1], c->vb[v]}, t = 0.0;
+        if (c->vwet[v]) {
+            double r[3];
+            refract_dir(L, n, c->eta[g], r);
+            t = hbk_caustics_march(c, s, r);
+            for (int a = 0; a < 3; ++a) hit[a] = s[a] + t * r[a];
+        }
+        c->ipx[g][v] = (hit[0] - c->ex0) * c->sx;
+        c->ipy[g][v] = (hit[1] - c->ey0) * c->sy;
+        c->ihz[g][v] = (float)hit[2];
+        for (int ch = 0; ch < c->nch; ++ch)
+            c->iatt[g][v * (size_t)c->nch + (size_t)ch] =
+                c->absorb ? (float)exp(-c->sigma[g][ch] * t) : 1.0f;
+    }
+}
+
+enum { TB = 128 };
+
+/* Under a sun over a flat floor, open water takes the same path at every vertex: a block of
+ * up to TB vertices of row l from column k0 is traced in loops without branches or calls,
+ * which the compiler vectorises (an AVX2 clone where the CPU has it). Each lane does
+ * trace_vertex's operations in the same order (no FMA), so the bytes are the same; vertices
+ * off that path (dry, a dry or missing neighbour, a ray too flat) go through trace_vertex. */
+__attribute__((target_clones("avx2", "default"))) static void
+trace_block(hbk_caustics_ctx_t *c, int32_t l, int32_t k0, int32_t n)
+{
+    double hl[TB], hr[TB], hd[TB], hu[TB], z0[TB], x[TB], n0[TB], n1[TB], n2[TB];
+    double px[TB], py[TB], hz[TB], tt[TB];
+    uint8_t ok[TB], steep[TB];
+    const int32_t W = c->W, H = c->H, j = c->vsj[l];
+    const int32_t jd = c->periodic ? (j == 0 ? H - 1 : j - 1) : j - 1;
+    const int32_t ju = c->periodic ? (j == H - 1 ? 0 : j + 1) : j + 1;
+    const int rows_in = jd >= 0 && ju < H;
+    const float *wat = c->water;
+    const size_t ws = c->water_stride;
+    for (int32_t q = 0; q < n; ++q) {
+        const int32_t k = k0 + q, i = c->vsi[k];
+        const size_t v = (size_t)l * (size_t)c->nvx + (size_t)k;
+        const int32_t il = c->periodic ? (i == 0 ? W - 1 : i - 1) : i - 1;
+        const int32_t ir = c->periodic ? (i == W - 1 ? 0 : i + 1) : i + 1;
+        int good = c->vwet[v] && rows_in && il >= 0 && ir < W &&
+                   (c->periodic || (k >= 1 && k <= W)); /* not a border vertex */
+        good = good && c->swet[(size_t)j * (size_t)W + (size_t)il] &&
+               c->swet[(size_t)j * (size_t)W + (size_t)ir] &&
+               c->swet[(size_t)jd * (size_t)W + (size_t)i] &&
+               c->swet[(size_t)ju * (size_t)W + (size_t)i];
+        ok[q] = (uint8_t)good;
+        hl[q] = good ? wat[(size_t)j * ws + (size_t)il] : 0.0f;
+        hr[q] = good ? wat[(size_t)j * ws + (size_t)ir] : 0.0f;
+        hd[q] = good ? wat[(size_t)jd * ws + (size_t)i] : 0.0f;
+        hu[q] = good ? wat[(size_t)ju * ws + (size_t)i] : 0.0f;
+        z0[q] = c->vz[v];
+        x[q] = c->vxs[k];
+    }
+    const double hx = 0.5 * c->inv_dx, L0 = c->L[0], L1 = c->L[1], L2 = c->L[2];
+    for (int32_t q = 0; q < n; ++q) { /* normal_at with both neighbours wet on each axis */
+        const double s0 = (hr[q] - hl[q]) * hx, s1 = (hu[q] - hd[q]) * hx;
+        const double inv = 1.0 / sqrt(s0 * s0 + s1 * s1 + 1.0);
+        n0[q] = -s0 * inv;
+        n1[q] = -s1 * inv;
+        n2[q] = inv;
+    }
+    const double y = c->vys[l], g = c->gmax;
+    for (int gp = 0; gp < c->ng; ++gp) {
+        const double eta = c->eta[gp];
+        for (int32_t q = 0; q < n; ++q) { /* refract_dir, then the flat floor's plane */
+            double cos_i = L0 * n0[q] + L1 * n1[q] + L2 * n2[q];
+            const int back = cos_i <= 1e-6;
+            const double m0 = back ? 0.0 : n0[q], m1 = back ? 0.0 : n1[q],
+                         m2 = back ? 1.0 : n2[q];
+            cos_i = back ? L2 : cos_i;
+            const double kk = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+            const double f = eta * cos_i - sqrt(kk);
+            const double r0 = -eta * L0 + f * m0, r1 = -eta * L1 + f * m1,
+                         r2 = -eta * L2 + f * m2;
+            steep[q] = !(r2 > -HBK_CAUSTICS_MIN_DOWN);
+            const double t = z0[q] > g ? (z0[q] - g) / -r2 : 0.0;
+            tt[q] = t;
+            px[q] = (x[q] + t * r0 - c->ex0) * c->sx;
+            py[q] = (y + t * r1 - c->ey0) * c->sy;
+            hz[q] = z0[q] + t * r2;
+        }
+        const size_t v0 = (size_t)l * (size_t)c->nvx + (size_t)k0;
+        for (int32_t q = 0; q < n; ++q) {
+            if (!ok[q] || !steep[q]) continue; /* done below */
+            c->ipx[gp][v0 + (size_t)q] = px[q];
+            c->ipy[gp][v0 + (size_t)q] = py[q];
+            c->ihz[gp][v0 + (size_t)q] = (float)hz[q];
+            for (int ch = 0; ch < c->nch; ++ch)
+                c->iatt[gp][(v0 + (size_t)q) * (size_t)c->nch + (size_t)ch] =
+                    c->absorb ? (float)exp(-c->sigma[gp][ch] * tt[q]) : 1.0f;
+        }
+        for (int32_t q = 0; q < n; ++q) ok[q] = ok[q] && steep[q];
+    }
+    for (int32_t q = 0; q < n; ++q)
+        if (!ok[q]) trace_vertex(c, k0 + q, l);
+}
+
 void hbk_caustics_trace_vertices(hbk_caustics_ctx_t *c)
 {
     const int32_t nx = c->periodic ? c->W : c->nvx, ny = c->periodic ? c->H : c->nvy;
+    const int fast = !c->point && c->gflat;
 #pragma omp parallel for num_threads(c->threads) schedule(dynamic, 4)
     for (int32_t l = 0; l < ny; ++l) {
         if (hbk_cancelled(c->progress)) continue; /* the caller sees it after the stage */
-        for (int32_t k = 0; k < nx; ++k) {
-            const size_t v = (size_t)l * (size_t)c->nvx + (size_t)k;
-            const double s[3] = {c->vxs[k], c->vys[l], c->vz[v]};
-            double n[3], L[3];
-            if (c->vwet[v]) {
-                normal_at(c, c->vsi[k], c->vsj[l], n);
-                if (c->point) {
-                    double len = 0.0;
-                    for (int a = 0; a < 3; ++a) len += (c->lpos[a] - s[a]) * (c->lpos[a] - s[a]);
-                    len = sqrt(len);
-                    for (int a = 0; a < 3; ++a) L[a] = (c->lpos[a] - s[a]) / len;
-                } else {
-                    for (int a = 0; a < 3; ++a) L[a] = c->L[a];
-                }
-            }
-            for (int g = 0; g < c->ng; ++g) {
-                double hit[3] = {s[0], s[1], c->vb[v]}, t = 0.0;
-                if (c->vwet[v]) {
-                    double r[3];
-                    refract_dir(L, n, c->eta[g], r);
-                    t = hbk_caustics_march(c, s, r);
-                    for (int a = 0; a < 3; ++a) hit[a] = s[a] + t * r[a];
-                }
-                c->ipx[g][v] = (hit[0] - c->ex0) * c->sx;
-                c->ipy[g][v] = (hit[1] - c->ey0) * c->sy;
-                c->ihz[g][v] = (float)hit[2];
-                for (int ch = 0; ch < c->nch; ++ch)
-                    c->iatt[g][v * (size_t)c->nch + (size_t)ch] =
-                        c->absorb ? (float)exp(-c->sigma[g][ch] * t) : 1.0f;
-            }
-        }
+        if (fast)
+            for (int32_t k = 0; k < nx; k += TB) trace_block(c, l, k, nx - k < TB ? nx - k : TB);
+        else
+            for (int32_t k = 0; k < nx; ++k) trace_vertex(c, k, l);
     }
     if (!c->periodic) return;
     /* The wrap vertices are their originals one period on. */
