@@ -142,9 +142,12 @@ hbk_result_t hbk_caustics_setup_ground(hbk_caustics_ctx_t *c)
             const int32_t i1 = 8 * bu + 8 < c->ncu ? 8 * bu + 8 : c->ncu;
             const int32_t j1 = 8 * bv + 8 < c->ncv ? 8 * bv + 8 : c->ncv;
             for (int32_t j = 8 * bv; j <= j1; ++j)
-                for (int32_t i = 8 * bu; i <= i1; ++i) m = fmaxf(m, gs(c, i, j));
+                for (int32_t i = 8 * bu; i <= i1; ++i) {
+                    const float g = gs(c, i, j);
+                    m = g > m ? g : m; /* heights are finite (checked): no fmaxf call */
+                }
             c->bmax[(size_t)bv * (size_t)c->nbu + (size_t)bu] = m;
-            gmax = fmaxf(gmax, m);
+            gmax = m > gmax ? m : gmax;
         }
     /* Which samples are wet: read by every normal (four neighbours each) and vertex. */
     c->swet = hbk_cs_get(c->ws, CS_SWET, (size_t)c->W * (size_t)c->H, 0);
