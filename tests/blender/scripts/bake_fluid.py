@@ -3,6 +3,7 @@ Volume object with the VDB grids and a textured surface mesh that follows the fr
 import os
 
 import bpy
+import numpy as np
 
 import in_blender
 
@@ -54,6 +55,12 @@ try:
 except RuntimeError as exc:
     assert "texture 0: node group 'No Input' needs a Vector input" in str(exc), exc
 s.samples[0].group = grp
+# Texture 1: a voxel solid texture, the core's tileable noise written by the operator.
+with bpy.context.temp_override(object=domain):
+    assert bpy.ops.hydrobake.fluid_sample(action="ADD") == {"FINISHED"}
+    assert bpy.ops.hydrobake.fluid_noise_texture(index=1, size=16) == {"FINISHED"}
+assert s.samples[1].voxel_file.startswith("//hydrobake_textures/")
+assert os.path.isfile(bpy.path.abspath(s.samples[1].voxel_file))
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 vol = bpy.data.objects["HBK_Domain_volume"]
 scene.frame_set(2)
@@ -74,9 +81,13 @@ for n in groups:  # fed uvw_a or uvw_b times texture 0's scale
     sc = n.inputs["UVW"].links[0].from_node
     assert sc.operation == "SCALE" and sc.inputs["Scale"].default_value == 2.0
     assert sc.inputs[0].links[0].from_node.attribute_name in ("uvw_a", "uvw_b")
-assert sum(n.type == "TEX_WAVE" for n in nodes) == 2  # texture 1: built-in
+assert not any(n.type == "TEX_WAVE" for n in nodes)  # texture 1 is the voxel texture
 blends = {n.attribute_name for n in nodes if n.type == "ATTRIBUTE"}
-assert {"blend_0", "blend_1", "uvw_weight"} <= blends and "blend_2" not in blends
+assert {"blend_0", "blend_1", "uvw_weight", "sample_1"} <= blends and "blend_2" not in blends
+col = surf.data.attributes["sample_1"]
+vals = np.empty(len(surf.data.vertices) * 3, np.float32)
+col.data.foreach_get("vector", vals)
+assert 0.0 <= vals.min() and vals.max() <= 1.0 and vals.std() > 0.01  # noise, per vertex
 bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
 assert bsdf.inputs["Base Color"].is_linked
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}

@@ -7,7 +7,7 @@ import os
 import bpy
 import numpy as np
 
-from ...core import mantaflow
+from ...core import mantaflow, solid_textures
 from ..bridge import frame_meshes, materials, meshes, volumes
 from . import register_effect
 from .base import BlenderEffect
@@ -55,11 +55,17 @@ def _group_socket(tree, side):
 
 
 class HYDROBAKE_PG_fluid_sample(bpy.types.PropertyGroup):
-    """One sample texture: a shader node group evaluated at the advected uvw."""
+    """One sample texture: a shader node group evaluated at the advected uvw, or a voxel
+    solid texture (a VDB tile) sampled at the surface's vertices."""
     group: bpy.props.PointerProperty(
         name="Node Group", type=bpy.types.NodeTree, poll=_is_sample_group,
         description="A shader node group with a Vector input and a Color output, evaluated "
                     "at the advected uvw (times the texture's scale). Empty: a built-in sample")
+    voxel_file: bpy.props.StringProperty(
+        name="Voxel Texture", subtype="FILE_PATH",
+        description="A voxel solid texture: an OpenVDB file whose first grid (colour or grey) "
+                    "is one tile over uvw [0, 1). Sampled at every surface vertex; wins over "
+                    "the node group")
 
 
 class HYDROBAKE_PT_fluid_paint(bpy.types.Panel):
@@ -144,6 +150,35 @@ class HYDROBAKE_OT_fluid_sample(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class HYDROBAKE_OT_fluid_noise_texture(bpy.types.Operator):
+    """Make a tileable 3D noise voxel texture with the core (a VDB next to the .blend) and use
+    it for this sample"""
+    bl_idname = "hydrobake.fluid_noise_texture"
+    bl_label = "Make Noise Voxel Texture"
+    bl_options = {"REGISTER", "UNDO"}
+
+    index: bpy.props.IntProperty(min=0, max=7)
+    size: bpy.props.IntProperty(name="Size", default=64, min=8, max=256)
+    period: bpy.props.IntProperty(name="Period", default=4, min=1, max=64)
+    seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+
+    def execute(self, context):
+        obj = context.object
+        s = getattr(obj, "hydrobake_fluid", None) if obj else None
+        if s is None or self.index >= len(s.samples):
+            self.report({"ERROR"}, "No such sample texture slot")
+            return {"CANCELLED"}
+        if not bpy.data.filepath:
+            self.report({"ERROR"}, "Save the .blend first: the texture is written next to it")
+            return {"CANCELLED"}
+        rel = f"//hydrobake_textures/noise_{self.size}_{self.period}_{self.seed}.vdb"
+        path = bpy.path.abspath(rel)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        solid_textures.write_noise_vdb(path, self.size, self.period, seed=self.seed)
+        s.samples[self.index].voxel_file = rel
+        return {"FINISHED"}
+
+
 @register_effect
 class FluidBlender(BlenderEffect):
     name = "fluid"
@@ -216,10 +251,18 @@ class FluidBlender(BlenderEffect):
         if len(settings.samples) > ntex:
             raise ValueError(f"Sample Textures: {len(settings.samples)} entries for textures "
                              f"= {ntex}: remove some or raise textures")
+        voxel = {}
         for k, sm in enumerate(settings.samples):
-            if sm.group is not None and not _is_sample_group(None, sm.group):
+            if sm.voxel_file:
+                path = bpy.path.abspath(sm.voxel_file)
+                try:
+                    voxel[k] = solid_textures.read_vdb(path)
+                except Exception as exc:
+                    raise ValueError(f"Sample Textures: texture {k}: {exc}") from exc
+            elif sm.group is not None and not _is_sample_group(None, sm.group):
                 raise ValueError(f"Sample Textures: texture {k}: node group {sm.group.name!r} "
                                  "needs a Vector input and a Color output")
+        inputs["voxel_textures"] = voxel
         if settings.paint_collection:
             strokes = {}
             for e in settings.paint_collection.all_objects:
@@ -330,7 +373,7 @@ class FluidBlender(BlenderEffect):
         vol.hide_render = True
         vol.display_type = "BOUNDS"
         fp = manifest["params"]["fluid"]
-        groups = [sm.group for sm in settings.samples]
+        groups = [("VOXEL" if sm.voxel_file else sm.group) for sm in settings.samples]
         mat = cls._material(f"HBK_{obj.name}_textured", fp["textures"],
                             fp["texture_scale"], groups)
         surf = frame_meshes.attach(f"HBK_{obj.name}_surface", "surface", folder, "surface",
@@ -371,6 +414,8 @@ class FluidBlender(BlenderEffect):
 
         def sample(k, uvw, x, y):
             group = groups[k] if k < len(groups) else None
+            if group == "VOXEL":  # sampled per vertex by the bake, already cross-faded
+                return attr(f"sample_{k}", x, y, "Color")
             if group is not None:
                 t = node("ShaderNodeGroup", x, y)
                 t.node_tree = group
@@ -443,7 +488,8 @@ class FluidBlender(BlenderEffect):
     def register_extra(cls):
         frame_meshes.ensure_handler()
         for c in (HYDROBAKE_PG_fluid_paint, HYDROBAKE_PT_fluid_paint,
-                  HYDROBAKE_OT_fluid_capture_rule, HYDROBAKE_OT_fluid_sample):
+                  HYDROBAKE_OT_fluid_capture_rule, HYDROBAKE_OT_fluid_sample,
+                  HYDROBAKE_OT_fluid_noise_texture):
             bpy.utils.register_class(c)
         bpy.types.Object.hydrobake_fluid_paint = bpy.props.PointerProperty(
             type=HYDROBAKE_PG_fluid_paint)
@@ -452,7 +498,8 @@ class FluidBlender(BlenderEffect):
     def unregister_extra(cls):
         frame_meshes.unregister()
         del bpy.types.Object.hydrobake_fluid_paint
-        for c in (HYDROBAKE_OT_fluid_sample, HYDROBAKE_OT_fluid_capture_rule,
+        for c in (HYDROBAKE_OT_fluid_noise_texture, HYDROBAKE_OT_fluid_sample,
+                  HYDROBAKE_OT_fluid_capture_rule,
                   HYDROBAKE_PT_fluid_paint, HYDROBAKE_PG_fluid_paint):
             bpy.utils.unregister_class(c)
 
@@ -480,7 +527,12 @@ class FluidBlender(BlenderEffect):
         box.label(text=f"Sample textures: {settings.fluid.textures} (node groups: "
                        f"{len(settings.samples)})")
         for k, sm in enumerate(settings.samples):
-            box.prop(sm, "group", text=f"Texture {k}")
+            sub = box.column(align=True)
+            sub.prop(sm, "group", text=f"Texture {k}")
+            row = sub.row(align=True)
+            row.prop(sm, "voxel_file", text="Voxel")
+            op = row.operator("hydrobake.fluid_noise_texture", text="", icon="TEXTURE")
+            op.index = k
         row = box.row(align=True)
         row.operator("hydrobake.fluid_sample", text="Add", icon="ADD").action = "ADD"
         row.operator("hydrobake.fluid_sample", text="Remove", icon="REMOVE").action = "REMOVE"

@@ -9,16 +9,20 @@ Inputs:
     velocity     {frame: (V_m (nz+1, ny+1, nx+1, 3), surface field or None)} (VELOCITY_GRID)
     paint        {frame: [(texture, centre, radius, falloff)]}: local paint strokes
     rules        [(texture, lo[5], hi[5])]: feature paint
+    voxel_textures {texture: (X, Y, Z, 3) tile}: voxel solid textures, sampled at every
+                 surface vertex's advected uvw (see solid_textures)
 
 Streams per frame:
     fluid_####.vdb    density (float), velocity (vec3, contravariant-relative), uvw and
                       uvw_b (vec3, invariant), blend_0..blend_{k-1} (float); the cross-fade
                       weight of uvw in the grid metadata "uvw_weight"
-    surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features
+    surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features, and
+                      sample_k (RGB) for each voxel texture k
 """
 import numpy as np
 
 
+from .. import solid_textures
 from ..fluid import Fluid
 from . import register
 from .base import Effect
@@ -52,6 +56,7 @@ class FluidEffect(Effect):
         self.particles = inp.get("particles") or {}
         self.velocity = inp.get("velocity") or {}
         self.paint = inp.get("paint") or {}
+        self.voxel_textures = inp.get("voxel_textures") or {}
         p = self.params["fluid"]
         lo, hi = np.array(p.box_min[:]), np.array(p.box_max[:])
         self.cell = (hi - lo) / np.array(p.resolution[:])
@@ -90,6 +95,10 @@ class FluidEffect(Effect):
         mesh = dict(self.mesh)
         # The cross-fade weight of uvw A, per vertex so a shader can read it as an attribute.
         mesh["uvw_weight"] = np.full(len(mesh["positions"]), weight, np.float32)
+        scales = self.params["fluid"].texture_scale
+        for k, tex in sorted(self.voxel_textures.items()):
+            mesh[f"sample_{k}"] = solid_textures.surface_colour(
+                tex, float(scales[k]), mesh["uvw_a"], mesh["uvw_b"], mesh["uvw_weight"])
         return {"fluid": ("vdb", grids, {}), "surface": ("npz", mesh, {})}
 
     def save_state(self):
