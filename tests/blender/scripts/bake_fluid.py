@@ -65,7 +65,16 @@ assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHE
 vol = bpy.data.objects["HBK_Domain_volume"]
 scene.frame_set(2)
 grids = volumes.grid_names(vol)
-assert {"density", "velocity", "uvw", "uvw_b", "blend_0", "blend_1"} <= set(grids), grids
+assert {"density", "velocity", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1"} <= set(grids), grids
+# The Volume's shader reads the same grids: density for the fog, textures at uvw.
+vmat = vol.data.materials[0]
+vnodes = vmat.node_tree.nodes
+pv = next(n for n in vnodes if n.type == "PRINCIPLED_VOLUME")
+assert pv.inputs["Density"].is_linked and pv.inputs["Color"].is_linked
+vattrs = {n.attribute_name for n in vnodes if n.type == "ATTRIBUTE"}
+assert {"density", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1"} <= vattrs, vattrs
+assert "sample_1" not in vattrs  # a voxel texture has no volume form: a built-in stands in
+assert sum(n.type == "GROUP" for n in vnodes) == 2
 surf = bpy.data.objects["HBK_Domain_surface"]
 assert len(surf.data.polygons) > 0 and "uvw_a" in surf.data.attributes
 assert "uvw_weight" in surf.data.attributes and "blend_1" in surf.data.attributes

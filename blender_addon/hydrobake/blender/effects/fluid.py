@@ -376,6 +376,10 @@ class FluidBlender(BlenderEffect):
         groups = [("VOXEL" if sm.voxel_file else sm.group) for sm in settings.samples]
         mat = cls._material(f"HBK_{obj.name}_textured", fp["textures"],
                             fp["texture_scale"], groups)
+        vmat = cls._material(f"HBK_{obj.name}_volume", fp["textures"], fp["texture_scale"],
+                             groups, volume=True)
+        vol.data.materials.clear()
+        vol.data.materials.append(vmat)
         surf = frame_meshes.attach(f"HBK_{obj.name}_surface", "surface", folder, "surface",
                                    collection=coll, material=mat)
         surf["hydrobake_domain"] = obj.name  # for Capture Feature Rule
@@ -384,21 +388,37 @@ class FluidBlender(BlenderEffect):
         obj.hide_render = True
 
     @staticmethod
-    def _material(name, count, scales, groups):
-        """The textured surface's material, rebuilt on every bake: sample texture k (its node
+    def _material(name, count, scales, groups, volume=False):
+        """The textured fluid's material, rebuilt on every bake: sample texture k (its node
         group, or a built-in noise, waves or cells) at the advected uvw times its scale, cross-
         faded between fields A and B by uvw_weight, tinted, and summed with the baked blend
-        weights (they sum to one, so the sum is the blend)."""
+        weights (they sum to one, so the sum is the blend). The surface reads the mesh's
+        attributes; ``volume``: the Volume's shader reads the same grids (uvw, uvw_b,
+        uvw_weight, blend_k; density for the fog), voxel textures falling back to built-ins
+        as Cycles cannot sample 3D images."""
         mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
         mat.use_nodes = True
         tree = mat.node_tree
         tree.nodes.clear()
         out_node = tree.nodes.new("ShaderNodeOutputMaterial")
         out_node.location = (900, 0)
-        bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
-        bsdf.location = (600, 0)
-        bsdf.inputs["Roughness"].default_value = 0.25
-        tree.links.new(bsdf.outputs["BSDF"], out_node.inputs["Surface"])
+        if volume:
+            bsdf = tree.nodes.new("ShaderNodeVolumePrincipled")
+            bsdf.location = (600, 0)
+            tree.links.new(bsdf.outputs["Volume"], out_node.inputs["Volume"])
+            dens = tree.nodes.new("ShaderNodeAttribute")
+            dens.attribute_name, dens.location = "density", (100, -300)
+            scale = tree.nodes.new("ShaderNodeMath")
+            scale.operation, scale.location = "MULTIPLY", (350, -300)
+            scale.inputs[1].default_value = 0.02  # per kg/m^3: water (1000) is a thick fog
+            tree.links.new(dens.outputs["Fac"], scale.inputs[0])
+            tree.links.new(scale.outputs["Value"], bsdf.inputs["Density"])
+            groups = [None if g == "VOXEL" else g for g in groups]
+        else:
+            bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+            bsdf.location = (600, 0)
+            bsdf.inputs["Roughness"].default_value = 0.25
+            tree.links.new(bsdf.outputs["BSDF"], out_node.inputs["Surface"])
 
         def attr(name, x, y, kind="Vector"):
             n = tree.nodes.new("ShaderNodeAttribute")
@@ -431,7 +451,7 @@ class FluidBlender(BlenderEffect):
             tree.links.new(uvw, t.inputs["Vector"])
             return t.outputs["Color"]
 
-        ua, ub = attr("uvw_a", -1600, 200), attr("uvw_b", -1600, -100)
+        ua, ub = attr("uvw" if volume else "uvw_a", -1600, 200), attr("uvw_b", -1600, -100)
         w = attr("uvw_weight", -1600, 400, "Fac")
         tints = ((0.15, 0.45, 0.9, 1), (0.95, 0.97, 1.0, 1), (1.0, 0.45, 0.1, 1),
                  (0.3, 0.8, 0.35, 1), (0.8, 0.3, 0.75, 1), (0.9, 0.85, 0.3, 1),
@@ -469,7 +489,7 @@ class FluidBlender(BlenderEffect):
                 tree.links.new(total, add.inputs[0])
                 tree.links.new(part.outputs["Vector"], add.inputs[1])
                 total = add.outputs["Vector"]
-        tree.links.new(total, bsdf.inputs["Base Color"])
+        tree.links.new(total, bsdf.inputs["Color" if volume else "Base Color"])
         return mat
 
     @classmethod

@@ -15,7 +15,8 @@ Inputs:
 Streams per frame:
     fluid_####.vdb    density (float), velocity (vec3, contravariant-relative), uvw and
                       uvw_b (vec3, invariant), blend_0..blend_{k-1} (float); the cross-fade
-                      weight of uvw in the grid metadata "uvw_weight"
+                      weight of uvw in the grid metadata "uvw_weight" and as a constant grid
+                      "uvw_weight" (for volume shaders)
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features, and
                       sample_k (RGB) for each voxel texture k
 """
@@ -87,6 +88,10 @@ class FluidEffect(Effect):
                       vector_type="INVARIANT", metadata={"uvw_weight": weight}, **common),
                  dict(name="uvw_b", array=xyz(self.fluid.volume("uvw_b")),
                       vector_type="INVARIANT", **common)]
+        # The cross-fade weight as a (constant, so tiny) grid: a volume shader reads grids.
+        shape = grids[0]["array"].shape
+        grids.append(dict(name="uvw_weight", array=np.full(shape, weight, np.float32),
+                          **common))
         blend = xyz(self.fluid.volume("blend"))
         if blend.ndim == 3:
             blend = blend[..., None]
