@@ -459,8 +459,9 @@ def fluid_scene():
     rule = s.rules.add()
     rule.texture, rule.feature, rule.low, rule.high = 1, "ACCELERATION", 30.0, 1e9
     brush = bpy.data.objects.new("Paint Brush", None)
-    brush.empty_display_type, brush.empty_display_size = "SPHERE", 0.12
-    brush.location = (0.17, 0.25, 0.3)
+    # The column's front top, facing the camera: the painted cells ride the wave's face.
+    brush.empty_display_type, brush.empty_display_size = "SPHERE", 0.2
+    brush.location = (0.22, 0.08, 0.38)
     strokes = bpy.data.collections.new("Fluid Paint")
     scene.collection.children.link(strokes)
     strokes.objects.link(brush)

@@ -30,7 +30,7 @@ s = domain.hydrobake_fluid
 s.enabled, s.fill_object = True, fill
 s.fluid.resolution = (16, 8, 8)
 s.fluid.substeps = 8
-s.fluid.textures = 2
+s.fluid.textures = 3  # three: a blend of three columns is not a vector
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
 s.fluid.texture_scale[0] = 2.0
 # Texture 0 is the user's node group (a checker at uvw); texture 1 the built-in waves.
@@ -65,7 +65,8 @@ assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHE
 vol = bpy.data.objects["HBK_Domain_volume"]
 scene.frame_set(2)
 grids = volumes.grid_names(vol)
-assert {"density", "velocity", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1"} <= set(grids), grids
+assert {"density", "velocity", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1",
+        "blend_2"} <= set(grids), grids
 # The Volume's shader reads the same grids: density for the fog, textures at uvw.
 vmat = vol.data.materials[0]
 vnodes = vmat.node_tree.nodes
@@ -92,7 +93,15 @@ for n in groups:  # fed uvw_a or uvw_b times texture 0's scale
     assert sc.inputs[0].links[0].from_node.attribute_name in ("uvw_a", "uvw_b")
 assert not any(n.type == "TEX_WAVE" for n in nodes)  # texture 1 is the voxel texture
 blends = {n.attribute_name for n in nodes if n.type == "ATTRIBUTE"}
-assert {"blend_0", "blend_1", "uvw_weight", "sample_1"} <= blends and "blend_2" not in blends
+assert {"blend_0", "blend_1", "blend_2", "uvw_weight", "sample_1"} <= blends
+assert "blend_3" not in blends
+# Every blend weight is its own attribute, and they sum to one at every vertex.
+ws = []
+for k in range(3):
+    a = np.empty(len(surf.data.vertices), np.float32)
+    surf.data.attributes[f"blend_{k}"].data.foreach_get("value", a)
+    ws.append(a)
+np.testing.assert_allclose(np.sum(ws, axis=0), 1.0, atol=1e-5)
 col = surf.data.attributes["sample_1"]
 vals = np.empty(len(surf.data.vertices) * 3, np.float32)
 col.data.foreach_get("vector", vals)

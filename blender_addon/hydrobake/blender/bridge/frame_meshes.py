@@ -25,12 +25,14 @@ def _surface(mesh, data):
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * n, 3, dtype=np.int32))
     mesh.polygons.foreach_set("loop_total", np.full(n, 3, np.int32))
     mesh.polygons.foreach_set("use_smooth", np.ones(n, bool))
-    # uvw_a, uvw_b: vectors; uvw_weight: one value; blend, features: an attribute per column.
+    # uvw_a, uvw_b, sample_k: vectors; uvw_weight: one value; blend, features: an attribute
+    # per column (by name: three textures make a blend of three columns, still not a vector).
     for name in data.files:
         if name in ("positions", "triangles", "normals"):
             continue
         arr = np.ascontiguousarray(data[name], np.float32)
-        if arr.ndim == 2 and arr.shape[1] == 3:
+        vector = name in ("uvw_a", "uvw_b") or name.startswith("sample_")
+        if vector and arr.ndim == 2 and arr.shape[1] == 3:
             mesh.attributes.new(name, "FLOAT_VECTOR", "POINT").data.foreach_set(
                 "vector", arr.ravel())
         elif arr.ndim == 1:
