@@ -48,8 +48,8 @@ class ParamSpec:
         default(probe)
         c_size = ctypes.c_uint32.from_buffer(probe).value
 
-        fields, pos = [("size", ctypes.c_uint32)], 4
-        for i, row in enumerate(sorted(rows, key=lambda r: r.offset)):
+        fields = [("size", ctypes.c_uint32)]
+        for row in sorted(rows, key=lambda r: r.offset):
             ctype = _CTYPE[row.type] * row.count if row.count > 1 else _CTYPE[row.type]
             fields.append((row.name.decode(), ctype))
         self.struct = type(f"hbk_{prefix}_params_t", (ctypes.Structure,), {"_fields_": fields})

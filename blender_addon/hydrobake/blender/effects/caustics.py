@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..bridge import images, materials, meshes
+from ..bridge import animation, images, materials, meshes
 from . import register_effect
 from .base import BlenderEffect
 
@@ -142,17 +142,13 @@ class CausticsBlender(BlenderEffect):
             params["light"]["light_direction"] = tuple(d)
         footprints = {}
         if settings.disturber_object:
-            keep = scene.frame_current
-            try:
-                for f in range(frames[0], frames[1] + 1):
-                    scene.frame_set(f)
-                    under = meshes.sample_heights(settings.disturber_object, origin, cell,
-                                                  shape, "UP", context.evaluated_depsgraph_get())
-                    press = np.clip(level - np.nan_to_num(under, nan=level), 0.0,
-                                    settings.disturber_depth).astype(np.float32)
-                    footprints[f] = press if press.any() else None
-            finally:
-                scene.frame_set(keep)
+            def footprint(_f):
+                under = meshes.sample_heights(settings.disturber_object, origin, cell, shape,
+                                              "UP", context.evaluated_depsgraph_get())
+                press = np.clip(level - np.nan_to_num(under, nan=level), 0.0,
+                                settings.disturber_depth).astype(np.float32)
+                return press if press.any() else None
+            footprints = animation.per_frame(scene, frames[0], frames[1], footprint)
         sources = None
         if settings.source_object:
             under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",

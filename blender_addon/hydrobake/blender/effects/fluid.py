@@ -8,7 +8,7 @@ import bpy
 import numpy as np
 
 from ...core import mantaflow, solid_textures
-from ..bridge import frame_meshes, materials, meshes, volumes
+from ..bridge import animation, frame_meshes, meshes, volumes
 from . import register_effect
 from .base import BlenderEffect
 
@@ -322,45 +322,30 @@ class FluidBlender(BlenderEffect):
         if d.use_mesh:
             xs = np.linspace(lo[0], hi[0], res[0] + 1)
             ys = np.linspace(lo[1], hi[1], res[1] + 1)
-            scene = context.scene
-            keep = scene.frame_current
-            surfaces = {}
-            try:
-                for f in range(frames[0], frames[1] + 1):
-                    scene.frame_set(f)
-                    surfaces[f] = meshes.z_crossings(dom, xs, ys, lo[2], hi[2],
-                                                     context.evaluated_depsgraph_get())
-            finally:
-                scene.frame_set(keep)
+            surfaces = animation.per_frame(context.scene, frames[0], frames[1], lambda f: (
+                meshes.z_crossings(dom, xs, ys, lo[2], hi[2], context.evaluated_depsgraph_get())))
         fp["surface_threshold"] = 0.5  # the crossings' field is 0.5 on the liquid surface
         return mantaflow.CacheSource(cache, range(frames[0], frames[1] + 1), dlo, dhi, lo, hi,
                                      res, surfaces, d.time_scale)
 
     @staticmethod
     def _particles(context, pobj, frames, lo, hi):
-        scene = context.scene
-        keep = scene.frame_current
-        out = {}
-        try:
-            for f in range(frames[0], frames[1] + 1):
-                scene.frame_set(f)
-                ev = pobj.evaluated_get(context.evaluated_depsgraph_get())
-                if not ev.particle_systems:
-                    raise ValueError(f"{pobj.name}: has no particle system")
-                ps = ev.particle_systems[0].particles
-                n = len(ps)
-                pos, vel = np.empty(n * 3, np.float32), np.empty(n * 3, np.float32)
-                alive = np.empty(n, np.int32)
-                ps.foreach_get("location", pos)
-                ps.foreach_get("velocity", vel)
-                ps.foreach_get("alive_state", alive)
-                keep_mask = alive == 3  # ALIVE
-                pos, vel = pos.reshape(-1, 3)[keep_mask], vel.reshape(-1, 3)[keep_mask]
-                inside = np.all((pos >= lo) & (pos <= hi), axis=1)  # the box holds the fluid
-                out[f] = (pos[inside], vel[inside])
-        finally:
-            scene.frame_set(keep)
-        return out
+        def particles(_f):
+            ev = pobj.evaluated_get(context.evaluated_depsgraph_get())
+            if not ev.particle_systems:
+                raise ValueError(f"{pobj.name}: has no particle system")
+            ps = ev.particle_systems[0].particles
+            n = len(ps)
+            pos, vel = np.empty(n * 3, np.float32), np.empty(n * 3, np.float32)
+            alive = np.empty(n, np.int32)
+            ps.foreach_get("location", pos)
+            ps.foreach_get("velocity", vel)
+            ps.foreach_get("alive_state", alive)
+            keep_mask = alive == 3  # ALIVE
+            pos, vel = pos.reshape(-1, 3)[keep_mask], vel.reshape(-1, 3)[keep_mask]
+            inside = np.all((pos >= lo) & (pos <= hi), axis=1)  # the box holds the fluid
+            return pos[inside], vel[inside]
+        return animation.per_frame(context.scene, frames[0], frames[1], particles)
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):

@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..bridge import images, materials, mesh_data, uv_grid
+from ..bridge import animation, images, materials, mesh_data, uv_grid
 from . import register_effect
 from .base import BlenderEffect
 
@@ -102,14 +102,8 @@ class RainBlender(BlenderEffect):
     def _car_motion(scene, car, fwd, frames):
         """{frame: (speed, acceleration)} along the car's forward axis, from its animation."""
         fps = scene.render.fps / scene.render.fps_base
-        keep = scene.frame_current
-        pos = {}
-        try:
-            for f in range(frames[0] - 2, frames[1] + 1):
-                scene.frame_set(f)
-                pos[f] = np.array(car.matrix_world.translation)
-        finally:
-            scene.frame_set(keep)
+        pos = animation.per_frame(scene, frames[0] - 2, frames[1],
+                                lambda f: np.array(car.matrix_world.translation))
         f_axis = np.array(fwd.normalized())
         speed = {f: max(0.0, float((pos[f] - pos[f - 1]) @ f_axis) * fps)
                  for f in range(frames[0] - 1, frames[1] + 1)}
@@ -120,16 +114,9 @@ class RainBlender(BlenderEffect):
     def _wiper_motion(scene, blades, mode, frames):
         """{frame: [value per blade]}: local Z rotation in degrees (PIVOT, mode 1) or local X
         location in metres (TRANSLATE), sampled from the animation."""
-        keep = scene.frame_current
-        out = {}
-        try:
-            for f in range(frames[0], frames[1] + 1):
-                scene.frame_set(f)
-                out[f] = [float(np.degrees(b.rotation_euler.z)) if mode == 1 else
-                          float(b.location.x) for b in blades]
-        finally:
-            scene.frame_set(keep)
-        return out
+        return animation.per_frame(scene, frames[0], frames[1], lambda f: [
+            float(np.degrees(b.rotation_euler.z)) if mode == 1 else float(b.location.x)
+            for b in blades])
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
