@@ -363,10 +363,11 @@ static int cell(hbk_caustics_ctx_t *c, int32_t i, int32_t j, hbk_loose_tri_t *lo
 enum { CB = 128 };
 
 /* fast_triangle for a block of up to CB cells of row j from column i0, in loops without
- * branches or calls that the compiler vectorises (an AVX2 clone where the CPU has it): the same
- * operations per lane, so the same bytes. Writes both weights of every cell whose triangles are
- * regular and sets done[q]; the stats are added after, in cell order, as cell() adds them. */
-__attribute__((target_clones("avx2", "default"))) static void
+ * branches, calls or copies, whose cells the CPU overlaps (GCC 12 does not vectorise them: its
+ * if-conversion stops at the selects). The same operations, so the same bytes. Writes both
+ * weights of every cell whose triangles are regular and sets done[q]; the stats are added
+ * after, in cell order, as cell() adds them. */
+static void
 fast_cells(const hbk_caustics_ctx_t *c, int32_t j, int32_t i0, int32_t n, uint8_t *done,
            float *w, double *add)
 {
@@ -380,20 +381,25 @@ fast_cells(const hbk_caustics_ctx_t *c, int32_t j, int32_t i0, int32_t n, uint8_
     const double L0 = c->L[0], L1 = c->L[1], L2 = c->L[2], E = c->Ew[0];
     const double isx = c->inv_sx, isy = c->inv_sy, area = c->sx * c->sy;
     for (int t = 0; t < 2; ++t) {
-        /* T0 = (00, 10, 11), T1 = (00, 11, 01): corner b and d in row a (0) or above (1). */
+        /* T0 = (00, 10, 11), T1 = (00, 11, 01): corner b is (q + 1) of this row (T0) or the
+         * row above (T1), corner d is (q + dq) of the row above: chosen here, not per cell. */
+        const int32_t dq = t ? 0 : 1;
+        const float *zb = t ? zu : za, *hb = t ? hu : ha, *tb = t ? tu : ta;
+        const double *pxb = t ? pxu : pxa, *pyb = t ? pyu : pya;
+        const double by = t ? y1 : y0;
         for (int32_t q = 0; q < n; ++q) {
             const double ax = vx[q], az = za[q];
-            const double bx = vx[q + 1], by = t ? y1 : y0, bz = t ? zu[q + 1] : za[q + 1];
-            const double dx = t ? vx[q] : vx[q + 1], dz = t ? zu[q] : zu[q + 1];
+            const double bx = vx[q + 1], bz = zb[q + 1];
+            const double dx = vx[q + dq], dz = zu[q + dq];
             const double e1[3] = {bx - ax, by - y0, bz - az};
             const double e2[3] = {dx - ax, y1 - y0, dz - az};
             const double n2[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
                                   e1[0] * e2[1] - e1[1] * e2[0]};
             const double proj2 = n2[0] * L0 + n2[1] * L1 + n2[2] * L2;
             const double through = 0.5 * proj2 * 1.0 * 1.0;
-            const double bpx = t ? pxu[q + 1] : pxa[q + 1], dpx = t ? pxu[q] : pxu[q + 1];
-            const double bpy = t ? pyu[q + 1] : pya[q + 1], dpy = t ? pyu[q] : pyu[q + 1];
-            const float bh = t ? hu[q + 1] : ha[q + 1], dh = t ? hu[q] : hu[q + 1];
+            const double bpx = pxb[q + 1], dpx = pxu[q + dq];
+            const double bpy = pyb[q + 1], dpy = pyu[q + dq];
+            const float bh = hb[q + 1], dh = hu[q + dq];
             const double f1[3] = {(bpx - pxa[q]) * isx, (bpy - pya[q]) * isy,
                                   (double)bh - (double)ha[q]};
             const double f2[3] = {(dpx - pxa[q]) * isx, (dpy - pya[q]) * isy,
@@ -404,7 +410,7 @@ fast_cells(const hbk_caustics_ctx_t *c, int32_t j, int32_t i0, int32_t n, uint8_
             const double full = sqrt(m2[0] * m2[0] + m2[1] * m2[1] + m2[2] * m2[2]);
             const double s2 = f1[2] == 0.0 && f2[2] == 0.0 ? flat : full;
             const int lit = proj2 > 0.0, big = 0.5 * flat * area >= HBK_CAUSTICS_TINY_PX2;
-            const float bt = t ? tu[q + 1] : ta[q + 1], dt = t ? tu[q] : tu[q + 1];
+            const float bt = tb[q + 1], dt = tu[q + dq];
             const double att = (ta[q] + bt + dt) / 3.0;
             const double P = E * through * att;
             const double wv = P / (0.5 * s2) * (m2[2] > 0.0 ? 1.0 : -1.0);

@@ -403,8 +403,8 @@ static void draw_group(const band_t *b, const group_t *gr)
 
 /* Rows [lo, hi) every edge of the group may touch: the span of its endpoints' rows, over the
  * edges with sane coordinates (a horizontal edge, which draws nothing, may widen it: the group
- * is then visited in a band where it draws nothing). One loop, vectorised. */
-__attribute__((target_clones("avx2", "default"))) static void
+ * is then visited in a band where it draws nothing). One loop without branches. */
+static void
 edge_group_rows(int32_t n, const double *y0, const double *y1, double *lo, double *hi)
 {
     double a = INFINITY, b = -INFINITY;
