@@ -286,6 +286,23 @@ edge_n(const band_t *b, double x0, double y0, double x1, double y1, double dxdy,
     }
     const int inside = (x0 < x1 ? x0 : x1) >= 0.0 && (x0 < x1 ? x1 : x0) <= MW;
     const int64_t MH = c->MH;
+    if (inside && m == 0.0 && kmin == 0 && kmax == 0) {
+        /* Most edges: in the map, no shift, no other period: the loop below without its
+         * per-row tests (the same arithmetic, so the same bytes). */
+        const int64_t r0 = rlo > b->B0 ? rlo : b->B0, r1 = rhi < b->B1 ? rhi : b->B1;
+        double *row = b->buf + (size_t)(r0 - b->B0) * b->rowlen;
+        double fr = (double)r0; /* r as a double, counted exactly */
+        double ya = ylo > fr ? ylo : fr, xa = x0 + (ya - y0) * dxdy;
+        for (int64_t r = r0; r < r1; ++r, row += b->rowlen) {
+            fr += 1.0;
+            const double yb = yhi < fr ? yhi : fr;
+            const double xb = x0 + (yb - y0) * dxdy;
+            if (yb > ya) accumulate(row, xa, xb, dir * (yb - ya), ds, w, ch0, NCH, PS);
+            ya = yb;
+            xa = xb;
+        }
+        return;
+    }
     for (int64_t k = kmin; k <= kmax; ++k) {
         const int64_t r0 = rlo > b->B0 + k * MH ? rlo : b->B0 + k * MH;
         const int64_t r1 = rhi < b->B1 + k * MH ? rhi : b->B1 + k * MH;
