@@ -1,4 +1,7 @@
 """The bake framework inside real Blender, with the addon installed from its zip."""
+import os
+
+from hydrobake_paths import ROOT
 
 
 def test_install_from_zip_enable_and_disable(blender):
@@ -21,3 +24,8 @@ def test_written_vdb_loads_as_a_volume_object(blender, tmp_path):
 def test_ui_bake_is_modal_and_esc_cancels(blender, tmp_path):
     r = blender.run_ui("ui_modal_cancel.py", tmp_path)
     assert "UI MODAL CANCEL OK" in r.stdout
+
+
+def test_a_bake_in_another_scene_reads_that_scene_animation(blender, tmp_path):
+    r = blender.run("other_scene.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
+    assert "OTHER SCENE OK" in r.stdout

@@ -3,6 +3,8 @@
 Scene data is read on the main thread when the job is made; the worker thread then touches
 only the core (C and files); wiring the result back happens on the main thread again.
 Jobs are keyed by object and effect *names*, never by Python references to Blender data."""
+import contextlib
+
 import bpy
 
 from ..core.bake import BakeRunner, BakeCache
@@ -21,6 +23,15 @@ def frame_range(scene, settings):
     return settings.frame_start, settings.frame_end
 
 
+def scene_context(context, scene):
+    """Makes ``scene`` the context's scene (and its first view layer) while reading scene data:
+    frame_set on another scene would not evaluate its animation, and evaluated data would come
+    from the wrong depsgraph (a batch bake of a scene other than the window's)."""
+    if scene == context.scene:
+        return contextlib.nullcontext()
+    return context.temp_override(scene=scene, view_layer=scene.view_layers[0])
+
+
 class Job:
     def __init__(self, context, obj, effect_name, frames=None, folder_override=None,
                  threads=None, scene=None, resume=False):
@@ -35,7 +46,9 @@ class Job:
                 params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
         self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
-        params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
+        with scene_context(context, scene):
+            params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
+        self.scene_name = scene.name
         effect = self.beffect.core_class()(params, inputs)
         if resume and settings.bake_folder and not folder_override:
             self.folder = settings.bake_folder  # continue where the bake actually is
@@ -58,7 +71,9 @@ class Job:
         if manifest and manifest["frames"]:
             settings.is_baked = True
             settings.bake_folder = self.folder
-            self.beffect.apply(context, obj, settings, self.folder, manifest)
+            scene = bpy.data.scenes.get(self.scene_name) or context.scene
+            with scene_context(context, scene):
+                self.beffect.apply(context, obj, settings, self.folder, manifest)
 
 
 def bake_state(obj, effect_name):
