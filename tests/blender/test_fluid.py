@@ -3,7 +3,7 @@
 
 def test_bake_volume_and_textured_surface(blender, tmp_path):
     r = blender.run("bake_fluid.py", tmp_path)
-    assert "FLUID BLENDER OK" in r.stdout
+    assert "FLUID BLENDER OK" in r.stdout and "FLUID PANEL OK" in r.stdout
 
 
 def test_paint_with_an_empty_and_capture_a_feature_rule(blender, tmp_path):

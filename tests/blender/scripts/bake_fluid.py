@@ -111,3 +111,35 @@ assert bsdf.inputs["Base Color"].is_linked
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 assert "HBK_Domain_volume" not in bpy.data.objects and "HBK_Domain_surface" not in bpy.data.objects
 print("FLUID BLENDER OK", n2)
+
+
+class FakeLayout:
+    """Stands in for a panel's layout: every property drawn must exist, every operator too."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def __getattr__(self, name):  # column, row, box, split...
+        return lambda *a, **k: self if name != "operator" else self._op(*a)
+
+    def _op(self, idname, *a):
+        mod, op = idname.split(".")
+        assert hasattr(getattr(bpy.ops, mod), op), idname
+        self.log.append(idname)
+        return type("Props", (), {})()
+
+    def prop(self, data, name, **k):
+        assert hasattr(data, name), name
+        self.log.append(name)
+
+    def label(self, **k):
+        pass
+
+
+from hydrobake.blender import effects  # noqa: E402
+log = []
+s.samples.add()
+effects.BLENDER_EFFECTS["fluid"].draw_settings(FakeLayout(log), s)
+assert {"liquid_domain", "group", "voxel_file", "hydrobake.fluid_noise_texture",
+        "hydrobake.fluid_sample"} <= set(log), log
+print("FLUID PANEL OK")
