@@ -41,6 +41,12 @@ class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
     high: bpy.props.FloatProperty(name="High", default=1.0, description="Upper bound")
 
 
+def _is_liquid_domain(_self, obj):
+    """Offer only Mantaflow liquid domains."""
+    return any(m.type == "FLUID" and m.fluid_type == "DOMAIN" and
+               m.domain_settings.domain_type == "LIQUID" for m in obj.modifiers)
+
+
 def _is_sample_group(_self, tree):
     """A shader node group usable as a sample texture: a vector in, a colour out."""
     return (tree.bl_idname == "ShaderNodeTree" and _group_socket(tree, "INPUT") is not None
@@ -200,7 +206,7 @@ class FluidBlender(BlenderEffect):
                 description="PARTICLES: the object whose first particle system is the fluid "
                             "(positions and velocities read every frame)"),
             liquid_domain=bpy.props.PointerProperty(
-                name="Liquid Domain", type=bpy.types.Object,
+                name="Liquid Domain", type=bpy.types.Object, poll=_is_liquid_domain,
                 description="VELOCITY_GRID: a Mantaflow liquid domain with a baked OpenVDB "
                             "cache; its velocity moves the textures, its liquid mesh (Mesh "
                             "baked) is the surface. Empty: this object, if it is one"),
