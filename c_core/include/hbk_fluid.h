@@ -52,7 +52,11 @@ typedef enum hbk_fluid_feature {
                                          * surface normal (-grad density); pi/2 where either is 0 */
     HBK_FLUID_FEATURE_ACCELERATION = 3, /* m/s^2, |dV_m/dt| between frames; 0 on frame 1 */
     HBK_FLUID_FEATURE_DIVERGENCE = 4,   /* 1/s, div V_m by central differences */
-    HBK_FLUID_FEATURE_COUNT = 5
+    HBK_FLUID_FEATURE_CURVATURE = 5,    /* 1/m, mean curvature of the density's level sets,
+                                         * div(n) / 2 with n the outward normal: 1/R on a sphere
+                                         * of radius R, > 0 where convex; 0 where the density is
+                                         * flat (inside the fluid, in the air) */
+    HBK_FLUID_FEATURE_COUNT = 6
 } hbk_fluid_feature_t;
 
 typedef struct hbk_fluid_params {

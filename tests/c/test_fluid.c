@@ -105,7 +105,8 @@ void test_fluid_params_rejects(void)
     CHECK(strstr(hbk_fluid_message(h), "texture"));
     CHECK(hbk_fluid_paint_sphere(h, 0, c, -1.0f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
     CHECK(strstr(hbk_fluid_message(h), "radius"));
-    float lo[5] = {0, 0, 0, 0, 0}, hi[5] = {1, 1, 1, 1, -1};
+    float lo[HBK_FLUID_FEATURE_COUNT] = {0, 0, 0, 0, 0, 0};
+    float hi[HBK_FLUID_FEATURE_COUNT] = {1, 1, 1, 1, -1, 1};
     CHECK(hbk_fluid_set_feature_rule(h, 0, lo, hi) == HBK_ERR_INVALID_ARGUMENT);
     CHECK(strstr(hbk_fluid_message(h), "hi[4]"));
     const float lo3[3] = {0, 0, 0}, hi3[3] = {1, 1, 1};
@@ -242,8 +243,8 @@ void test_fluid_blend_normalised(void)
     CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
     const float c1[3] = {0.3f, 0.5f, 0.5f}, c2[3] = {0.6f, 0.4f, 0.5f};
     CHECK_OK(hbk_fluid_paint_sphere(h, 1, c1, 0.1f, 0.1f));
-    const float lo[5] = {0.5f, -FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
-    const float hi[5] = {FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX};
+    const float lo[HBK_FLUID_FEATURE_COUNT] = {0.5f, -FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
+    const float hi[HBK_FLUID_FEATURE_COUNT] = {FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX};
     CHECK_OK(hbk_fluid_set_feature_rule(h, 3, lo, hi));
     for (int f = 0; f < 12; ++f) {
         if (f == 3) CHECK_OK(hbk_fluid_paint_sphere(h, 2, c2, 0.15f, 0.05f));
@@ -324,9 +325,11 @@ void test_fluid_density_lattice(void)
                 for (int i = 3; i <= 13; ++i) {
                     const size_t vi = (size_t)i + 17u * ((size_t)j + 17u * (size_t)k);
                     CHECK_NEAR(d[vi], want, 1e-4 * want);
-                    CHECK(f[5 * vi + HBK_FLUID_FEATURE_DENSITY_RATE] == 0.0f);
-                    CHECK(f[5 * vi + HBK_FLUID_FEATURE_ACCELERATION] == 0.0f);
-                    CHECK(f[5 * vi + HBK_FLUID_FEATURE_DIVERGENCE] == 0.0f);
+                    CHECK(f[HBK_FLUID_FEATURE_COUNT * vi + HBK_FLUID_FEATURE_DENSITY_RATE] == 0.0f);
+                    CHECK(f[HBK_FLUID_FEATURE_COUNT * vi + HBK_FLUID_FEATURE_ACCELERATION] == 0.0f);
+                    CHECK(f[HBK_FLUID_FEATURE_COUNT * vi + HBK_FLUID_FEATURE_DIVERGENCE] == 0.0f);
+                    /* uniform density: no surface, no curvature */
+                    CHECK(f[HBK_FLUID_FEATURE_COUNT * vi + HBK_FLUID_FEATURE_CURVATURE] == 0.0f);
                 }
         free(d);
         free(f);
@@ -539,6 +542,21 @@ void test_fluid_mc_sphere(void)
         for (int k = 0; k < 3; ++k) dot += r[k] / sqrt(rr) * mn[3 * i + k];
         CHECK(dot > 0.995);
     }
+    /* The curvature feature on the surface: 1/R, everywhere within 10 %, on average within
+     * 2 %. */
+    float *mf = malloc((size_t)HBK_FLUID_FEATURE_COUNT * (size_t)nv * sizeof *mf);
+    CHECK_OK(hbk_fluid_get_mesh(h, NULL, NULL, NULL, NULL, NULL, NULL, mf));
+    double mean = 0.0, worst = 0.0;
+    for (int32_t i = 0; i < nv; ++i) {
+        const double k = mf[(size_t)HBK_FLUID_FEATURE_COUNT * i + HBK_FLUID_FEATURE_CURVATURE];
+        mean += k / nv;
+        worst = fmax(worst, fabs(k * R - 1.0));
+    }
+    fprintf(stderr, "mc_sphere: curvature mean %.4f (1/R = %.4f), worst %.1f %%\n", mean, 1 / R,
+            100 * worst);
+    CHECK_NEAR(mean, 1.0 / R, 0.02 / R);
+    CHECK(worst < 0.10);
+    free(mf);
     free(tri); free(mp); free(mn); free(vel); free(surf);
     hbk_fluid_destroy(h);
 }
@@ -590,8 +608,8 @@ static hbk_fluid_t *scene(int threads)
                                          {1, {0.7f, 0.3f, 0.1f}, {0.1f, 0.05f, 0.1f}}};
     hbk_fluid_set_obstacles(h, obs, 2);
     hbk_fluid_paint_sphere(h, 1, c, 0.1f, 0.05f);
-    const float rlo[5] = {-FLT_MAX, -FLT_MAX, 0.0f, 1.0f, -FLT_MAX};
-    const float rhi[5] = {FLT_MAX, FLT_MAX, 1.0f, FLT_MAX, FLT_MAX};
+    const float rlo[HBK_FLUID_FEATURE_COUNT] = {-FLT_MAX, -FLT_MAX, 0.0f, 1.0f, -FLT_MAX, -FLT_MAX};
+    const float rhi[HBK_FLUID_FEATURE_COUNT] = {FLT_MAX, FLT_MAX, 1.0f, FLT_MAX, FLT_MAX, FLT_MAX};
     hbk_fluid_set_feature_rule(h, 2, rlo, rhi);
     return h;
 }

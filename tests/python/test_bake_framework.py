@@ -117,3 +117,23 @@ def test_atomic_path_removes_the_temporary_on_error(tmp_path):
             open(tmp, "wb").write(b"half")
             raise RuntimeError("crash")
     assert target.read_bytes() == b"old" and os.listdir(tmp_path) == ["f.bin"]
+
+
+def test_npz_bytes_do_not_depend_on_when_they_are_written(tmp_path, monkeypatch):
+    import time
+
+    import numpy as np
+
+    from hydrobake.core.bake.runner import write_npz
+    arrays = {"positions": np.arange(12, dtype=np.float32).reshape(4, 3),
+              "triangles": np.array([[0, 1, 2], [0, 2, 3]], np.int32)}
+    write_npz(str(tmp_path / "a.npz"), arrays)
+    later = time.time() + 3600.0
+    monkeypatch.setattr(time, "time", lambda: later)
+    monkeypatch.setattr(time, "localtime", lambda t=None: time.gmtime(later))
+    write_npz(str(tmp_path / "b.npz"), arrays)
+    assert (tmp_path / "a.npz").read_bytes() == (tmp_path / "b.npz").read_bytes()
+    back = np.load(str(tmp_path / "b.npz"))
+    assert set(back.files) == set(arrays)
+    for k, v in arrays.items():
+        np.testing.assert_array_equal(back[k], v)

@@ -10,7 +10,8 @@ from . import _lib, arrays, errors
 from ._lib import Message, P, Progress, check_message
 from .handle import Handle
 
-FEATURES = ("density", "density_rate", "flow_angle", "acceleration", "divergence")
+FEATURES = ("density", "density_rate", "flow_angle", "acceleration", "divergence",
+            "curvature")
 VOLUMES = {"uvw_a": (0, 3), "uvw_b": (1, 3), "blend": (2, None), "motion": (3, 3),
            "density": (4, 1), "surface": (5, 1), "features": (6, len(FEATURES)),
            "wrap_a": (7, 3), "wrap_b": (8, 3)}
@@ -36,7 +37,8 @@ Handle.declare("fluid", [
     ("paint_mask", [ctypes.c_int32, _f32]),
     ("paint_sphere", [ctypes.c_int32, P(_V3), ctypes.c_float, ctypes.c_float]),
     ("clear_paint", []),
-    ("set_feature_rule", [ctypes.c_int32, P(ctypes.c_float * 5), P(ctypes.c_float * 5)]),
+    ("set_feature_rule", [ctypes.c_int32, P(ctypes.c_float * len(FEATURES)),
+                          P(ctypes.c_float * len(FEATURES))]),
     ("capture_feature_rule", [ctypes.c_int32, _f32]),
     ("clear_feature_rule", [ctypes.c_int32]),
     ("update_surface", [P(Progress)]),
@@ -121,8 +123,9 @@ class Fluid(Handle):
         self.call("paint_mask", int(texture), np.ascontiguousarray(mask, np.float32).reshape(-1))
 
     def set_feature_rule(self, texture, lo, hi):
-        self.call("set_feature_rule", int(texture), (ctypes.c_float * 5)(*lo),
-                  (ctypes.c_float * 5)(*hi))
+        n = len(FEATURES)
+        self.call("set_feature_rule", int(texture), (ctypes.c_float * n)(*lo),
+                  (ctypes.c_float * n)(*hi))
 
     def capture_feature_rule(self, texture, mask):
         self.call("capture_feature_rule", int(texture),

@@ -1,5 +1,6 @@
 /* Features per vertex (paper §3.2): density, its rate, the angle between flow and surface
- * normal, the acceleration of the flow, and (beyond the paper, as it suggests) divergence.
+ * normal, the acceleration of the flow, and (beyond the paper, as it suggests) divergence and
+ * the surface's mean curvature.
  * Rates are finite differences against the previous frame's fields on the same grid, so they
  * work for every source, including particle systems whose particles come and go. */
 #include "internal_fluid.h"
@@ -26,6 +27,12 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     const float inv_dt = 1.0f / h->p.dt;
     const int prev = h->have_fields;
     const int F = HBK_FLUID_FEATURE_COUNT;
+    /* A gradient counts as a surface's when the density changes by at least 2 % of its scale
+     * (the rest density; 1 for a grid source's surface field) over one cell. */
+    float cmin = h->cell[0] < h->cell[1] ? h->cell[0] : h->cell[1];
+    cmin = cmin < h->cell[2] ? cmin : h->cell[2];
+    const float scale = h->p.source == HBK_FLUID_VELOCITY_GRID ? 1.0f : h->p.rest_density;
+    const float gmin = 0.02f * scale / cmin, gmin2 = gmin * gmin;
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j)
@@ -59,5 +66,24 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                 }
                 o[HBK_FLUID_FEATURE_ACCELERATION] = acc;
                 o[HBK_FLUID_FEATURE_DIVERGENCE] = div;
+                /* The outward unit normal, where the density changes enough to have one: a
+                 * uniform interior's tiny gradients would point anywhere. */
+                float *nrm = h->g_normal + 3 * vi;
+                const int has = gg > gmin2;
+                const float inv = has ? 1.0f / sqrtf(gg) : 0.0f;
+                for (int a = 0; a < 3; ++a) nrm[a] = g[a] * inv;
+            }
+    /* Mean curvature: half the divergence of that normal field, where it is defined around. */
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < nz; ++k)
+        for (int32_t j = 0; j < ny; ++j)
+            for (int32_t i = 0; i < nx; ++i) {
+                const int32_t ijk[3] = {i, j, k};
+                const size_t vi = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
+                const float *nrm = h->g_normal + 3 * vi;
+                float dn = 0.0f;
+                if (nrm[0] != 0.0f || nrm[1] != 0.0f || nrm[2] != 0.0f)
+                    for (int a = 0; a < 3; ++a) dn += diff(h, h->g_normal, 3, a, ijk, a);
+                h->g_features[(size_t)F * vi + HBK_FLUID_FEATURE_CURVATURE] = 0.5f * dn;
             }
 }

@@ -45,6 +45,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     vols_free(&h->scratch);
     free(h->motion); free(h->density); free(h->surface); free(h->features);
     free(h->g_motion); free(h->g_density); free(h->g_surface); free(h->g_features);
+    free(h->g_normal);
     free(h->g_wsum);
     free(h->sorted);
     hbk_fluid_cells_free(&h->cells);
@@ -88,10 +89,11 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_density = malloc(nv * sizeof(float));
     h->g_surface = malloc(nv * sizeof(float));
     h->g_features = malloc((size_t)F * nv * sizeof(float));
+    h->g_normal = malloc(3 * nv * sizeof(float));
     h->g_wsum = malloc(nv * sizeof(float));
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->motion || !h->density ||
         !h->surface || !h->features || !h->g_motion || !h->g_density || !h->g_surface ||
-        !h->g_features || !h->g_wsum || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !h->g_features || !h->g_normal || !h->g_wsum || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",

@@ -73,7 +73,7 @@ static const hbk_param_info_t k_info[] = {
     F(texture_scale, HBK_FLUID_MAX_TEXTURES, 1e-4, 1e4, "1", "Per texture: tiles per uvw unit."),
     {"texture_feature", HBK_PARAM_ENUM, offsetof(hbk_fluid_params_t, texture_feature),
      HBK_FLUID_MAX_TEXTURES, 0, HBK_FLUID_FEATURE_COUNT, "1",
-     "DENSITY|DENSITY_RATE|FLOW_ANGLE|ACCELERATION|DIVERGENCE|ALL",
+     "DENSITY|DENSITY_RATE|FLOW_ANGLE|ACCELERATION|DIVERGENCE|CURVATURE|ALL",
      "Per texture: the feature a selection captures for feature paint."},
     {"seed", HBK_PARAM_U64, offsetof(hbk_fluid_params_t, seed), 1, 0, 18446744073709551615.0,
      "1", NULL, "Random seed of the particle jitter."},

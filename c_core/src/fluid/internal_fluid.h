@@ -61,6 +61,7 @@ struct hbk_fluid {
     float *pos0, *vel0;         /* particles at the start of a step (cancellation) */
     float *sorted;              /* SPH scratch: 8 floats per particle */
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
+    float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
     hbk_fluid_cells_t cells;
     /* Mesh. */

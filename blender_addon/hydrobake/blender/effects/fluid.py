@@ -13,7 +13,8 @@ from . import register_effect
 from .base import BlenderEffect
 
 
-FEATURES = ("DENSITY", "DENSITY_RATE", "FLOW_ANGLE", "ACCELERATION", "DIVERGENCE")
+FEATURES = ("DENSITY", "DENSITY_RATE", "FLOW_ANGLE", "ACCELERATION", "DIVERGENCE",
+            "CURVATURE")
 OPEN = 3.0e38  # a feature bound that does not matter
 
 

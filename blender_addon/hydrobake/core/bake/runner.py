@@ -51,14 +51,26 @@ def write_output(folder, stream, frame, output):
         name = cache_mod.frame_name(stream, frame, "vdb")
         vdb.write(os.path.join(folder, name), payload)
     elif kind == "npz":
-        import numpy as np
         name = cache_mod.frame_name(stream, frame, "npz")
         with cache_mod.atomic_path(os.path.join(folder, name)) as tmp:
-            with open(tmp, "wb") as f:
-                np.savez_compressed(f, **payload)
+            write_npz(tmp, payload)
     else:
         raise errors.InvalidArgument(f"output kind {kind!r}: must be exr, vdb or npz")
     return name
+
+
+def write_npz(path, arrays):
+    """np.savez_compressed's format, with every member dated 1980-01-01: savez stamps the
+    current time into the zip, so the same arrays written a second apart differ in bytes."""
+    import zipfile
+
+    import numpy as np
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as z:
+        for name, arr in arrays.items():
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            with z.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, np.asanyarray(arr), allow_pickle=False)
 
 
 class BakeRunner:

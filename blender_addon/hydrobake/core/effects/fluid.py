@@ -8,7 +8,7 @@ Inputs:
     particles    {frame: (positions (N, 3), velocities (N, 3))} (PARTICLES)
     velocity     {frame: (V_m (nz+1, ny+1, nx+1, 3), surface field or None)} (VELOCITY_GRID)
     paint        {frame: [(texture, centre, radius, falloff)]}: local paint strokes
-    rules        [(texture, lo[5], hi[5])]: feature paint
+    rules        [(texture, lo[6], hi[6])]: feature paint (one bound per feature)
     voxel_textures {texture: (X, Y, Z, 3) tile}: voxel solid textures, sampled at every
                  surface vertex's advected uvw (see solid_textures)
 
