@@ -427,9 +427,11 @@ hbk_result_t hbk_caustics_build_triangles(hbk_caustics_ctx_t *c)
 {
     const size_t ncells = (size_t)c->ncx * (size_t)c->ncy;
     for (int g = 0; g < c->ng; ++g)
-        if (!(c->triw[g] = hbk_cs_get(c->ws, CS_TRIW + g, ncells * 2 * (size_t)c->nch * sizeof *c->triw[g], 0)))
+        if (!(c->triw[g] = hbk_cs_get(c->ws, CS_TRIW + g,
+                                      ncells * 2 * (size_t)c->nch * sizeof *c->triw[g], 0)))
             return HBK_ERR_OUT_OF_MEMORY;
-    size_t *row_loose = hbk_cs_get(c->ws, CS_ROW_LOOSE, ((size_t)c->ncy + 1) * sizeof *row_loose, 1);
+    size_t *row_loose =
+        hbk_cs_get(c->ws, CS_ROW_LOOSE, ((size_t)c->ncy + 1) * sizeof *row_loose, 1);
     uint8_t *cell_loose = hbk_cs_get(c->ws, CS_CELL_LOOSE, ncells, 0);
     c->row_stats = hbk_cs_get(c->ws, CS_ROW_STATS, (size_t)c->ncy * 9 * sizeof *c->row_stats, 1);
     hbk_result_t r = HBK_OK;

@@ -593,7 +593,9 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
             start[bb + 1] += start[bb];
             fillat[bb] = start[bb];
         }
-        if (ngroups > UINT32_MAX || !(list = hbk_cs_get(c->ws, CS_BAND_LIST, (start[nb] ? start[nb] : 1) * sizeof *list, 0))) {
+        const size_t nlist = start[nb] ? start[nb] : 1;
+        if (ngroups > UINT32_MAX ||
+            !(list = hbk_cs_get(c->ws, CS_BAND_LIST, nlist * sizeof *list, 0))) {
             res = HBK_ERR_OUT_OF_MEMORY;
             goto done;
         }

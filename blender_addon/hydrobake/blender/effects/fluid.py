@@ -1,7 +1,9 @@
 """Fluid texturing in Blender: the domain object's bounding box is the simulation box; the
 fluid is the built-in SPH (filling a Fill object's box), a particle system's particles, or a
-baked Mantaflow liquid (its velocity cache, and its liquid mesh for the surface); the bake becomes a Volume object reading the VDB sequence and a surface mesh that follows the frame,
-with a material that blends two solid textures at the advected uvw, cross-fading fields A and B."""
+baked Mantaflow liquid (its velocity cache, and its liquid mesh for the surface). The bake
+becomes a Volume object reading the VDB sequence and a surface mesh that follows the frame,
+with a material that blends the sample textures at the advected uvw, cross-fading fields A
+and B."""
 import os
 
 import bpy
