@@ -14,3 +14,8 @@ def test_paint_with_an_empty_and_capture_a_feature_rule(blender, tmp_path):
 def test_mantaflow_liquid_cache_drives_the_textures(blender, tmp_path):
     r = blender.run("fluid_mantaflow.py", tmp_path)
     assert "FLUID MANTAFLOW OK" in r.stdout
+
+
+def test_mantaflow_time_scale_slows_the_textures_as_it_slows_the_liquid(blender, tmp_path):
+    r = blender.run("fluid_mantaflow.py", tmp_path, "0.5")
+    assert "FLUID MANTAFLOW TIME SCALE OK" in r.stdout

@@ -6,7 +6,9 @@ liquid surface crosses each vertical line of vertices (found in Blender, which o
 
 Units: Mantaflow stores velocities in cells per Mantaflow time unit, and one second of Blender
 time is 1 / 2.5 of those units (Blender's fluid script: "frameLengthRaw = 0.1 * 25", dt = 0.1
-at 25 fps), so v [m/s] = v_manta * cell size * 2.5 / time_scale.
+at 25 fps), so the simulated velocity is v_manta * cell size * 2.5 m/s. A domain's time scale
+slows the simulation: a frame then spans time_scale / fps simulated seconds, so the velocity
+that moves the textures by the liquid's own motion per frame is that times time_scale.
 """
 import os
 
@@ -77,7 +79,8 @@ def vertex_positions(box_min, box_max, resolution):
 
 
 def velocity_at(dense, domain_min, domain_max, points, time_scale=1.0):
-    """The MAC velocity (cells per time unit) at world ``points`` (..., 3), in m/s.
+    """The MAC velocity (cells per time unit) at world ``points`` (..., 3), in m/s of animation
+    time (simulated m/s times the domain's time scale).
 
     Component a of cell (i, j, k) sits on the cell's lower face along a, at
     domain_min + h * ((i, j, k) + 0.5 - 0.5 e_a)."""
@@ -88,7 +91,7 @@ def velocity_at(dense, domain_min, domain_max, points, time_scale=1.0):
     for a in range(3):
         u = (points - lo) / h - 0.5
         u[..., a] += 0.5
-        out[..., a] = _trilinear(dense[..., a], u) * h[a] * SECONDS_PER_MANTA_TIME / time_scale
+        out[..., a] = _trilinear(dense[..., a], u) * h[a] * SECONDS_PER_MANTA_TIME * time_scale
     return out
 
 
