@@ -845,24 +845,9 @@ static int brute_hit(const bvh_t *b, const float o[3], const float d[3], float *
 {
     int found = 0;
     float tmax = 1.0f;
-    for (int32_t i = 0; i < b->tri_count; ++i) {
-        const bvh_tri_t *t = &b->tris[i];
-        const float px = d[1] * t->e2[2] - d[2] * t->e2[1];
-        const float py = d[2] * t->e2[0] - d[0] * t->e2[2];
-        const float pz = d[0] * t->e2[1] - d[1] * t->e2[0];
-        const float det = t->e1[0] * px + t->e1[1] * py + t->e1[2] * pz;
-        if (det == 0.0f) continue;
-        const float id = 1.0f / det;
-        const float sx = o[0] - t->v0[0], sy = o[1] - t->v0[1], sz = o[2] - t->v0[2];
-        const float u = (sx * px + sy * py + sz * pz) * id;
-        if (u < 0.0f || u > 1.0f) continue;
-        const float qx = sy * t->e1[2] - sz * t->e1[1];
-        const float qy = sz * t->e1[0] - sx * t->e1[2];
-        const float qz = sx * t->e1[1] - sy * t->e1[0];
-        const float v = (d[0] * qx + d[1] * qy + d[2] * qz) * id;
-        if (v < 0.0f || u + v > 1.0f) continue;
-        const float tt = (t->e2[0] * qx + t->e2[1] * qy + t->e2[2] * qz) * id;
-        if (tt >= 0.0f && tt <= tmax) { tmax = tt; found = 1; }
+    for (int32_t i = 0; i < b->tri_count; ++i) { /* every triangle: no tree to get wrong */
+        float tt, u, v;
+        if (snow_ray_tri(&b->tris[i], o, d, &tt, &u, &v) && tt <= tmax) { tmax = tt; found = 1; }
     }
     *tbest = tmax;
     return found;

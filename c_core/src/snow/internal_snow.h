@@ -70,6 +70,29 @@ void snow_bvh_free(bvh_t *b);
 /* First hit of the segment o + t d, t in [0, 1]. Returns 1 and fills *hit, else 0. */
 int snow_bvh_hit(const bvh_t *b, const float o[3], const float d[3], bvh_hit_t *hit);
 
+/* Möller-Trumbore, both sides: where the segment o + t d (t in [0, 1]) meets triangle tr, as t
+ * and barycentrics (u, v) for (v1, v2); 0 if it does not. */
+static inline int snow_ray_tri(const bvh_tri_t *tr, const float o[3], const float d[3],
+                               float *t, float *u, float *v)
+{
+    const float px = d[1] * tr->e2[2] - d[2] * tr->e2[1];
+    const float py = d[2] * tr->e2[0] - d[0] * tr->e2[2];
+    const float pz = d[0] * tr->e2[1] - d[1] * tr->e2[0];
+    const float det = tr->e1[0] * px + tr->e1[1] * py + tr->e1[2] * pz;
+    if (det == 0.0f) return 0;
+    const float id = 1.0f / det;
+    const float sx = o[0] - tr->v0[0], sy = o[1] - tr->v0[1], sz = o[2] - tr->v0[2];
+    *u = (sx * px + sy * py + sz * pz) * id;
+    if (*u < 0.0f || *u > 1.0f) return 0;
+    const float qx = sy * tr->e1[2] - sz * tr->e1[1];
+    const float qy = sz * tr->e1[0] - sx * tr->e1[2];
+    const float qz = sx * tr->e1[1] - sy * tr->e1[0];
+    *v = (d[0] * qx + d[1] * qy + d[2] * qz) * id;
+    if (*v < 0.0f || *u + *v > 1.0f) return 0;
+    *t = (tr->e2[0] * qx + tr->e2[1] * qy + tr->e2[2] * qz) * id;
+    return *t >= 0.0f;
+}
+
 /* ---- Occupancy grid (grid.c) ---- */
 typedef struct snow_grid {
     uint64_t *bits; /* one per cell, x fastest */

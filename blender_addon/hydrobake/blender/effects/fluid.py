@@ -221,8 +221,9 @@ class FluidBlender(BlenderEffect):
                 description="Empties with Paint Fluid on: local paint strokes (Object tab)"),
             samples=bpy.props.CollectionProperty(
                 type=HYDROBAKE_PG_fluid_sample, name="Sample Textures",
-                description="Sample texture k is the k-th entry's node group; textures "
-                            "without an entry use the built-in noise, waves and cells"),
+                description="Sample texture k is the k-th entry's node group or voxel "
+                            "texture; textures without an entry use the built-in noise, waves "
+                            "and cells"),
             rules=bpy.props.CollectionProperty(
                 type=HYDROBAKE_PG_fluid_rule, name="Feature Rules",
                 description="Feature paint: a texture wherever a feature lies in a range"),
