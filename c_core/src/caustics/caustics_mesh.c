@@ -367,7 +367,7 @@ enum { CB = 128 };
  * if-conversion stops at the selects). The same operations, so the same bytes. Writes both
  * weights of every cell whose triangles are regular and sets done[q]; the stats are added
  * after, in cell order, as cell() adds them. */
-static void
+__attribute__((target_clones("avx2", "default"), optimize("no-trapping-math"))) static void
 fast_cells(const hbk_caustics_ctx_t *c, int32_t j, int32_t i0, int32_t n, uint8_t *done,
            float *w, double *add)
 {
@@ -387,6 +387,7 @@ fast_cells(const hbk_caustics_ctx_t *c, int32_t j, int32_t i0, int32_t n, uint8_
         const float *zb = t ? zu : za, *hb = t ? hu : ha, *tb = t ? tu : ta;
         const double *pxb = t ? pxu : pxa, *pyb = t ? pyu : pya;
         const double by = t ? y1 : y0;
+#pragma omp simd
         for (int32_t q = 0; q < n; ++q) {
             const double ax = vx[q], az = za[q];
             const double bx = vx[q + 1], bz = zb[q + 1];
@@ -407,17 +408,18 @@ fast_cells(const hbk_caustics_ctx_t *c, int32_t j, int32_t i0, int32_t n, uint8_
             const double m2[3] = {f1[1] * f2[2] - f1[2] * f2[1], f1[2] * f2[0] - f1[0] * f2[2],
                                   f1[0] * f2[1] - f1[1] * f2[0]};
             const double flat = fabs(m2[2]);
-            const double full = sqrt(m2[0] * m2[0] + m2[1] * m2[1] + m2[2] * m2[2]);
-            const double s2 = f1[2] == 0.0 && f2[2] == 0.0 ? flat : full;
+            /* = flat when f1, f2 have no z (m2 then has no x or y, and sqrt(x^2) = |x|) */
+            const double s2 = sqrt(m2[0] * m2[0] + m2[1] * m2[1] + m2[2] * m2[2]);
             const int lit = proj2 > 0.0, big = 0.5 * flat * area >= HBK_CAUSTICS_TINY_PX2;
             const float bt = tb[q + 1], dt = tu[q + dq];
             const double att = (ta[q] + bt + dt) / 3.0;
-            const double P = E * through * att;
-            const double wv = P / (0.5 * s2) * (m2[2] > 0.0 ? 1.0 : -1.0);
-            w[2 * q + t] = lit ? (float)(big ? wv : 0.0) : 0.0f;
+            const double Et = E * through, P = Et * att, lost = Et * (1.0 - att);
+            const float wv = (float)(P / (0.5 * s2) * (m2[2] > 0.0 ? 1.0 : -1.0));
+            /* Every value computed, then selected: no branch, so the loop vectorises. */
+            w[2 * q + t] = lit & big ? wv : 0.0f;
             done[q] = (uint8_t)((t ? done[q] : 1) & ((!lit) | big));
-            add[6 * q + 3 * t] = lit ? E * through : 0.0;
-            add[6 * q + 3 * t + 1] = lit ? E * through * (1.0 - att) : 0.0;
+            add[6 * q + 3 * t] = lit ? Et : 0.0;
+            add[6 * q + 3 * t + 1] = lit ? lost : 0.0;
             add[6 * q + 3 * t + 2] = lit ? P : 0.0;
         }
     }

@@ -25,6 +25,14 @@
 
 enum { IT_H, IT_V, IT_D, IT_LOOSE };
 enum { HBK_GROUP = 32 };
+/* Pixels past the right edge of an accumulator row: a narrow piece writes four pixels from
+ * its first (zeros past the piece), which may reach three past the map. */
+enum { HBK_PAD = 4 };
+
+typedef double v4d __attribute__((vector_size(32)));
+typedef int64_t v4l __attribute__((vector_size(32)));
+typedef int32_t v4i __attribute__((vector_size(16)));
+typedef float v4f __attribute__((vector_size(16)));
 
 /* HBK_GROUP consecutive items (pass g, kind, mesh row j, columns i0 .. i0 + n - 1; loose
  * triangles i0 .. i0 + n - 1) and the map rows [lo, hi) they touch, unwrapped. */
@@ -33,11 +41,20 @@ typedef struct {
     int64_t lo, hi;
 } group_t;
 
+/* Narrow edges of a mono map (pieces under two pixels wide) waiting to be drawn four at a
+ * time, one per vector lane. */
+typedef struct {
+    double ylo[4], yhi[4], x0[4], y0[4], dxdy[4], dir[4], ds[4], w[4];
+    int64_t rlo, rhi; /* rows of all of them, within the band */
+    int n;
+} narrow_t;
+
 typedef struct {
     const hbk_caustics_ctx_t *c;
-    double *buf;      /* BAND rows of (MW + 2) pixels x ps channels */
+    double *buf;      /* BAND rows of (MW + HBK_PAD) pixels x ps channels */
     size_t rowlen;
     int32_t B0, B1;   /* rows of this band */
+    narrow_t *nw;
 } band_t;
 
 #define TRIW(c, g, cell, t, ch) \
@@ -262,6 +279,116 @@ static void row_piece(const hbk_caustics_ctx_t *c, double *row, double xa, doubl
     if (xb != prev) region(c, row, prev, xb, dv * (xb - prev) / span, ds, up ? m1 : m0, w, ch0, nch);
 }
 
+static inline __attribute__((always_inline)) v4d vsel(v4l m, v4d a, v4d b) { return (v4d)(((v4l)a & m) | ((v4l)b & ~m)); }
+
+/* Draws four narrow edges row by row, one per lane, each row's pieces in lane order: every
+ * pixel gets the same values in the same order as from accumulate() edge after edge, so the
+ * same bytes. Each lane computes the three cases of accumulate (one, two or three pixel
+ * columns) and keeps the right one, and writes four pixels from i0 (zeros past the piece:
+ * adding zero changes no sum). No branch depends on the geometry. */
+static inline __attribute__((always_inline)) void
+narrow_draw_v(double *buf, size_t rowlen, int64_t B0, const narrow_t *nw)
+{
+    v4d ylo, yhi, x0, y0, dxdy, dir, ds, w;
+    memcpy(&ylo, nw->ylo, sizeof ylo);
+    memcpy(&yhi, nw->yhi, sizeof yhi);
+    memcpy(&x0, nw->x0, sizeof x0);
+    memcpy(&y0, nw->y0, sizeof y0);
+    memcpy(&dxdy, nw->dxdy, sizeof dxdy);
+    memcpy(&dir, nw->dir, sizeof dir);
+    memcpy(&ds, nw->ds, sizeof ds);
+    memcpy(&w, nw->w, sizeof w);
+    const v4d zero = {0.0, 0.0, 0.0, 0.0}, one = zero + 1.0, h = 0.5 * ds;
+    double *row = buf + (size_t)(nw->rlo - B0) * rowlen, spare[16];
+    for (int64_t r = nw->rlo; r < nw->rhi; ++r, row += rowlen) {
+        const v4d top = zero + (double)r, bot = top + 1.0;
+        const v4d ya = vsel(ylo > top, ylo, top), yb = vsel(yhi < bot, yhi, bot);
+        const v4l act = yb > ya;
+        const v4d xa = x0 + (ya - y0) * dxdy, xb = x0 + (yb - y0) * dxdy;
+        const v4d dv = dir * (yb - ya);
+        const v4l lt = xa < xb;
+        const v4d xl = vsel(act, vsel(lt, xa, xb), zero), xr = vsel(act, vsel(lt, xb, xa), zero);
+        const v4i i0 = __builtin_convertvector(xl, v4i); /* x >= 0: truncation is floor */
+        const v4d f0 = __builtin_convertvector(i0, v4d), u1 = xr - f0;
+        const v4l wide2 = u1 > one, wide3 = u1 > one + 1.0;
+        const v4d xm = 0.5 * (xl + xr) - f0;
+        const v4d x0f = 1.0 - (xl - f0);
+        const v4d x1f = vsel(wide3, u1 - 2.0, u1 - 1.0);
+        const v4d a0 = h * x0f * x0f, am = h * x1f * x1f, a1 = ds * (x0f + 0.5);
+        const v4d a2 = a1 + 0.0 * ds;
+        v4d d[4];
+        d[0] = vsel(wide2, a0, dv * (1.0 - xm));
+        d[1] = vsel(wide3, a1 - a0, vsel(wide2, dv - a0 - am, dv * xm));
+        d[2] = vsel(wide3, dv - a2 - am, vsel(wide2, am, zero));
+        d[3] = vsel(wide3, am, zero);
+        double v[4][4];
+        int32_t at[4];
+        int64_t on[4];
+        for (int k = 0; k < 4; ++k) {
+            const v4d dk = d[k] * w;
+            memcpy(v[k], &dk, sizeof dk);
+        }
+        memcpy(at, &i0, sizeof at);
+        memcpy(on, &act, sizeof on);
+        for (int q = 0; q < 4; ++q) {
+            /* a lane without a piece writes to its own scratch: no chain through memory */
+            const uintptr_t m = (uintptr_t)on[q]; /* all ones or zero: a mask, not a branch */
+            double *p = (double *)(((uintptr_t)(row + at[q]) & m) |
+                                   ((uintptr_t)(spare + 4 * q) & ~m));
+            p[0] += v[0][q];
+            p[1] += v[1][q];
+            p[2] += v[2][q];
+            p[3] += v[3][q];
+        }
+    }
+}
+
+__attribute__((target("avx2"))) static void
+narrow_draw_avx2(double *buf, size_t rowlen, int64_t B0, const narrow_t *nw)
+{
+    narrow_draw_v(buf, rowlen, B0, nw);
+    __builtin_ia32_vzeroupper(); /* the callers are SSE code */
+}
+
+static int narrow_avx2 = -1;
+
+/* Draws the waiting edges (the unused lanes draw nothing) and empties the batch. */
+static void narrow_flush(const band_t *b)
+{
+    narrow_t *nw = b->nw;
+    if (!nw || !nw->n) return;
+    for (int q = nw->n; q < 4; ++q) { /* no piece in any row: yb <= ya */
+        nw->ylo[q] = nw->yhi[q] = nw->x0[q] = nw->y0[q] = nw->dxdy[q] = 0.0;
+        nw->dir[q] = nw->ds[q] = nw->w[q] = 0.0;
+    }
+    if (narrow_avx2 < 0) narrow_avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
+    if (narrow_avx2) narrow_draw_avx2(b->buf, b->rowlen, b->B0, nw);
+    else narrow_draw_v(b->buf, b->rowlen, b->B0, nw);
+    nw->n = 0;
+    nw->rlo = INT64_MAX;
+    nw->rhi = INT64_MIN;
+}
+
+/* Queues an edge whose rows [r0, r1) lie in the band and whose pieces are at most 1.75
+ * pixels wide; draws the batch when full. */
+static void narrow_add(const band_t *b, int64_t r0, int64_t r1, double ylo, double yhi,
+                       double x0, double y0, double dxdy, double dir, double ds, double w)
+{
+    narrow_t *nw = b->nw;
+    const int q = nw->n;
+    nw->rlo = nw->rlo < r0 ? nw->rlo : r0;
+    nw->rhi = nw->rhi > r1 ? nw->rhi : r1;
+    nw->ylo[q] = ylo;
+    nw->yhi[q] = yhi;
+    nw->x0[q] = x0;
+    nw->y0[q] = y0;
+    nw->dxdy[q] = dxdy;
+    nw->dir[q] = dir;
+    nw->ds[q] = ds;
+    nw->w[q] = w;
+    if (++nw->n == 4) narrow_flush(b);
+}
+
 /* Draws the rows of edge (x0, y0) -> (x1, y1) that fall in the band (rows [rlo, rhi), periods
  * kmin..kmax, from band_periods). A downward edge adds coverage to its right, so counter-
  * clockwise polygons come out positive. Every row's piece is computed from the edge alone,
@@ -290,6 +417,12 @@ edge_n(const band_t *b, double x0, double y0, double x1, double y1, double dxdy,
         /* Most edges: in the map, no shift, no other period: the loop below without its
          * per-row tests (the same arithmetic, so the same bytes). */
         const int64_t r0 = rlo > b->B0 ? rlo : b->B0, r1 = rhi < b->B1 ? rhi : b->B1;
+        if (NCH == 1 && PS == 1 && b->nw && fabs(dxdy) <= 1.75) {
+            /* pieces under two pixels wide (1.75: a margin for rounding) */
+            narrow_add(b, r0, r1, ylo, yhi, x0, y0, dxdy, dir, ds, w[0]);
+            return;
+        }
+        narrow_flush(b); /* drawn first, as they come first */
         double *row = b->buf + (size_t)(r0 - b->B0) * b->rowlen;
         double fr = (double)r0; /* r as a double, counted exactly */
         double ya = ylo > fr ? ylo : fr, xa = x0 + (ya - y0) * dxdy;
@@ -303,6 +436,7 @@ edge_n(const band_t *b, double x0, double y0, double x1, double y1, double dxdy,
         }
         return;
     }
+    narrow_flush(b);
     for (int64_t k = kmin; k <= kmax; ++k) {
         const int64_t r0 = rlo > b->B0 + k * MH ? rlo : b->B0 + k * MH;
         const int64_t r1 = rhi < b->B1 + k * MH ? rhi : b->B1 + k * MH;
@@ -361,12 +495,147 @@ edge_item(const band_t *b, double x0, double y0, double x1, double y1, double dx
     edge_n(b, x0, y0, x1, y1, dxdy, ds, rlo, rhi, kmin, kmax, w, ch0, NCH, PS);
 }
 
+enum { CL_SKIP, CL_NARROW, CL_WIDE, CL_OTHER };
+
+/* What a mono map's edge group needs per edge, from one loop over the group without
+ * branches (vectorised): its weight, rows, direction, and its class: nothing to draw here
+ * (horizontal, zero weight, not in this band), an edge wholly in the map with narrow, wide
+ * or long pieces (drawn in lanes by narrow_add, or by wide_rows), or anything else
+ * (edge_item). */
+typedef struct {
+    double w[HBK_GROUP], ylo[HBK_GROUP], yhi[HBK_GROUP], dir[HBK_GROUP];
+    int64_t cls[HBK_GROUP];
+} prelude_t;
+
+__attribute__((target_clones("avx2", "default"))) static void
+edge_prelude(int32_t n, const double *restrict x0, const double *restrict y0,
+             const double *restrict x1, const double *restrict y1, double *restrict dxdy,
+             double *restrict ds, const double *restrict P, const double *restrict M, double B0,
+             double B1, double MW, double MH, int periodic, prelude_t *restrict o)
+{
+    for (int32_t q = 0; q < n; ++q) {
+        const double dx = x1[q] - x0[q], dy = y1[q] - y0[q];
+        { /* edge_slopes */
+            dxdy[q] = dx / dy;
+            const double sl = (y0[q] > y1[q] ? 1.0 : -1.0) * fabs(dy / dx);
+            /* 0 for a vertical edge, by a mask: a select here would become a branch around
+             * the division, which stops the vectoriser */
+            uint64_t bits;
+            memcpy(&bits, &sl, sizeof bits);
+            bits &= -(uint64_t)(x1[q] != x0[q]);
+            memcpy(&ds[q], &bits, sizeof bits);
+        }
+        const double w = P[q] - M[q]; /* as edge_weights */
+        const double ylo = y0[q] < y1[q] ? y0[q] : y1[q], yhi = y0[q] < y1[q] ? y1[q] : y0[q];
+        const double xlo = x0[q] < x1[q] ? x0[q] : x1[q], xhi = x0[q] < x1[q] ? x1[q] : x0[q];
+        const int64_t sane = (ylo > -1e9) & (yhi < 1e9) & (xlo > -1e9) & (xhi < 1e9);
+        /* edge_n's fast case: in the map, no period shift, rows in the map if periodic
+         * (floor(ylo) >= 0 and ceil(yhi) <= MH: MH is an integer) */
+        const int64_t in = (xlo >= 0.0) & (xhi <= MW) &
+                           ((!periodic) | ((xlo < MW) & (ylo >= 0.0) & (yhi <= MH)));
+        const int64_t draw = (y0[q] != y1[q]) & sane & (w != 0.0);
+        /* a row's piece is no wider than the edge nor than |dx/dy|: narrow pieces span at
+         * most 3 pixel columns (the margin of 0.25 is for rounding) */
+        const double span = fabs(dx) < fabs(dxdy[q]) ? fabs(dx) : fabs(dxdy[q]);
+        const int64_t narrow = span <= 1.75;
+        const int64_t hit = (ylo < B1) & (yhi > B0); /* rows [floor, ceil) meet [B0, B1) */
+        o->w[q] = w;
+        o->ylo[q] = ylo;
+        o->yhi[q] = yhi;
+        o->dir[q] = y0[q] > y1[q] ? 1.0 : -1.0;
+        /* skip, other, narrow or wide, as numbers: no branch */
+        o->cls[q] = draw * (in * hit * (CL_WIDE - narrow) + (1 - in) * CL_OTHER);
+    }
+}
+
+/* edge_n's fast case for a mono map: rows [r0, r1) of an edge in the map. */
+static void wide_rows(const band_t *b, int64_t r0, int64_t r1, double ylo, double yhi,
+                      double x0, double y0, double dxdy, double dir, double ds, double w)
+{
+    const double wv[1] = {w};
+    double *row = b->buf + (size_t)(r0 - b->B0) * b->rowlen;
+    double fr = (double)r0; /* r as a double, counted exactly */
+    double ya = ylo > fr ? ylo : fr, xa = x0 + (ya - y0) * dxdy;
+    for (int64_t r = r0; r < r1; ++r, row += b->rowlen) {
+        fr += 1.0;
+        const double yb = yhi < fr ? yhi : fr;
+        const double xb = x0 + (yb - y0) * dxdy;
+        if (yb > ya) accumulate(row, xa, xb, dir * (yb - ya), ds, wv, 0, 1, 1);
+        ya = yb;
+        xa = xb;
+    }
+}
+
+static const float k_zeros[HBK_GROUP];
+
+/* The edges of a group of a mono map: edge_item's work, with the per-edge tests done for the
+ * whole group by edge_prelude. The same values in the same order: the same bytes. */
+static void draw_edges_mono(const band_t *b, const group_t *gr)
+{
+    const hbk_caustics_ctx_t *c = b->c;
+    const int kind = gr->kind;
+    const int32_t j = gr->j, i0 = gr->i0, n = gr->n;
+    size_t v0, v1;
+    edge_verts(c, kind, j, i0, &v0, &v1);
+    const double *x0 = c->ipx[0] + v0, *y0 = c->ipy[0] + v0;
+    const double *x1 = c->ipx[0] + v1, *y1 = c->ipy[0] + v1;
+    double dxdy[HBK_GROUP], ds[HBK_GROUP];
+    /* The weights of the triangles left (P) and right (M) of each edge (edge_weights). */
+    double P[HBK_GROUP], M[HBK_GROUP];
+    const float *tw = c->triw[0];
+    const size_t ci = (size_t)j * (size_t)c->ncx + (size_t)i0;
+    const float *pp = k_zeros, *mp = k_zeros;
+    int32_t ps = 0, ms = 0, pq0 = 0, mq1 = n; /* strides; the edges with the triangle */
+    if (kind == IT_H) {
+        if (j < c->ncy) pp = tw + ci * 2, ps = 2;
+        if (j > 0) mp = tw + (ci - (size_t)c->ncx) * 2 + 1, ms = 2;
+    } else if (kind == IT_V) {
+        pp = tw + ci * 2 - 2, ps = 2, pq0 = i0 == 0;              /* T0(i-1, j), none at i = 0 */
+        mp = tw + ci * 2 + 1, ms = 2, mq1 = i0 + n > c->ncx ? n - 1 : n; /* none at i = ncx */
+    } else {
+        pp = tw + ci * 2 + 1, ps = 2;
+        mp = tw + ci * 2, ms = 2;
+    }
+    for (int32_t q = pq0; q < n; ++q) P[q] = (double)pp[(size_t)q * (size_t)ps];
+    for (int32_t q = 0; q < mq1; ++q) M[q] = (double)mp[(size_t)q * (size_t)ms];
+    if (pq0) P[0] = 0.0;
+    if (mq1 < n) M[n - 1] = 0.0;
+    prelude_t pr;
+    edge_prelude(n, x0, y0, x1, y1, dxdy, ds, P, M, (double)b->B0, (double)b->B1, c->MW,
+                 (double)c->MH, c->periodic, &pr);
+    for (int32_t q = 0; q < n; ++q) {
+        const int64_t cls = pr.cls[q];
+        if (cls == CL_SKIP) continue;
+        if (cls != CL_OTHER) {
+            const int64_t rlo = (int64_t)ffloor(pr.ylo[q]), rhi = (int64_t)-ffloor(-pr.yhi[q]);
+            const int64_t r0 = rlo > b->B0 ? rlo : b->B0, r1 = rhi < b->B1 ? rhi : b->B1;
+            if (cls == CL_NARROW) {
+                narrow_add(b, r0, r1, pr.ylo[q], pr.yhi[q], x0[q], y0[q], dxdy[q], pr.dir[q],
+                           ds[q], pr.w[q]);
+                continue;
+            }
+            narrow_flush(b);
+            wide_rows(b, r0, r1, pr.ylo[q], pr.yhi[q], x0[q], y0[q], dxdy[q], pr.dir[q], ds[q],
+                      pr.w[q]);
+            continue;
+        }
+        narrow_flush(b);
+        edge_item(b, x0[q], y0[q], x1[q], y1[q], dxdy[q], ds[q], NULL, 0, kind, j, i0 + q, 0, 1,
+                  1);
+    }
+    narrow_flush(b);
+}
+
 /* Draws the items of group `gr` that meet band b. */
 static inline __attribute__((always_inline)) void
 draw_group_n(const band_t *b, const group_t *gr, const int NCH, const int PS)
 {
     const hbk_caustics_ctx_t *c = b->c;
     const int g = gr->g, ch0 = c->ng == 1 ? 0 : g;
+    if (gr->kind != IT_LOOSE && NCH == 1 && PS == 1) {
+        draw_edges_mono(b, gr);
+        return;
+    }
     if (gr->kind != IT_LOOSE) {
         size_t v0, v1;
         edge_verts(c, gr->kind, gr->j, gr->i0, &v0, &v1);
@@ -377,6 +646,7 @@ draw_group_n(const band_t *b, const group_t *gr, const int NCH, const int PS)
         for (int32_t q = 0; q < gr->n; ++q)
             edge_item(b, x0[q], y0[q], x1[q], y1[q], dxdy[q], ds[q], NULL, g, gr->kind, gr->j,
                       gr->i0 + q, ch0, NCH, PS);
+        narrow_flush(b);
         return;
     }
     for (int32_t i = gr->i0; i < gr->i0 + gr->n; ++i) {
@@ -405,10 +675,12 @@ draw_group_n(const band_t *b, const group_t *gr, const int NCH, const int PS)
             continue;
         }
         if (cy < b->B0 || cy >= b->B1) continue;
+        narrow_flush(b);
         double *row = b->buf + (size_t)((int32_t)cy - b->B0) * b->rowlen;
         HBK_PUT(row, (int32_t)cx, 1.0);
         HBK_PUT(row, (int32_t)cx + 1, -1.0);
     }
+    narrow_flush(b);
 }
 
 static void draw_group(const band_t *b, const group_t *gr)
@@ -484,6 +756,74 @@ static void group_rows(const hbk_caustics_ctx_t *c, group_t *gr)
         if (nc == 4) q[3] = 1.0f;                                                            \
     } while (0)
 
+static inline void store4(float *q, v4d v) /* v to floats, rounded as (float) does */
+{
+    const v4f f = __builtin_convertvector(v, v4f);
+    memcpy(q, &f, sizeof f);
+}
+
+/* Pixels [x, MW) of a mono row r from sum s (PREFIX_MONO for one row). */
+static void prefix_mono_tail(double *a, float *px, int32_t x, int32_t MW, int nc, double s,
+                             const double e[3])
+{
+    for (; x < MW; ++x) {
+        s += a[x];
+        a[x] = 0.0;
+        const double v = s > 0.0 ? s : 0.0;
+        float *q = px + (size_t)x * (size_t)nc;
+        for (int k = 0; k < 3; ++k) q[k] = (float)(v * e[k]);
+        if (nc == 4) q[3] = 1.0f;
+    }
+}
+
+/* Four mono rows of an RGB or RGBA map, four pixels at a time: each row's sum is still one
+ * chain of additions in x order (the bytes of PREFIX_MONO), but the pixels leave in 16-byte
+ * stores, three (RGB) or four (RGBA) per four pixels instead of twelve or sixteen. */
+/* Row R's next four pixels from its running sum sR. */
+#define PREFIX_MONO4(R)                                                                      \
+    do {                                                                                     \
+        double *const p_ = a[R] + x;                                                         \
+        const double v0 = (s##R += p_[0]) > 0.0 ? s##R : 0.0; /* < 0 only by rounding */    \
+        const double v1 = (s##R += p_[1]) > 0.0 ? s##R : 0.0;                                \
+        const double v2 = (s##R += p_[2]) > 0.0 ? s##R : 0.0;                                \
+        const double v3 = (s##R += p_[3]) > 0.0 ? s##R : 0.0;                                \
+        memset(p_, 0, 4 * sizeof(double));                                                  \
+        float *const q = px[R] + (size_t)x * (size_t)nc;                                     \
+        if (nc == 3) {                                                                       \
+            store4(q, (v4d){v0, v0, v0, v1} * e3a);                                          \
+            store4(q + 4, (v4d){v1, v1, v2, v2} * e3b);                                      \
+            store4(q + 8, (v4d){v2, v3, v3, v3} * e3c);                                      \
+        } else {                                                                             \
+            store4(q, (v4d){v0, v0, v0, 1.0} * e4);                                          \
+            store4(q + 4, (v4d){v1, v1, v1, 1.0} * e4);                                      \
+            store4(q + 8, (v4d){v2, v2, v2, 1.0} * e4);                                      \
+            store4(q + 12, (v4d){v3, v3, v3, 1.0} * e4);                                     \
+        }                                                                                    \
+    } while (0)
+
+/* Four mono rows of an RGB or RGBA map, four pixels at a time: each row's sum is still one
+ * chain of additions in x order (the bytes of PREFIX_MONO), but the pixels leave in 16-byte
+ * stores, three (RGB) or four (RGBA) per four pixels instead of twelve or sixteen. */
+static void prefix_mono4(double *const a[4], float *const px[4], int32_t MW, int nc,
+                         const double e[3])
+{
+    const v4d e3a = {e[0], e[1], e[2], e[0]}, e3b = {e[1], e[2], e[0], e[1]},
+              e3c = {e[2], e[0], e[1], e[2]}, e4 = {e[0], e[1], e[2], 1.0};
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    int32_t x = 0;
+    for (; x + 4 <= MW; x += 4) {
+        PREFIX_MONO4(0);
+        PREFIX_MONO4(1);
+        PREFIX_MONO4(2);
+        PREFIX_MONO4(3);
+    }
+    prefix_mono_tail(a[0], px[0], x, MW, nc, s0, e);
+    prefix_mono_tail(a[1], px[1], x, MW, nc, s1, e);
+    prefix_mono_tail(a[2], px[2], x, MW, nc, s2, e);
+    prefix_mono_tail(a[3], px[3], x, MW, nc, s3, e);
+}
+#undef PREFIX_MONO4
+
 /* Writes rows [y, y + n) of the map (n <= 4) from the band's accumulator by prefix sums along
  * each row, and clears the accumulator for the next band. A row's sum is one chain of
  * dependent additions; a mono map runs four rows side by side so four chains overlap (each
@@ -500,7 +840,9 @@ static void prefix_rows(const hbk_caustics_ctx_t *c, const band_t *b, int32_t y,
         a[r] = b->buf + (size_t)(yy - b->B0) * b->rowlen;
         px[r] = out->data + (size_t)yy * out->row_stride;
     }
-    if (c->ps == 1 && n == 4) {
+    if (c->ps == 1 && n == 4 && (nc == 3 || nc == 4)) {
+        prefix_mono4(a, px, c->MW, nc, c->escale);
+    } else if (c->ps == 1 && n == 4) {
         double s[4] = {0.0, 0.0, 0.0, 0.0};
         for (int32_t x = 0; x < c->MW; ++x) {
             PREFIX_MONO(0);
@@ -533,17 +875,17 @@ static void prefix_rows(const hbk_caustics_ctx_t *c, const band_t *b, int32_t y,
             }
         }
     }
-    /* The two pixels past the edge take writes that affect no pixel: clear them too. */
+    /* The pixels past the edge take writes that affect no pixel: clear them too. */
     for (int32_t r = 0; r < n; ++r)
         memset(b->buf + (size_t)(y + r - b->B0) * b->rowlen + (size_t)c->ps * (size_t)c->MW, 0,
-               (size_t)c->ps * 2 * sizeof(double));
+               (size_t)c->ps * HBK_PAD * sizeof(double));
 }
 #undef PREFIX_MONO
 
 hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
                                     hbk_progress_t *progress)
 {
-    const size_t rowlen = (size_t)c->ps * ((size_t)c->MW + 2);
+    const size_t rowlen = (size_t)c->ps * ((size_t)c->MW + HBK_PAD);
     int32_t BH = (int32_t)(HBK_CAUSTICS_BAND_BYTES / (rowlen * sizeof(double)));
     BH = BH < 8 ? 8 : BH > 256 ? 256 : BH;
     const int32_t nb = (c->MH + BH - 1) / BH;
@@ -618,8 +960,9 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
             __atomic_store_n(&cancelled, 1, __ATOMIC_RELAXED);
             continue;
         }
+        narrow_t nw = {.n = 0, .rlo = INT64_MAX, .rhi = INT64_MIN};
         band_t b = {c, bufs + (size_t)omp_get_thread_num() * (size_t)BH * rowlen, rowlen,
-                    bb * BH, bb * BH + BH < c->MH ? bb * BH + BH : c->MH};
+                    bb * BH, bb * BH + BH < c->MH ? bb * BH + BH : c->MH, &nw};
         for (size_t k = start[bb]; k < start[bb + 1]; ++k) draw_group(&b, &groups[list[k]]);
         for (int32_t y = b.B0; y < b.B1; y += 4)
             prefix_rows(c, &b, y, b.B1 - y < 4 ? b.B1 - y : 4, out);
