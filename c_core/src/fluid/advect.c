@@ -32,7 +32,9 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 const float *v0 = m + 3 * vi;
                 const float x[3] = {(float)i, (float)j, (float)k};
                 float src[3];
-                if (v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f) {
+                const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;
+                h->moving[vi] = (uint8_t)!still;
+                if (still) {
                     /* Still fluid: a plain copy, so zero flow changes nothing bit for bit. */
                     memcpy(out->uvw[0] + 3 * vi, in->uvw[0] + 3 * vi, 3 * sizeof(float));
                     memcpy(out->uvw[1] + 3 * vi, in->uvw[1] + 3 * vi, 3 * sizeof(float));
@@ -61,13 +63,24 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 }
             }
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from
-     * the new corners where the short way is unambiguous. */
+     * the new corners where the short way is unambiguous. A voxel whose corners all stand
+     * still keeps its flag: its centre traces back to itself. */
     const int32_t rx = h->p.resolution[0], ry = h->p.resolution[1], rz = h->p.resolution[2];
+    size_t off[8];
+    hbk_fluid_corners(h, off);
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t k = 0; k < rz; ++k)
         for (int32_t j = 0; j < ry; ++j)
             for (int32_t i = 0; i < rx; ++i) {
                 const size_t vox = (size_t)i + (size_t)rx * ((size_t)j + (size_t)ry * (size_t)k);
+                const size_t b = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
+                uint8_t any = 0;
+                for (int c = 0; c < 8; ++c) any |= h->moving[b + off[c]];
+                if (!any) {
+                    out->wrap[0][vox] = in->wrap[0][vox];
+                    out->wrap[1][vox] = in->wrap[1][vox];
+                    continue;
+                }
                 const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};
                 hbk_fluid_lerp_t l;
                 hbk_fluid_lerp_at(h, x, &l);
@@ -78,6 +91,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 out->wrap[0][vox] = in->wrap[0][l.voxel];
                 out->wrap[1][vox] = in->wrap[1][l.voxel];
             }
-    hbk_fluid_repair_wrap(h, out->uvw[0], out->wrap[0], threads);
-    hbk_fluid_repair_wrap(h, out->uvw[1], out->wrap[1], threads);
+    const uint8_t *moved = h->wrap_checked ? h->moving : NULL;
+    hbk_fluid_repair_wrap(h, out->uvw[0], out->wrap[0], moved, threads);
+    hbk_fluid_repair_wrap(h, out->uvw[1], out->wrap[1], moved, threads);
+    h->wrap_checked = 1;
 }

@@ -47,7 +47,9 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->g_motion); free(h->g_density); free(h->g_surface); free(h->g_features);
     free(h->g_normal);
     free(h->g_wsum);
+    free(h->moving);
     free(h->sorted);
+    free(h->soa);
     hbk_fluid_cells_free(&h->cells);
     free(h->mesh_pos); free(h->mesh_nrm); free(h->mesh_tri);
     free(h);
@@ -81,6 +83,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->pos0 = malloc(3 * np * sizeof(float));
     h->vel0 = malloc(3 * np * sizeof(float));
     h->sorted = malloc(8 * np * sizeof(float));
+    h->soa = calloc(8 * (np + 8), sizeof(float)); /* padded: lanes read 8 at a time */
     h->motion = calloc(3 * nv, sizeof(float));
     h->density = calloc(nv, sizeof(float));
     h->surface = calloc(nv, sizeof(float));
@@ -91,9 +94,11 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_features = malloc((size_t)F * nv * sizeof(float));
     h->g_normal = malloc(3 * nv * sizeof(float));
     h->g_wsum = malloc(nv * sizeof(float));
-    if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->motion || !h->density ||
+    h->moving = malloc(nv);
+    if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
+        !h->density ||
         !h->surface || !h->features || !h->g_motion || !h->g_density || !h->g_surface ||
-        !h->g_features || !h->g_normal || !h->g_wsum || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !h->g_features || !h->g_normal || !h->g_wsum || !h->moving || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",

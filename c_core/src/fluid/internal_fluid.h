@@ -60,9 +60,14 @@ struct hbk_fluid {
     hbk_fluid_vols_t scratch;   /* advection targets */
     float *pos0, *vel0;         /* particles at the start of a step (cancellation) */
     float *sorted;              /* SPH scratch: 8 floats per particle */
+    float *soa;                 /* the same as 8 arrays of max_particles + 8 (sph_lanes.c) */
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
+    uint8_t *moving;            /* nv: V_m is not zero there (advection) */
+    int32_t wrap_checked;       /* the flags were repaired from the uvw as they are (advection
+                                 * then repairs only where something moved); 0 after create or
+                                 * load_state, so the first frame checks every voxel */
     hbk_fluid_cells_t cells;
     /* Mesh. */
     int32_t mesh_nv, mesh_nt;
@@ -101,6 +106,14 @@ static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, 
 
 /* sph.c: one substep on h->pos / h->vel. */
 hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
+/* sph_lanes.c: the gathers of a particle away from the walls in AVX2 lanes, with the scalar
+ * code's bytes (when hbk_fluid_sph_lanes() says the CPU has AVX2). */
+int hbk_fluid_sph_lanes(void);
+float hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
+                              int32_t cx, int32_t cy, int32_t cz, const float xi[3], float H);
+void hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
+                            int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[8],
+                            float H, float m, float spiky, float visc, float ap[3], float fv[3]);
 /* sph.c: density, V_m and the metaball sum at the vertices into g_* from the particles. */
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads);
 
@@ -117,16 +130,86 @@ typedef struct hbk_fluid_lerp {
     size_t voxel;  /* voxel (i, j, k) */
     float t[3];
 } hbk_fluid_lerp_t;
-void hbk_fluid_lerp_at(const hbk_fluid_t *h, const float x[3], hbk_fluid_lerp_t *l);
-void hbk_fluid_sample_wrapped_l(const hbk_fluid_t *h, const float *uvw, const uint8_t *wrap,
-                                const hbk_fluid_lerp_t *l, float out[3]);
+
+/* Inline: the advection samples several fields per vertex, millions of times a frame. */
+static inline void hbk_fluid_lerp_at(const hbk_fluid_t *h, const float x[3],
+                                     hbk_fluid_lerp_t *l)
+{
+    int32_t i[3];
+    for (int a = 0; a < 3; ++a) {
+        const int32_t last = h->p.resolution[a] - 1;
+        float xa = x[a];
+        if (!(xa >= 0.0f)) xa = 0.0f; /* also NaN */
+        if (xa > (float)(last + 1)) xa = (float)(last + 1);
+        int32_t k = (int32_t)xa;
+        if (k > last) k = last;
+        i[a] = k;
+        l->t[a] = xa - (float)k;
+    }
+    l->base = (size_t)i[0] + (size_t)h->nv[0] * ((size_t)i[1] + (size_t)h->nv[1] * (size_t)i[2]);
+    l->voxel = (size_t)i[0] + (size_t)h->p.resolution[0] *
+                                  ((size_t)i[1] + (size_t)h->p.resolution[1] * (size_t)i[2]);
+}
+
+/* Offsets of the 8 corners of a voxel, in the order of the trilinear weights below. */
+static inline void hbk_fluid_corners(const hbk_fluid_t *h, size_t off[8])
+{
+    const size_t sx = 1, sy = (size_t)h->nv[0], sz = (size_t)h->nv[0] * (size_t)h->nv[1];
+    off[0] = 0; off[1] = sx; off[2] = sy; off[3] = sx + sy;
+    off[4] = sz; off[5] = sz + sx; off[6] = sz + sy; off[7] = sz + sx + sy;
+}
+
+/* Nested lerps rather than the 8 weights: a uniform field stays bitwise uniform, and a
+ * linear ramp is reproduced to rounding. */
+static inline float hbk_fluid_tri(const float c[8], const float t[3])
+{
+    const float a = c[0] + t[0] * (c[1] - c[0]), b = c[2] + t[0] * (c[3] - c[2]);
+    const float d = c[4] + t[0] * (c[5] - c[4]), e = c[6] + t[0] * (c[7] - c[6]);
+    const float f = a + t[1] * (b - a), g = d + t[1] * (e - d);
+    return f + t[2] * (g - f);
+}
+
+static inline void hbk_fluid_sample_wrapped_l(const hbk_fluid_t *h, const float *uvw,
+                                              const uint8_t *wrap, const hbk_fluid_lerp_t *l,
+                                              float out[3])
+{
+    size_t off[8];
+    hbk_fluid_corners(h, off);
+    const uint8_t flags = wrap[l->voxel];
+    for (int a = 0; a < 3; ++a) {
+        float c[8];
+        for (int k = 0; k < 8; ++k) c[k] = uvw[3 * (l->base + off[k]) + (size_t)a];
+        if (flags & (1u << a)) {
+            for (int k = 0; k < 8; ++k)
+                if (c[k] < 0.5f) c[k] += 1.0f;
+            float v = hbk_fluid_tri(c, l->t);
+            if (v >= 1.0f) v -= 1.0f;
+            out[a] = v >= 0.0f && v < 1.0f ? v : 0.0f;
+        } else {
+            out[a] = hbk_fluid_tri(c, l->t);
+        }
+    }
+}
+
 /* Trilinear sample of an nv x ch field. */
-void hbk_fluid_sample_field(const hbk_fluid_t *h, const float *f, int ch,
-                            const hbk_fluid_lerp_t *l, float *out);
+static inline void hbk_fluid_sample_field(const hbk_fluid_t *h, const float *f, int ch,
+                                          const hbk_fluid_lerp_t *l, float *out)
+{
+    size_t off[8];
+    hbk_fluid_corners(h, off);
+    for (int a = 0; a < ch; ++a) {
+        float c[8];
+        for (int k = 0; k < 8; ++k) c[k] = f[(size_t)ch * (l->base + off[k]) + (size_t)a];
+        out[a] = hbk_fluid_tri(c, l->t);
+    }
+}
+
 /* Rest uvw mapping and its wrap flags. */
 void hbk_fluid_reset_uvw(const hbk_fluid_t *h, float *uvw, uint8_t *wrap, int threads);
-/* Re-derives each voxel's flags from its corners where the short way is unambiguous. */
-void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap, int threads);
+/* Re-derives each voxel's flags from its corners where the short way is unambiguous; with
+ * `moving`, only voxels with a moving corner (the others keep flags already repaired). */
+void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap,
+                           const uint8_t *moving, int threads);
 
 /* advect.c: advects h->v into h->scratch by h->motion over dt (does not swap). */
 void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads);

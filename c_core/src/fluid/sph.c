@@ -114,12 +114,15 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
     hbk_result_t r = hbk_fluid_cells_build(c, h->pos, n, h->p.box_min, h->p.box_max, H, threads);
     if (r) return r;
     /* Sorted copies: x, y, z, vx, vy, vz, density, pressure. */
-    float *s = h->sorted;
+    float *s = h->sorted, *soa = h->soa;
+    const size_t st = (size_t)(h->p.max_particles > 0 ? h->p.max_particles : 1) + 8;
+    const int lanes = hbk_fluid_sph_lanes();
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t k = 0; k < n; ++k) {
         const int32_t id = c->order[k];
         memcpy(s + 8 * (size_t)k, h->pos + 3 * (size_t)id, 3 * sizeof(float));
         memcpy(s + 8 * (size_t)k + 3, h->vel + 3 * (size_t)id, 3 * sizeof(float));
+        for (int a = 0; a < 6; ++a) soa[(size_t)a * st + (size_t)k] = s[8 * (size_t)k + (size_t)a];
     }
     const float H2 = H * H, m = (float)h->sph_mass, rho0 = h->p.rest_density, k = h->p.stiffness;
     const float wsp = (float)(15.0 / (M_PI * pow(H, 6)));   /* W = wsp (H - r)^3 */
@@ -133,7 +136,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float sum = 0.0f;
-        FOR_NEIGHBOURS(c, cx, cy, cz, j, {
+        if (lanes && mi.n == 0) sum = hbk_fluid_density_lanes(c, soa, st, cx, cy, cz, xi, H);
+        else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             for (int im = -1; im < mi.n; ++im) {
                 float d3[3];
@@ -148,6 +152,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         /* p >= 0: a free surface must not pull particles together (tensile instability).
          * Stored as p / rho^2, the factor of the symmetric pressure term. */
         s[8 * (size_t)i + 7] = rho > rho0 ? k * (rho - rho0) / (rho * rho) : 0.0f;
+        soa[6 * st + (size_t)i] = rho;
+        soa[7 * st + (size_t)i] = s[8 * (size_t)i + 7];
     }
     const float *g = h->p.gravity;
     const float decay = expf(-h->p.damping * dt), mu = h->p.viscosity;
@@ -159,7 +165,9 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0};
-        FOR_NEIGHBOURS(c, cx, cy, cz, j, {
+        if (lanes && mi.n == 0)
+            hbk_fluid_forces_lanes(c, soa, st, cx, cy, cz, i, xi, H, m, spiky, visc, ap, fv);
+        else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             /* im = -1: j itself (not i); im >= 0: j's images (i's own included). */
             for (int im = j == i ? 0 : -1; im < mi.n; ++im) {

@@ -165,5 +165,6 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     h->have_fields = hd.have_fields;
     h->paint_active = hd.paint_active;
     h->frame = hd.frame;
+    h->wrap_checked = 0; /* the next advection repairs every voxel's flags */
     return HBK_OK;
 }
