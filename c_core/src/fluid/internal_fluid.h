@@ -64,6 +64,7 @@ struct hbk_fluid {
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
+    float *g_mplanes;           /* 3 x nv: the velocity sums, one plane per axis */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
     int32_t wrap_checked;       /* the flags were repaired from the uvw as they are (advection
                                  * then repairs only where something moved); 0 after create or
@@ -73,6 +74,16 @@ struct hbk_fluid {
     int32_t mesh_nv, mesh_nt;
     float *mesh_pos, *mesh_nrm;
     int32_t *mesh_tri;
+    size_t mesh_cap_v, mesh_cap_t; /* vertices and triangles the mesh buffers hold */
+    /* Marching scratch, kept between frames (fresh buffers of this size each frame cost a
+     * fifth of the frame in page faults): the next mesh, built while the current one stays
+     * whole for a cancel, and the per-cell tables. */
+    float *next_pos, *next_nrm;
+    int32_t *next_tri;
+    size_t next_cap_v, next_cap_t;
+    uint8_t *mc_mask, *mc_in;
+    int32_t *mc_first;
+    int64_t *mc_row_v, *mc_row_t;
     double ms[4];
 };
 

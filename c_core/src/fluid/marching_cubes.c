@@ -75,15 +75,6 @@ static inline int tet_tris(int in)
     return n == 1 || n == 3 ? 1 : n == 2 ? 2 : 0;
 }
 
-/* Inside bits of the 8 cube corners (bit = corner mask). */
-static inline int cube_bits(const mc_t *m, int32_t i, int32_t j, int32_t k)
-{
-    int b = 0;
-    for (int c = 0; c < 8; ++c)
-        b |= inside(m, i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)) << c;
-    return b;
-}
-
 static int cube_tris(int bits)
 {
     int n = 0;
@@ -105,32 +96,55 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     mc_t m = {h, {h->nv[0] + 2, h->nv[1] + 2, h->nv[2] + 2}, h->p.surface_threshold};
     const int32_t ex = m.e[0], ey = m.e[1], ez = m.e[2];
     const size_t npad = (size_t)ex * (size_t)ey * (size_t)ez, rows = (size_t)ey * (size_t)ez;
-    uint8_t *mask = malloc(npad);
-    int32_t *first = malloc(npad * sizeof *first);
-    int64_t *row_v = malloc((rows + 1) * sizeof *row_v), *row_t = malloc((rows + 1) * sizeof *row_t);
+    /* The grid never changes size: the tables are allocated once. */
+    if (!h->mc_mask) h->mc_mask = malloc(npad);
+    if (!h->mc_first) h->mc_first = malloc(npad * sizeof *h->mc_first);
+    if (!h->mc_row_v) h->mc_row_v = malloc((rows + 1) * sizeof *h->mc_row_v);
+    if (!h->mc_row_t) h->mc_row_t = malloc((rows + 1) * sizeof *h->mc_row_t);
+    if (!h->mc_in) h->mc_in = malloc(npad);
+    uint8_t *mask = h->mc_mask, *in_at = h->mc_in;
+    int32_t *first = h->mc_first;
+    int64_t *row_v = h->mc_row_v, *row_t = h->mc_row_t;
     float *pos = NULL, *nrm = NULL;
     int32_t *tri = NULL;
     hbk_result_t r = HBK_OK;
-    if (!mask || !first || !row_v || !row_t) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+    if (!mask || !in_at || !first || !row_v || !row_t) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+    /* (0) Inside or not, per padded vertex, once (each is read by 15 edges and 8 cubes). */
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < ez; ++k)
+        for (int32_t j = 0; j < ey; ++j)
+            for (int32_t i = 0; i < ex; ++i) in_at[pidx(&m, i, j, k)] = (uint8_t)inside(&m, i, j, k);
+    int8_t tris_of[256]; /* triangles of a cube, by its corners' inside bits */
+    for (int bits = 0; bits < 256; ++bits) tris_of[bits] = (int8_t)cube_tris(bits);
+    /* Offset of padded vertex (i, j, k) + corner/direction bits c. */
+    size_t step[8];
+    for (int c = 0; c < 8; ++c) step[c] = pidx(&m, c & 1, c >> 1 & 1, c >> 2 & 1);
     /* (1) Crossing edges and triangle counts per row. */
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
             int64_t nvr = 0, ntr = 0;
             for (int32_t i = 0; i < ex; ++i) {
-                const int a = inside(&m, i, j, k);
+                const size_t p = pidx(&m, i, j, k);
+                const int a = in_at[p];
                 uint8_t b = 0;
-                for (int d = 1; d < 8; ++d) {
-                    const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
-                    if (i1 >= ex || j1 >= ey || k1 >= ez) continue;
-                    if (inside(&m, i1, j1, k1) != a) b |= (uint8_t)(1u << (d - 1));
-                }
-                mask[pidx(&m, i, j, k)] = b;
-                nvr += __builtin_popcount(b);
                 if (i + 1 < ex && j + 1 < ey && k + 1 < ez) {
-                    const int bits = cube_bits(&m, i, j, k);
-                    if (bits && bits != 255) ntr += cube_tris(bits);
+                    int bits = a;
+                    for (int c = 1; c < 8; ++c) {
+                        const int q = in_at[p + step[c]];
+                        b |= (uint8_t)((q != a) << (c - 1));
+                        bits |= q << c;
+                    }
+                    ntr += tris_of[bits];
+                } else {
+                    for (int d = 1; d < 8; ++d) {
+                        const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
+                        if (i1 >= ex || j1 >= ey || k1 >= ez) continue;
+                        if (in_at[p + step[d]] != a) b |= (uint8_t)(1u << (d - 1));
+                    }
                 }
+                mask[p] = b;
+                nvr += __builtin_popcount(b);
             }
             row_v[1 + (size_t)j + (size_t)ey * (size_t)k] = nvr;
             row_t[1 + (size_t)j + (size_t)ey * (size_t)k] = ntr;
@@ -143,10 +157,26 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
         goto done;
     }
     const int32_t NV = (int32_t)row_v[rows], NT = (int32_t)row_t[rows];
-    pos = malloc(3 * ((size_t)NV + 1) * sizeof *pos);
-    nrm = malloc(3 * ((size_t)NV + 1) * sizeof *nrm);
-    tri = malloc(3 * ((size_t)NT + 1) * sizeof *tri);
-    if (!pos || !nrm || !tri) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+    /* The next mesh goes to the spare buffers, grown (by a quarter more) when too small. */
+    if ((size_t)NV + 1 > h->next_cap_v) {
+        const size_t cap = (size_t)NV + 1 + ((size_t)NV + 1) / 4;
+        float *p2 = realloc(h->next_pos, 3 * cap * sizeof *p2);
+        if (p2) h->next_pos = p2;
+        float *n2 = realloc(h->next_nrm, 3 * cap * sizeof *n2);
+        if (n2) h->next_nrm = n2;
+        if (!p2 || !n2) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+        h->next_cap_v = cap;
+    }
+    if ((size_t)NT + 1 > h->next_cap_t) {
+        const size_t cap = (size_t)NT + 1 + ((size_t)NT + 1) / 4;
+        int32_t *t2 = realloc(h->next_tri, 3 * cap * sizeof *t2);
+        if (!t2) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+        h->next_tri = t2;
+        h->next_cap_t = cap;
+    }
+    pos = h->next_pos;
+    nrm = h->next_nrm;
+    tri = h->next_tri;
     /* (2) Edge vertices: position clamped into the box (caps on the walls), normal from the
      * interpolated field gradient. */
 #pragma omp parallel for num_threads(threads) schedule(static)
@@ -185,7 +215,9 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
         for (int32_t j = 0; j < ey - 1; ++j) {
             size_t out = (size_t)row_t[(size_t)j + (size_t)ey * (size_t)k];
             for (int32_t i = 0; i < ex - 1; ++i) {
-                const int bits = cube_bits(&m, i, j, k);
+                const size_t p = pidx(&m, i, j, k);
+                int bits = 0;
+                for (int c = 0; c < 8; ++c) bits |= in_at[p + step[c]] << c;
                 if (!bits || bits == 255) continue;
                 for (int t = 0; t < 6; ++t) {
                     int c[4], in = 0;
@@ -258,16 +290,19 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
             }
         }
     if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto done; }
-    free(h->mesh_pos); free(h->mesh_nrm); free(h->mesh_tri);
-    h->mesh_pos = pos; h->mesh_nrm = nrm; h->mesh_tri = tri;
-    pos = nrm = NULL;
-    tri = NULL;
+    { /* the new mesh becomes current; the old buffers are the next spare */
+        float *p0 = h->mesh_pos, *n0 = h->mesh_nrm;
+        int32_t *t0b = h->mesh_tri;
+        const size_t cv = h->mesh_cap_v, ct = h->mesh_cap_t;
+        h->mesh_pos = pos; h->mesh_nrm = nrm; h->mesh_tri = tri;
+        h->mesh_cap_v = h->next_cap_v; h->mesh_cap_t = h->next_cap_t;
+        h->next_pos = p0; h->next_nrm = n0; h->next_tri = t0b;
+        h->next_cap_v = cv; h->next_cap_t = ct;
+    }
     h->mesh_nv = NV;
     h->mesh_nt = NT;
     h->ms[3] = (omp_get_wtime() - t0) * 1e3;
 done:
-    free(mask); free(first); free(row_v); free(row_t);
-    free(pos); free(nrm); free(tri);
     if (r == HBK_ERR_CANCELLED) return hbk_fail(&h->msg, r, "surface: cancelled");
     if (r == HBK_ERR_OUT_OF_MEMORY && !h->msg.text[0])
         return hbk_fail(&h->msg, r, "surface: out of memory");

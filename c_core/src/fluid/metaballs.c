@@ -4,81 +4,163 @@
 #include <omp.h>
 #include <string.h>
 
+typedef float v8f __attribute__((vector_size(32)));
+typedef int32_t v8i __attribute__((vector_size(32)));
+
+typedef struct {
+    float *dens, *wsum, *surf, *mot[3]; /* vertex sums; motion as three planes */
+    float H2, R2, inv_R2, dens_k;
+} splat_t;
+
+/* Adds particle (x, v) to vertices [a0, a1] of one row (at `row`), whose offsets from the
+ * particle are dx = lo + kx cl - x and ryz. */
+static inline __attribute__((always_inline)) void
+splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float cl,
+          const float *x, const float *v, float ryz)
+{
+    for (int32_t kx = a0; kx <= a1; ++kx) {
+        const float dx = lo + (float)kx * cl - x[0];
+        const float r2 = dx * dx + ryz;
+        const size_t vi = row + (size_t)kx;
+        if (r2 < s->H2) {
+            const float d = s->H2 - r2, w = d * d * d;
+            s->dens[vi] += s->dens_k * w;
+            s->wsum[vi] += w;
+            s->mot[0][vi] += w * v[0];
+            s->mot[1][vi] += w * v[1];
+            s->mot[2][vi] += w * v[2];
+        }
+        if (r2 < s->R2) {
+            const float t = 1.0f - r2 * s->inv_R2;
+            s->surf[vi] += t * t * t;
+        }
+    }
+}
+
+/* splat_row eight vertices at a time, with masked loads and stores: a vertex out of reach is
+ * not touched, as in the scalar code, and the values are its operations': the same bytes. */
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+splat_row_avx2(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float cl,
+               const float *x, const float *v, float ryz)
+{
+    const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
+    const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    for (int32_t kx = a0; kx <= a1; kx += 8) {
+        const v8i in = lane + kx <= a1;
+        const v8f k = __builtin_convertvector(lane + kx, v8f);
+        const v8f dx = (zero + lo) + k * cl - x[0];
+        const v8f r2 = dx * dx + ryz;
+        const v8i mh = in & (r2 < H2), mr = in & (r2 < R2);
+        float *at[6] = {s->dens + row + kx, s->wsum + row + kx, s->mot[0] + row + kx,
+                        s->mot[1] + row + kx, s->mot[2] + row + kx, s->surf + row + kx};
+        if (__builtin_ia32_movmskps256((v8f)mh)) {
+            const v8f d = H2 - r2, w = d * d * d;
+            const v8f add[5] = {s->dens_k * w, w, w * v[0], w * v[1], w * v[2]};
+            for (int q = 0; q < 5; ++q) {
+                const v8f old = __builtin_ia32_maskloadps256((const v8f *)at[q], mh);
+                __builtin_ia32_maskstoreps256((v8f *)at[q], mh, old + add[q]);
+            }
+        }
+        if (__builtin_ia32_movmskps256((v8f)mr)) {
+            const v8f t = one - r2 * s->inv_R2;
+            const v8f old = __builtin_ia32_maskloadps256((const v8f *)at[5], mr);
+            __builtin_ia32_maskstoreps256((v8f *)at[5], mr, old + t * t * t);
+        }
+    }
+}
+
+/* One chunk: vertex z-slab [z0, z1), from the particles (sorted) p0 .. p1 - 1, each row by
+ * ROW (splat_row or splat_row_avx2). */
+#define SPLAT_CHUNK(ROW)                                                                     \
+    const hbk_fluid_cells_t *c = &h->cells;                                                  \
+    const int32_t nx = h->nv[0], ny = h->nv[1];                                              \
+    const float *lo = h->p.box_min, *cl = h->cell, *ic = h->inv_cell;                        \
+    for (int32_t k = p0; k < p1; ++k) {                                                      \
+        const int32_t id = c->order[k];                                                      \
+        const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;              \
+        int32_t a0[3], a1[3];                                                                \
+        for (int a = 0; a < 3; ++a) {                                                        \
+            a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);                              \
+            a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);                             \
+            if (a0[a] < 0) a0[a] = 0;                                                        \
+            if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;                                  \
+        }                                                                                    \
+        if (a0[2] < z0) a0[2] = z0;                                                          \
+        if (a1[2] > z1 - 1) a1[2] = z1 - 1;                                                  \
+        for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {                                        \
+            const float dz = lo[2] + (float)kz * cl[2] - x[2];                               \
+            for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {                                    \
+                const float dy = lo[1] + (float)ky * cl[1] - x[1];                           \
+                const float ryz = dy * dy + dz * dz;                                         \
+                if (ryz >= s->H2 && ryz >= s->R2) continue;                                  \
+                const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz);      \
+                ROW(s, row, a0[0], a1[0], lo[0], cl[0], x, v, ryz);                          \
+            }                                                                                \
+        }                                                                                    \
+    }
+
+static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
+                            int32_t p0, int32_t p1, float S)
+{
+    SPLAT_CHUNK(splat_row)
+}
+
+__attribute__((target("avx2"))) static void
+splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32_t p0,
+                 int32_t p1, float S)
+{
+    SPLAT_CHUNK(splat_row_avx2)
+    __builtin_ia32_vzeroupper(); /* the caller is SSE code */
+}
+#undef SPLAT_CHUNK
+
 /* Scatter by owner: vertex z-slabs are chunks of the loop; each chunk walks the particles
  * (in sorted order) whose support reaches it and adds to its own vertices only, so every
- * vertex sums its particles in one fixed order, whatever thread runs the chunk. */
+ * vertex sums its particles in one fixed order, whatever thread runs the chunk. The motion
+ * sums go to three planes (g_mplanes), so that eight vertices of a row are eight floats in a
+ * row; the Shepard normalisation writes them back interleaved. */
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
 {
     const size_t nv = h->n_vert;
     memset(h->g_density, 0, nv * sizeof(float));
     memset(h->g_surface, 0, nv * sizeof(float));
-    memset(h->g_motion, 0, 3 * nv * sizeof(float));
+    memset(h->g_mplanes, 0, 3 * nv * sizeof(float));
     memset(h->g_wsum, 0, nv * sizeof(float));
     const int32_t n = h->count;
-    if (n == 0) return HBK_OK;
+    if (n == 0) {
+        memset(h->g_motion, 0, 3 * nv * sizeof(float));
+        return HBK_OK;
+    }
     const float H = h->p.smoothing_length, R = h->p.metaball_radius;
     const float S = H > R ? H : R;
     hbk_fluid_cells_t *c = &h->cells;
     hbk_result_t r = hbk_fluid_cells_build(c, h->pos, n, h->p.box_min, h->p.box_max, S, threads);
     if (r) return r;
-    const float H2 = H * H, R2 = R * R, inv_R2 = 1.0f / R2;
-    const float dens = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
-    const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2];
-    const float *lo = h->p.box_min, *cl = h->cell, *ic = h->inv_cell;
+    const splat_t s = {h->g_density, h->g_wsum, h->g_surface,
+                       {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv},
+                       H * H, R * R, 1.0f / (R * R),
+                       (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)))};
+    const int32_t nz = h->nv[2];
+    const float *lo = h->p.box_min, *cl = h->cell;
     const int32_t slab = 8, chunks = (nz + slab - 1) / slab;
     const size_t layer = (size_t)c->dims[0] * (size_t)c->dims[1];
+    const int avx2 = __builtin_cpu_supports("avx2") != 0;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t ch = 0; ch < chunks; ++ch) {
         const int32_t z0 = ch * slab, z1 = z0 + slab < nz ? z0 + slab : nz; /* [z0, z1) */
         const float wz0 = lo[2] + (float)z0 * cl[2] - S, wz1 = lo[2] + (float)(z1 - 1) * cl[2] + S;
         const int32_t c0 = hbk_fluid_cell_coord(c, wz0, 2), c1 = hbk_fluid_cell_coord(c, wz1, 2);
         const int32_t p0 = c->start[(size_t)c0 * layer], p1 = c->start[(size_t)(c1 + 1) * layer];
-        for (int32_t k = p0; k < p1; ++k) {
-            const int32_t id = c->order[k];
-            const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;
-            int32_t a0[3], a1[3];
-            for (int a = 0; a < 3; ++a) {
-                a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);
-                a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);
-                if (a0[a] < 0) a0[a] = 0;
-                if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;
-            }
-            if (a0[2] < z0) a0[2] = z0;
-            if (a1[2] > z1 - 1) a1[2] = z1 - 1;
-            for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
-                const float dz = lo[2] + (float)kz * cl[2] - x[2];
-                for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {
-                    const float dy = lo[1] + (float)ky * cl[1] - x[1];
-                    const float ryz = dy * dy + dz * dz;
-                    if (ryz >= H2 && ryz >= R2) continue;
-                    const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz);
-                    for (int32_t kx = a0[0]; kx <= a1[0]; ++kx) {
-                        const float dx = lo[0] + (float)kx * cl[0] - x[0];
-                        const float r2 = dx * dx + ryz;
-                        const size_t vi = row + (size_t)kx;
-                        if (r2 < H2) {
-                            const float d = H2 - r2, w = d * d * d;
-                            h->g_density[vi] += dens * w;
-                            h->g_wsum[vi] += w;
-                            h->g_motion[3 * vi] += w * v[0];
-                            h->g_motion[3 * vi + 1] += w * v[1];
-                            h->g_motion[3 * vi + 2] += w * v[2];
-                        }
-                        if (r2 < R2) {
-                            const float t = 1.0f - r2 * inv_R2;
-                            h->g_surface[vi] += t * t * t;
-                        }
-                    }
-                }
-            }
-        }
+        (avx2 ? splat_chunk_avx2 : splat_chunk_sse)(h, &s, z0, z1, p0, p1, S);
     }
-    /* Shepard-normalised velocity. */
+    /* Shepard-normalised velocity, interleaved. */
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (size_t i = 0; i < nv; ++i) {
         const float w = h->g_wsum[i];
-        if (w > 0.0f)
-            for (int a = 0; a < 3; ++a) h->g_motion[3 * i + a] /= w;
+        for (int a = 0; a < 3; ++a) {
+            const float sum = h->g_mplanes[(size_t)a * nv + i];
+            h->g_motion[3 * i + (size_t)a] = w > 0.0f ? sum / w : sum;
+        }
     }
     return HBK_OK;
 }
