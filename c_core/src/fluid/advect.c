@@ -13,7 +13,7 @@ static inline void trace(const hbk_fluid_t *h, const float *motion, const float 
     for (int a = 0; a < 3; ++a) mid[a] = x[a] - 0.5f * dt * v0[a] * h->inv_cell[a];
     hbk_fluid_lerp_t l;
     hbk_fluid_lerp_at(h, mid, &l);
-    hbk_fluid_sample_field(h, motion, 3, &l, vm);
+    hbk_fluid_sample3(h, motion, &l, vm);
     for (int a = 0; a < 3; ++a) src[a] = x[a] - dt * vm[a] * h->inv_cell[a];
 }
 
@@ -48,8 +48,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 trace(h, m, x, dt, v0, src);
                 hbk_fluid_lerp_t l;
                 hbk_fluid_lerp_at(h, src, &l);
-                hbk_fluid_sample_wrapped_l(h, in->uvw[0], in->wrap[0], &l, out->uvw[0] + 3 * vi);
-                hbk_fluid_sample_wrapped_l(h, in->uvw[1], in->wrap[1], &l, out->uvw[1] + 3 * vi);
+                hbk_fluid_sample_wrapped3(h, in->uvw[0], in->wrap[0], &l, out->uvw[0] + 3 * vi);
+                hbk_fluid_sample_wrapped3(h, in->uvw[1], in->wrap[1], &l, out->uvw[1] + 3 * vi);
                 float *b = out->base + (size_t)K * vi;
                 hbk_fluid_sample_field(h, in->base, K, &l, b);
                 /* Interpolation is a convex combination; renormalise only the rounding. */
@@ -85,7 +85,7 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 hbk_fluid_lerp_t l;
                 hbk_fluid_lerp_at(h, x, &l);
                 float v0[3], src[3];
-                hbk_fluid_sample_field(h, m, 3, &l, v0);
+                hbk_fluid_sample3(h, m, &l, v0);
                 trace(h, m, x, dt, v0, src);
                 hbk_fluid_lerp_at(h, src, &l);
                 out->wrap[0][vox] = in->wrap[0][l.voxel];

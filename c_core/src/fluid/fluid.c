@@ -13,8 +13,9 @@ static void vols_free(hbk_fluid_vols_t *v)
 
 static int vols_alloc(hbk_fluid_vols_t *v, size_t nv, size_t nvox, int K)
 {
-    v->uvw[0] = malloc(3 * nv * sizeof(float));
-    v->uvw[1] = malloc(3 * nv * sizeof(float));
+    /* 3-vector fields get 4 floats of padding: samplers load 4 floats per vertex. */
+    v->uvw[0] = calloc(3 * nv + 4, sizeof(float));
+    v->uvw[1] = calloc(3 * nv + 4, sizeof(float));
     v->wrap[0] = malloc(nvox);
     v->wrap[1] = malloc(nvox);
     v->base = malloc((size_t)K * nv * sizeof(float));
@@ -87,11 +88,11 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->vel0 = malloc(3 * np * sizeof(float));
     h->sorted = malloc(8 * np * sizeof(float));
     h->soa = calloc(8 * (np + 8), sizeof(float)); /* padded: lanes read 8 at a time */
-    h->motion = calloc(3 * nv, sizeof(float));
+    h->motion = calloc(3 * nv + 4, sizeof(float)); /* padded as uvw */
     h->density = calloc(nv, sizeof(float));
     h->surface = calloc(nv, sizeof(float));
     h->features = calloc((size_t)F * nv, sizeof(float));
-    h->g_motion = malloc(3 * nv * sizeof(float));
+    h->g_motion = calloc(3 * nv + 4, sizeof(float));
     h->g_density = malloc(nv * sizeof(float));
     h->g_surface = malloc(nv * sizeof(float));
     h->g_features = malloc((size_t)F * nv * sizeof(float));

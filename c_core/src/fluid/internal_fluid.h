@@ -2,6 +2,7 @@
 #ifndef HBK_INTERNAL_FLUID_H
 #define HBK_INTERNAL_FLUID_H
 #include "hbk_fluid.h"
+#include <string.h>
 #include "../base/internal_base.h"
 #include <math.h>
 
@@ -200,6 +201,59 @@ static inline void hbk_fluid_sample_wrapped_l(const hbk_fluid_t *h, const float 
             out[a] = hbk_fluid_tri(c, l->t);
         }
     }
+}
+
+/* The same for a 3-vector field, the three components side by side in one 4-float vector
+ * (the field has 4 floats of padding); the same operations per component, so the same bytes
+ * as hbk_fluid_sample_field and hbk_fluid_sample_wrapped_l. */
+typedef float hbk_v4f __attribute__((vector_size(16)));
+typedef int32_t hbk_v4i __attribute__((vector_size(16)));
+
+static inline hbk_v4f hbk_fluid_tri4(const hbk_v4f c[8], const float t[3])
+{
+    const hbk_v4f a = c[0] + t[0] * (c[1] - c[0]), b = c[2] + t[0] * (c[3] - c[2]);
+    const hbk_v4f d = c[4] + t[0] * (c[5] - c[4]), e = c[6] + t[0] * (c[7] - c[6]);
+    const hbk_v4f f = a + t[1] * (b - a), g = d + t[1] * (e - d);
+    return f + t[2] * (g - f);
+}
+
+static inline void hbk_fluid_sample3(const hbk_fluid_t *h, const float *f,
+                                     const hbk_fluid_lerp_t *l, float out[3])
+{
+    size_t off[8];
+    hbk_fluid_corners(h, off);
+    hbk_v4f c[8];
+    for (int k = 0; k < 8; ++k) memcpy(&c[k], f + 3 * (l->base + off[k]), sizeof c[k]);
+    const hbk_v4f r = hbk_fluid_tri4(c, l->t);
+    out[0] = r[0];
+    out[1] = r[1];
+    out[2] = r[2];
+}
+
+static inline void hbk_fluid_sample_wrapped3(const hbk_fluid_t *h, const float *uvw,
+                                             const uint8_t *wrap, const hbk_fluid_lerp_t *l,
+                                             float out[3])
+{
+    size_t off[8];
+    hbk_fluid_corners(h, off);
+    const uint8_t fl = wrap[l->voxel];
+    const hbk_v4i m = {-(fl & 1), -(fl >> 1 & 1), -(fl >> 2 & 1), 0};
+    const hbk_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, half = zero + 0.5f, one = zero + 1.0f;
+    hbk_v4f c[8];
+    for (int k = 0; k < 8; ++k) {
+        hbk_v4f v;
+        memcpy(&v, uvw + 3 * (l->base + off[k]), sizeof v);
+        const hbk_v4i up = m & (v < half); /* a wrapped component below 0.5 counts + 1 */
+        c[k] = (hbk_v4f)(((hbk_v4i)(v + one) & up) | ((hbk_v4i)v & ~up));
+    }
+    hbk_v4f r = hbk_fluid_tri4(c, l->t);
+    const hbk_v4i over = m & (r >= one);
+    r = (hbk_v4f)(((hbk_v4i)(r - one) & over) | ((hbk_v4i)r & ~over));
+    const hbk_v4i bad = m & ~((r >= zero) & (r < one)); /* rounding or NaN: 0 */
+    r = (hbk_v4f)((hbk_v4i)r & ~bad);
+    out[0] = r[0];
+    out[1] = r[1];
+    out[2] = r[2];
 }
 
 /* Trilinear sample of an nv x ch field. */
