@@ -51,15 +51,15 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 hbk_fluid_sample_wrapped3(h, in->uvw[0], in->wrap[0], &l, out->uvw[0] + 3 * vi);
                 hbk_fluid_sample_wrapped3(h, in->uvw[1], in->wrap[1], &l, out->uvw[1] + 3 * vi);
                 float *b = out->base + (size_t)K * vi;
-                hbk_fluid_sample_field(h, in->base, K, &l, b);
+                hbk_fluid_sample_n(h, in->base, K, &l, b);
                 /* Interpolation is a convex combination; renormalise only the rounding. */
                 float s = 0.0f;
                 for (int t = 0; t < K; ++t) s += b[t];
                 if (s > 0.0f) for (int t = 0; t < K; ++t) b[t] /= s;
                 else { for (int t = 0; t < K; ++t) b[t] = 0.0f; b[h->p.default_texture] = 1.0f; }
                 if (paint) {
-                    hbk_fluid_sample_field(h, in->paint, K, &l, out->paint + (size_t)K * vi);
-                    hbk_fluid_sample_field(h, in->life, 1, &l, out->life + vi);
+                    hbk_fluid_sample_n(h, in->paint, K, &l, out->paint + (size_t)K * vi);
+                    hbk_fluid_sample_n(h, in->life, 1, &l, out->life + vi);
                 }
             }
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from

@@ -13,14 +13,14 @@ static void vols_free(hbk_fluid_vols_t *v)
 
 static int vols_alloc(hbk_fluid_vols_t *v, size_t nv, size_t nvox, int K)
 {
-    /* 3-vector fields get 4 floats of padding: samplers load 4 floats per vertex. */
+    /* Sampled fields get 4 floats of padding: samplers load 4 floats at a time. */
     v->uvw[0] = calloc(3 * nv + 4, sizeof(float));
     v->uvw[1] = calloc(3 * nv + 4, sizeof(float));
     v->wrap[0] = malloc(nvox);
     v->wrap[1] = malloc(nvox);
-    v->base = malloc((size_t)K * nv * sizeof(float));
-    v->paint = calloc((size_t)K * nv, sizeof(float));
-    v->life = calloc(nv, sizeof(float));
+    v->base = calloc((size_t)K * nv + 4, sizeof(float));
+    v->paint = calloc((size_t)K * nv + 4, sizeof(float));
+    v->life = calloc(nv + 4, sizeof(float));
     return v->uvw[0] && v->uvw[1] && v->wrap[0] && v->wrap[1] && v->base && v->paint && v->life;
 }
 

@@ -118,14 +118,17 @@ static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, 
 
 /* sph.c: one substep on h->pos / h->vel. */
 hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
-/* sph_lanes.c: the gathers of a particle away from the walls in AVX2 lanes, with the scalar
- * code's bytes (when hbk_fluid_sph_lanes() says the CPU has AVX2). */
+/* sph_lanes.c: the gathers of a particle (with its nim wall images) in AVX2 lanes, with the
+ * scalar code's bytes (when hbk_fluid_sph_lanes() says the CPU has AVX2). */
 int hbk_fluid_sph_lanes(void);
 float hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
-                              int32_t cx, int32_t cy, int32_t cz, const float xi[3], float H);
+                              int32_t cx, int32_t cy, int32_t cz, const float xi[3], float H,
+                              int nim, const float (*sgn)[3], const float (*off)[3]);
 void hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
                             int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[8],
-                            float H, float m, float spiky, float visc, float ap[3], float fv[3]);
+                            float H, float m, float spiky, float visc, int nim,
+                            const float (*sgn)[3], const float (*off)[3], float ap[3],
+                            float fv[3]);
 /* sph.c: density, V_m and the metaball sum at the vertices into g_* from the particles. */
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads);
 
@@ -254,6 +257,21 @@ static inline void hbk_fluid_sample_wrapped3(const hbk_fluid_t *h, const float *
     out[0] = r[0];
     out[1] = r[1];
     out[2] = r[2];
+}
+
+/* hbk_fluid_sample_field for a field with 4 floats of padding: four channels at a time. */
+static inline void hbk_fluid_sample_n(const hbk_fluid_t *h, const float *f, int ch,
+                                      const hbk_fluid_lerp_t *l, float *out)
+{
+    size_t off[8];
+    hbk_fluid_corners(h, off);
+    for (int a = 0; a < ch; a += 4) {
+        hbk_v4f c[8];
+        for (int k = 0; k < 8; ++k)
+            memcpy(&c[k], f + (size_t)ch * (l->base + off[k]) + (size_t)a, sizeof c[k]);
+        const hbk_v4f r = hbk_fluid_tri4(c, l->t);
+        for (int q = 0; q < 4 && a + q < ch; ++q) out[a + q] = r[q];
+    }
 }
 
 /* Trilinear sample of an nv x ch field. */

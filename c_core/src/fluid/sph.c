@@ -136,7 +136,9 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float sum = 0.0f;
-        if (lanes && mi.n == 0) sum = hbk_fluid_density_lanes(c, soa, st, cx, cy, cz, xi, H);
+        if (lanes)
+            sum = hbk_fluid_density_lanes(c, soa, st, cx, cy, cz, xi, H, mi.n,
+                                          (const float (*)[3])mi.sgn, (const float (*)[3])mi.off);
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             for (int im = -1; im < mi.n; ++im) {
@@ -165,8 +167,10 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0};
-        if (lanes && mi.n == 0)
-            hbk_fluid_forces_lanes(c, soa, st, cx, cy, cz, i, xi, H, m, spiky, visc, ap, fv);
+        if (lanes)
+            hbk_fluid_forces_lanes(c, soa, st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
+                                   (const float (*)[3])mi.sgn, (const float (*)[3])mi.off, ap,
+                                   fv);
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             /* im = -1: j itself (not i); im >= 0: j's images (i's own included). */

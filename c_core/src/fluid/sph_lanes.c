@@ -20,15 +20,11 @@ int hbk_fluid_sph_lanes(void) { return __builtin_cpu_supports("avx2") != 0; }
         v_;                                                                                  \
     })
 
-/* Bit l set when lane l holds a candidate below `end` and mask lane l is set. */
-static inline __attribute__((always_inline)) unsigned bits_of(v8i mask, int32_t j, int32_t end)
-{
-    int32_t m[8];
-    __builtin_memcpy(m, &mask, sizeof m);
-    unsigned b = 0;
-    for (int l = 0; l < 8; ++l) b |= (unsigned)(m[l] != 0 && j + l < end) << l;
-    return b;
-}
+/* Bit l set when lane l holds a candidate below `end` and mask lane l is set (a macro: it
+ * uses an AVX instruction). */
+#define bits_of(mask, j, end)                                                                \
+    ((unsigned)__builtin_ia32_movmskps256((v8f)(mask)) &                                     \
+     ((end) - (j) >= 8 ? 0xffu : (1u << ((end) - (j))) - 1u))
 
 /* The rows of cells around (cx, cy, cz): each a contiguous range of sorted particles. */
 #define FOR_ROWS(c, cx, cy, cz, a_, e_, ...)                                                 \
@@ -46,24 +42,51 @@ static inline __attribute__((always_inline)) unsigned bits_of(v8i mask, int32_t 
         }                                                                                    \
     }
 
+/* Images: 0 is the neighbour itself; 1 .. nim its mirror images across the walls (sgn * x +
+ * off per axis), in the scalar loop's order. */
+enum { MAX_IMAGES = 27 };
+
 __attribute__((target("avx2"))) float
 hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
-                        int32_t cx, int32_t cy, int32_t cz, const float xi[3], float H)
+                        int32_t cx, int32_t cy, int32_t cz, const float xi[3], float H, int nim,
+                        const float (*sgn)[3], const float (*off)[3])
 {
     const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
     const v8f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
     const v8f h = zero + H, h2 = zero + H * H;
     float sum = 0.0f;
+    float t[MAX_IMAGES][8];
+    unsigned bim[MAX_IMAGES];
     FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
-            const v8f dx = x - load8(X + j), dy = y - load8(Y + j), dz = z - load8(Z + j);
-            const v8f r2 = dx * dx + dy * dy + dz * dz;
-            unsigned b = bits_of(r2 < h2, j, e);
-            if (!b) continue;
-            const v8f q = h - __builtin_ia32_sqrtps256(r2), q3 = q * q * q;
-            float t[8];
-            __builtin_memcpy(t, &q3, sizeof t);
-            for (; b; b &= b - 1) sum += t[__builtin_ctz(b)];
+            const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
+            unsigned any = 0;
+            for (int im = 0; im <= nim; ++im) {
+                v8f dx, dy, dz;
+                if (im == 0) {
+                    dx = x - xj, dy = y - yj, dz = z - zj;
+                } else {
+                    const float *sg = sgn[im - 1], *of = off[im - 1];
+                    dx = x - (sg[0] * xj + of[0]);
+                    dy = y - (sg[1] * yj + of[1]);
+                    dz = z - (sg[2] * zj + of[2]);
+                }
+                const v8f r2 = dx * dx + dy * dy + dz * dz;
+                bim[im] = bits_of(r2 < h2, j, e);
+                any |= bim[im];
+                if (!bim[im]) continue;
+                const v8f q = h - __builtin_ia32_sqrtps256(r2), q3 = q * q * q;
+                __builtin_memcpy(t[im], &q3, sizeof t[im]);
+            }
+            if (!nim) { /* away from the walls: the set lanes in order */
+                for (unsigned b = any; b; b &= b - 1) sum += t[0][__builtin_ctz(b)];
+                continue;
+            }
+            for (unsigned b = any; b; b &= b - 1) {
+                const int l = __builtin_ctz(b);
+                for (int im = 0; im <= nim; ++im)
+                    if (bim[im] >> l & 1u) sum += t[im][l];
+            }
         }
     })
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
@@ -73,7 +96,8 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t str
 __attribute__((target("avx2"))) void
 hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
                        int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[8],
-                       float H, float m, float spiky, float visc, float ap[3], float fv[3])
+                       float H, float m, float spiky, float visc, int nim,
+                       const float (*sgn)[3], const float (*off)[3], float ap[3], float fv[3])
 {
     const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
     const float *VX = soa + 3 * stride, *VY = soa + 4 * stride, *VZ = soa + 5 * stride;
@@ -83,31 +107,45 @@ hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stri
     const v8f h = zero + H, h2 = zero + H * H, tiny = zero + 1e-9f * H;
     const v8f vm = zero + m, vs = zero + spiky, vv = zero + visc;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    float u[MAX_IMAGES][6][8];
+    unsigned bim[MAX_IMAGES], bpr[MAX_IMAGES];
     FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
-            const v8f dx = x - load8(X + j), dy = y - load8(Y + j), dz = z - load8(Z + j);
-            const v8f r2 = dx * dx + dy * dy + dz * dz;
-            /* j itself is not its own neighbour (the walls' images are the scalar path's) */
-            unsigned b = bits_of((r2 < h2) & (lane + j != i), j, e);
-            if (!b) continue;
-            const v8f rr = __builtin_ia32_sqrtps256(r2), q = h - rr;
-            const unsigned bp = bits_of(rr > tiny, j, e);
-            const v8f f = vm * (pi + load8(P + j)) * vs * q * q / rr;
-            const v8f w = vm / load8(R + j) * vv * q;
-            const v8f t[6] = {f * dx, f * dy, f * dz, w * (load8(VX + j) - vx),
-                              w * (load8(VY + j) - vy), w * (load8(VZ + j) - vz)};
-            float u[6][8];
-            __builtin_memcpy(u, t, sizeof u);
-            for (; b; b &= b - 1) {
+            const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
+            unsigned any = 0;
+            for (int im = 0; im <= nim; ++im) {
+                /* the scalar code's sg * x + of, with sg = 1 and of = 0 for j itself */
+                const float one[3] = {1.0f, 1.0f, 1.0f}, nil[3] = {0.0f, 0.0f, 0.0f};
+                const float *sg = im ? sgn[im - 1] : one, *of = im ? off[im - 1] : nil;
+                const v8f dx = x - (sg[0] * xj + of[0]), dy = y - (sg[1] * yj + of[1]),
+                          dz = z - (sg[2] * zj + of[2]);
+                const v8f r2 = dx * dx + dy * dy + dz * dz;
+                /* j itself is not its own neighbour, but its images are */
+                bim[im] = bits_of(im ? (r2 < h2) : (r2 < h2) & (lane + j != i), j, e);
+                any |= bim[im];
+                if (!bim[im]) continue;
+                const v8f rr = __builtin_ia32_sqrtps256(r2), q = h - rr;
+                bpr[im] = bits_of(rr > tiny, j, e);
+                const v8f f = vm * (pi + load8(P + j)) * vs * q * q / rr;
+                const v8f w = vm / load8(R + j) * vv * q;
+                const v8f t[6] = {f * dx, f * dy, f * dz, w * (sg[0] * load8(VX + j) - vx),
+                                  w * (sg[1] * load8(VY + j) - vy),
+                                  w * (sg[2] * load8(VZ + j) - vz)};
+                __builtin_memcpy(u[im], t, sizeof u[im]);
+            }
+            for (unsigned b = any; b; b &= b - 1) {
                 const int l = __builtin_ctz(b);
-                if (bp >> l & 1u) {
-                    ap[0] += u[0][l];
-                    ap[1] += u[1][l];
-                    ap[2] += u[2][l];
+                for (int im = 0; im <= nim; ++im) {
+                    if (!(bim[im] >> l & 1u)) continue;
+                    if (bpr[im] >> l & 1u) {
+                        ap[0] += u[im][0][l];
+                        ap[1] += u[im][1][l];
+                        ap[2] += u[im][2][l];
+                    }
+                    fv[0] += u[im][3][l];
+                    fv[1] += u[im][4][l];
+                    fv[2] += u[im][5][l];
                 }
-                fv[0] += u[3][l];
-                fv[1] += u[4][l];
-                fv[2] += u[5][l];
             }
         }
     })
