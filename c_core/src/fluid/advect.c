@@ -32,6 +32,18 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 const float *v0 = m + 3 * vi;
                 const float x[3] = {(float)i, (float)j, (float)k};
                 float src[3];
+                if ((i & 3) == 0) { /* the rows ahead that the next samples will read */
+                    const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny, ahead = vi + 16;
+                    for (int q = 0; q < 2; ++q) {
+                        const size_t p = ahead + sy + (q ? sz : 0);
+                        if (p >= h->n_vert) break;
+                        __builtin_prefetch(in->uvw[0] + 3 * p);
+                        __builtin_prefetch(in->uvw[1] + 3 * p);
+                        __builtin_prefetch(m + 3 * p);
+                        __builtin_prefetch(in->base + (size_t)K * p);
+                        if (paint) __builtin_prefetch(in->paint + (size_t)K * p);
+                    }
+                }
                 const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;
                 h->moving[vi] = (uint8_t)!still;
                 if (still) {
