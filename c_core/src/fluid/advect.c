@@ -76,8 +76,11 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
             }
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from
      * the new corners where the short way is unambiguous. A voxel whose corners all stand
-     * still keeps its flag: its centre traces back to itself. */
+     * still keeps its flag: its centre traces back to itself, and its corners' uvw are the
+     * ones its flags were repaired from last frame (but the first frame after create or
+     * load_state repairs every voxel). */
     const int32_t rx = h->p.resolution[0], ry = h->p.resolution[1], rz = h->p.resolution[2];
+    const int checked = h->wrap_checked;
     size_t off[8];
     hbk_fluid_corners(h, off);
 #pragma omp parallel for num_threads(threads) schedule(static)
@@ -88,23 +91,24 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 const size_t b = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
                 uint8_t any = 0;
                 for (int c = 0; c < 8; ++c) any |= h->moving[b + off[c]];
-                if (!any) {
-                    out->wrap[0][vox] = in->wrap[0][vox];
-                    out->wrap[1][vox] = in->wrap[1][vox];
-                    continue;
+                uint8_t f0 = in->wrap[0][vox], f1 = in->wrap[1][vox];
+                if (any) {
+                    const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};
+                    hbk_fluid_lerp_t l;
+                    hbk_fluid_lerp_at(h, x, &l);
+                    float v0[3], src[3];
+                    hbk_fluid_sample3(h, m, &l, v0);
+                    trace(h, m, x, dt, v0, src);
+                    hbk_fluid_lerp_at(h, src, &l);
+                    f0 = in->wrap[0][l.voxel];
+                    f1 = in->wrap[1][l.voxel];
                 }
-                const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};
-                hbk_fluid_lerp_t l;
-                hbk_fluid_lerp_at(h, x, &l);
-                float v0[3], src[3];
-                hbk_fluid_sample3(h, m, &l, v0);
-                trace(h, m, x, dt, v0, src);
-                hbk_fluid_lerp_at(h, src, &l);
-                out->wrap[0][vox] = in->wrap[0][l.voxel];
-                out->wrap[1][vox] = in->wrap[1][l.voxel];
+                if (any || !checked) {
+                    f0 = hbk_fluid_repair_voxel(out->uvw[0], off, b, f0);
+                    f1 = hbk_fluid_repair_voxel(out->uvw[1], off, b, f1);
+                }
+                out->wrap[0][vox] = f0;
+                out->wrap[1][vox] = f1;
             }
-    const uint8_t *moved = h->wrap_checked ? h->moving : NULL;
-    hbk_fluid_repair_wrap(h, out->uvw[0], out->wrap[0], moved, threads);
-    hbk_fluid_repair_wrap(h, out->uvw[1], out->wrap[1], moved, threads);
     h->wrap_checked = 1;
 }

@@ -287,6 +287,34 @@ static inline void hbk_fluid_sample_field(const hbk_fluid_t *h, const float *f, 
     }
 }
 
+/* The flags f of the voxel whose corner 0 is vertex b, re-derived from its corners' uvw
+ * where the short way is unambiguous: per component (the three lanes of a 4-float vector:
+ * uvw is padded), the range of the corners' values read directly and read across the wrap. */
+#define HBK_VSEL(m, a, b) ((hbk_v4f)(((hbk_v4i)(a) & (m)) | ((hbk_v4i)(b) & ~(m))))
+static inline uint8_t hbk_fluid_repair_voxel(const float *uvw, const size_t off[8], size_t b,
+                                             uint8_t f)
+{
+    const hbk_v4f half = {0.5f, 0.5f, 0.5f, 0.5f}, one = half + half;
+    hbk_v4f lo = one + one, hi = -one, wlo = lo, whi = hi;
+    for (int c = 0; c < 8; ++c) {
+        hbk_v4f v;
+        memcpy(&v, uvw + 3 * (b + off[c]), sizeof v);
+        const hbk_v4f w = HBK_VSEL(v < half, v + one, v);
+        lo = HBK_VSEL(v < lo, v, lo);
+        hi = HBK_VSEL(v > hi, v, hi);
+        wlo = HBK_VSEL(w < wlo, w, wlo);
+        whi = HBK_VSEL(w > whi, w, whi);
+    }
+    const hbk_v4i direct = hi - lo <= half, across = whi - wlo < half;
+    for (int a = 0; a < 3; ++a) {
+        /* The short way where it is clear; where both ways are long (a texture already torn
+         * apart) the advected flag decides, as in the paper. */
+        if (direct[a]) f &= (uint8_t)~(1u << a);
+        else if (across[a]) f |= (uint8_t)(1u << a);
+    }
+    return f;
+}
+
 /* Rest uvw mapping and its wrap flags. */
 void hbk_fluid_reset_uvw(const hbk_fluid_t *h, float *uvw, uint8_t *wrap, int threads);
 /* Re-derives each voxel's flags from its corners where the short way is unambiguous; with

@@ -4,8 +4,6 @@
 #include "internal_fluid.h"
 #include <omp.h>
 
-/* m ? a : b per lane (m all ones or zero) */
-#define VSEL(m, a, b) ((hbk_v4f)(((hbk_v4i)(a) & (m)) | ((hbk_v4i)(b) & ~(m))))
 
 void hbk_fluid_sample_wrapped(const hbk_fluid_t *h, const float *uvw, const uint8_t *wrap,
                               const float x[3], float out[3])
@@ -52,32 +50,11 @@ void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap
             for (int32_t i = 0; i < rx; ++i) {
                 const size_t b = (size_t)i + (size_t)h->nv[0] * ((size_t)j + (size_t)h->nv[1] * (size_t)k);
                 const size_t vox = (size_t)i + (size_t)rx * ((size_t)j + (size_t)ry * (size_t)k);
-                uint8_t f = wrap[vox];
                 if (moving) { /* unmoved corners: the same uvw and flag as repaired last */
                     uint8_t any = 0;
                     for (int c = 0; c < 8; ++c) any |= moving[b + off[c]];
                     if (!any) continue;
                 }
-                /* Per component (the three lanes of a 4-float vector: uvw is padded), the
-                 * range of the corners' values read directly and read across the wrap. */
-                const hbk_v4f half = {0.5f, 0.5f, 0.5f, 0.5f}, one = half + half;
-                hbk_v4f lo = one + one, hi = -one, wlo = lo, whi = hi;
-                for (int c = 0; c < 8; ++c) {
-                    hbk_v4f v;
-                    memcpy(&v, uvw + 3 * (b + off[c]), sizeof v);
-                    const hbk_v4f w = VSEL(v < half, v + one, v);
-                    lo = VSEL(v < lo, v, lo);
-                    hi = VSEL(v > hi, v, hi);
-                    wlo = VSEL(w < wlo, w, wlo);
-                    whi = VSEL(w > whi, w, whi);
-                }
-                const hbk_v4i direct = hi - lo <= half, across = whi - wlo < half;
-                for (int a = 0; a < 3; ++a) {
-                    /* The short way where it is clear; where both ways are long (a texture
-                     * already torn apart) the advected flag decides, as in the paper. */
-                    if (direct[a]) f &= (uint8_t)~(1u << a);
-                    else if (across[a]) f |= (uint8_t)(1u << a);
-                }
-                wrap[vox] = f;
+                wrap[vox] = hbk_fluid_repair_voxel(uvw, off, b, wrap[vox]);
             }
 }
