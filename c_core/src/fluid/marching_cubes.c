@@ -30,6 +30,14 @@ static inline int inside(const mc_t *m, int32_t i, int32_t j, int32_t k)
 {
     return val(m, i, j, k) > m->iso;
 }
+/* Bits set in an 8-bit mask (__builtin_popcount is a library call without -mpopcnt). */
+static inline int pop8(unsigned x)
+{
+    x = x - ((x >> 1) & 0x55u);
+    x = (x & 0x33u) + ((x >> 2) & 0x33u);
+    return (int)((x + (x >> 4)) & 0x0fu);
+}
+
 static inline size_t pidx(const mc_t *m, int32_t i, int32_t j, int32_t k)
 {
     return (size_t)i + (size_t)m->e[0] * ((size_t)j + (size_t)m->e[1] * (size_t)k);
@@ -144,7 +152,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                     }
                 }
                 mask[p] = b;
-                nvr += __builtin_popcount(b);
+                nvr += pop8(b);
             }
             row_v[1 + (size_t)j + (size_t)ey * (size_t)k] = nvr;
             row_t[1 + (size_t)j + (size_t)ey * (size_t)k] = ntr;
@@ -244,7 +252,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                                           pk = k + (c[qa] >> 2 & 1);
                             const uint8_t mk = mask[pidx(&m, pi, pj, pk)];
                             ev[a][b] = first[pidx(&m, pi, pj, pk)] +
-                                       __builtin_popcount(mk & ((1u << (d - 1)) - 1u));
+                                       pop8(mk & ((1u << (d - 1)) - 1u));
                             float tt;
                             crossing(&m, pi, pj, pk, d, ep[a][b], &tt);
                         }
