@@ -26,7 +26,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     const int paint = h->paint_active;
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t k = 0; k < nz; ++k)
-        for (int32_t j = 0; j < ny; ++j)
+        for (int32_t j = 0; j < ny; ++j) {
+            const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
             for (int32_t i = 0; i < nx; ++i) {
                 const size_t vi = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
                 const float *v0 = m + 3 * vi;
@@ -46,17 +47,7 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 }
                 const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;
                 h->moving[vi] = (uint8_t)!still;
-                if (still) {
-                    /* Still fluid: a plain copy, so zero flow changes nothing bit for bit. */
-                    memcpy(out->uvw[0] + 3 * vi, in->uvw[0] + 3 * vi, 3 * sizeof(float));
-                    memcpy(out->uvw[1] + 3 * vi, in->uvw[1] + 3 * vi, 3 * sizeof(float));
-                    memcpy(out->base + (size_t)K * vi, in->base + (size_t)K * vi, (size_t)K * sizeof(float));
-                    if (paint) {
-                        memcpy(out->paint + (size_t)K * vi, in->paint + (size_t)K * vi, (size_t)K * sizeof(float));
-                        out->life[vi] = in->life[vi];
-                    }
-                    continue;
-                }
+                if (still) continue; /* copied with its run, below */
                 trace(h, m, x, dt, v0, src);
                 hbk_fluid_lerp_t l;
                 hbk_fluid_lerp_at(h, src, &l);
@@ -74,6 +65,26 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                     hbk_fluid_sample_n(h, in->life, 1, &l, out->life + vi);
                 }
             }
+            /* Still vertices: a plain copy, so zero flow changes nothing bit for bit; a run
+             * of them at a time. */
+            for (int32_t i = 0; i < nx;) {
+                if (h->moving[row + (size_t)i]) {
+                    ++i;
+                    continue;
+                }
+                int32_t e = i + 1;
+                while (e < nx && !h->moving[row + (size_t)e]) ++e;
+                const size_t s = row + (size_t)i, n = (size_t)(e - i), kk = (size_t)K;
+                memcpy(out->uvw[0] + 3 * s, in->uvw[0] + 3 * s, 3 * n * sizeof(float));
+                memcpy(out->uvw[1] + 3 * s, in->uvw[1] + 3 * s, 3 * n * sizeof(float));
+                memcpy(out->base + kk * s, in->base + kk * s, kk * n * sizeof(float));
+                if (paint) {
+                    memcpy(out->paint + kk * s, in->paint + kk * s, kk * n * sizeof(float));
+                    memcpy(out->life + s, in->life + s, n * sizeof(float));
+                }
+                i = e;
+            }
+        }
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from
      * the new corners where the short way is unambiguous. A voxel whose corners all stand
      * still keeps its flag: its centre traces back to itself, and its corners' uvw are the
@@ -94,8 +105,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
                 uint8_t f0 = in->wrap[0][vox], f1 = in->wrap[1][vox];
                 if (any) {
                     const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};
-                    hbk_fluid_lerp_t l;
-                    hbk_fluid_lerp_at(h, x, &l);
+                    /* hbk_fluid_lerp_at of the centre, without its clamps */
+                    hbk_fluid_lerp_t l = {b, vox, {0.5f, 0.5f, 0.5f}};
                     float v0[3], src[3];
                     hbk_fluid_sample3(h, m, &l, v0);
                     trace(h, m, x, dt, v0, src);
