@@ -24,7 +24,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     const hbk_fluid_vols_t *in = &h->v;
     hbk_fluid_vols_t *out = &h->scratch;
     const int paint = h->paint_active;
-#pragma omp parallel for num_threads(threads) schedule(static)
+/* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j) {
             const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
@@ -94,7 +95,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     const int checked = h->wrap_checked;
     size_t off[8];
     hbk_fluid_corners(h, off);
-#pragma omp parallel for num_threads(threads) schedule(static)
+/* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < rz; ++k)
         for (int32_t j = 0; j < ry; ++j)
             for (int32_t i = 0; i < rx; ++i) {

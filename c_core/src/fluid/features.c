@@ -33,7 +33,8 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     cmin = cmin < h->cell[2] ? cmin : h->cell[2];
     const float scale = h->p.source == HBK_FLUID_VELOCITY_GRID ? 1.0f : h->p.rest_density;
     const float gmin = 0.02f * scale / cmin, gmin2 = gmin * gmin;
-#pragma omp parallel for num_threads(threads) schedule(static)
+/* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j)
             for (int32_t i = 0; i < nx; ++i) {
@@ -74,7 +75,8 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                 for (int a = 0; a < 3; ++a) nrm[a] = g[a] * inv;
             }
     /* Mean curvature: half the divergence of that normal field, where it is defined around. */
-#pragma omp parallel for num_threads(threads) schedule(static)
+/* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j)
             for (int32_t i = 0; i < nx; ++i) {

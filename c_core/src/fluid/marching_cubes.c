@@ -118,7 +118,8 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     hbk_result_t r = HBK_OK;
     if (!mask || !in_at || !first || !row_v || !row_t) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
     /* (0) Inside or not, per padded vertex, once (each is read by 15 edges and 8 cubes). */
-#pragma omp parallel for num_threads(threads) schedule(static)
+/* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j)
             for (int32_t i = 0; i < ex; ++i) in_at[pidx(&m, i, j, k)] = (uint8_t)inside(&m, i, j, k);
@@ -128,7 +129,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     size_t step[8];
     for (int c = 0; c < 8; ++c) step[c] = pidx(&m, c & 1, c >> 1 & 1, c >> 2 & 1);
     /* (1) Crossing edges and triangle counts per row. */
-#pragma omp parallel for num_threads(threads) schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
             int64_t nvr = 0, ntr = 0;
@@ -187,7 +188,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     tri = h->next_tri;
     /* (2) Edge vertices: position clamped into the box (caps on the walls), normal from the
      * interpolated field gradient. */
-#pragma omp parallel for num_threads(threads) schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
             int32_t id = (int32_t)row_v[(size_t)j + (size_t)ey * (size_t)k];
@@ -218,7 +219,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
         }
     if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto done; }
     /* (3) Triangles, wound so that the normal points from inside to outside. */
-#pragma omp parallel for num_threads(threads) schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez - 1; ++k)
         for (int32_t j = 0; j < ey - 1; ++j) {
             size_t out = (size_t)row_t[(size_t)j + (size_t)ey * (size_t)k];
