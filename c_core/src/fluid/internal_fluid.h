@@ -299,11 +299,19 @@ static inline uint8_t hbk_fluid_repair_voxel(const float *uvw, const size_t off[
     for (int c = 0; c < 8; ++c) {
         hbk_v4f v;
         memcpy(&v, uvw + 3 * (b + off[c]), sizeof v);
-        const hbk_v4f w = HBK_VSEL(v < half, v + one, v);
+        /* v + 1 below 0.5, else v + 0 (the same for comparisons, even at -0) */
+        const hbk_v4f w = v + (hbk_v4f)((hbk_v4i)one & (v < half));
+#ifdef __SSE__ /* minps(a, b) is a < b ? a : b exactly, and maxps a > b ? a : b */
+        lo = __builtin_ia32_minps(v, lo);
+        hi = __builtin_ia32_maxps(v, hi);
+        wlo = __builtin_ia32_minps(w, wlo);
+        whi = __builtin_ia32_maxps(w, whi);
+#else
         lo = HBK_VSEL(v < lo, v, lo);
         hi = HBK_VSEL(v > hi, v, hi);
         wlo = HBK_VSEL(w < wlo, w, wlo);
         whi = HBK_VSEL(w > whi, w, whi);
+#endif
     }
     const hbk_v4i direct = hi - lo <= half, across = whi - wlo < half;
     for (int a = 0; a < 3; ++a) {
