@@ -96,6 +96,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(caustics, lit_ground)              \
     X(caustics, cancel)                  \
     X(caustics, workspace_reuse)         \
+    X(caustics, paths_same_bytes)        \
     X(snow, formulas)                    \
     X(snow, params)                      \
     X(snow, sticking_statistics)         \
@@ -126,6 +127,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(rain, state_roundtrip)             \
     X(rain, cancel)                      \
     X(rain, refraction)                  \
+    X(rain, paths_same_bytes)            \
     X(fluid, params_rejects)             \
     X(fluid, uniform_flow_shift)         \
     X(fluid, zero_flow_bitwise)          \
@@ -137,6 +139,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, mc_sphere)                  \
     X(fluid, crossfade)                  \
     X(fluid, threads_identical)          \
+    X(fluid, paths_same_bytes)           \
     X(fluid, state_roundtrip)            \
     X(fluid, cancel)                     \
     X(fluid, noise_tileable)

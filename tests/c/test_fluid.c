@@ -734,3 +734,24 @@ void test_fluid_noise_tileable(void)
     free(t);
     free(u);
 }
+
+/* The SPH lanes and the vectorised splat (AVX2) give the bytes of the plain code: HBK_PATHS
+ * switches them (see c_core/src/base/paths.c). Walls, obstacles, paint and resets included. */
+void test_fluid_paths_same_bytes(void)
+{
+    unsigned char *x[2] = {NULL, NULL};
+    size_t s[2] = {0, 0};
+    for (int k = 0; k < 2; ++k) {
+        if (k == 0) setenv("HBK_PATHS", "scalar", 1);
+        hbk_fluid_t *h = scene(2);
+        int ok = h != NULL;
+        for (int f = 0; f < 4 && ok; ++f) ok = hbk_fluid_step(h, NULL) == HBK_OK;
+        unsetenv("HBK_PATHS");
+        CHECK(ok);
+        x[k] = snapshot(h, &s[k]);
+        hbk_fluid_destroy(h);
+    }
+    CHECK(s[0] == s[1] && !memcmp(x[0], x[1], s[0]));
+    free(x[0]);
+    free(x[1]);
+}

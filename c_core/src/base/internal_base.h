@@ -10,6 +10,11 @@ hbk_result_t hbk_fail(hbk_message_t *msg, hbk_result_t code, const char *fmt, ..
     __attribute__((format(printf, 3, 4)));
 void hbk_message_clear(hbk_message_t *msg);
 
+/* The widest hand-dispatched code the CPU and HBK_PATHS allow (paths.c); read it once per
+ * call of a kernel, not per item (it reads the environment). */
+enum { HBK_PATHS_SCALAR, HBK_PATHS_SSE, HBK_PATHS_AVX2, HBK_PATHS_AVX512 };
+int hbk_paths(void);
+
 static inline int hbk_cancelled(const hbk_progress_t *p)
 {
     return p && __atomic_load_n(&p->cancel, __ATOMIC_RELAXED) != 0;

@@ -216,7 +216,7 @@ draw_group_n(const band_t *b, const group_t *gr, const int NCH, const int PS)
 {
     const hbk_caustics_ctx_t *c = b->c;
     const int g = gr->g, ch0 = c->ng == 1 ? 0 : g;
-    if (gr->kind != IT_LOOSE && NCH == 1 && PS == 1) {
+    if (gr->kind != IT_LOOSE && NCH == 1 && PS == 1 && b->nw) {
         hbk_cr_draw_edges_mono(b, gr);
         return;
     }

@@ -206,15 +206,17 @@ hbk_result_t hbk_caustics_rasterise(hbk_caustics_ctx_t *c, hbk_image_t *out,
         goto done;
     }
     int cancelled = 0;
+    const int paths = hbk_paths(); /* plain: the general path only; SSE: lanes of 4 doubles */
+    const int lanes = paths >= HBK_PATHS_SSE, avx2 = paths >= HBK_PATHS_AVX2;
 #pragma omp parallel for num_threads(T) schedule(dynamic, 1)
     for (int32_t bb = 0; bb < nb; ++bb) {
         if (__atomic_load_n(&cancelled, __ATOMIC_RELAXED) || hbk_cancelled(progress)) {
             __atomic_store_n(&cancelled, 1, __ATOMIC_RELAXED);
             continue;
         }
-        narrow_t nw = {.n = 0, .rlo = INT64_MAX, .rhi = INT64_MIN, .K = 0};
+        narrow_t nw = {.n = 0, .rlo = INT64_MAX, .rhi = INT64_MIN, .K = 0, .avx2 = avx2};
         band_t b = {c, bufs + (size_t)omp_get_thread_num() * (size_t)BH * rowlen, rowlen,
-                    bb * BH, bb * BH + BH < c->MH ? bb * BH + BH : c->MH, &nw};
+                    bb * BH, bb * BH + BH < c->MH ? bb * BH + BH : c->MH, lanes ? &nw : NULL};
         for (size_t k = start[bb]; k < start[bb + 1]; ++k) hbk_cr_draw_group(&b, &groups[list[k]]);
         for (int32_t y = b.B0; y < b.B1; y += 4)
             hbk_cr_prefix_rows(c, &b, y, b.B1 - y < 4 ? b.B1 - y : 4, out);

@@ -34,6 +34,7 @@ typedef struct {
     int64_t K;
     int n, thin;      /* how many; thin: pieces over at most two pixel columns */
     int shifted;      /* some m is not 0 */
+    int avx2;         /* the AVX2 kernels may run */
 } narrow_t;
 
 typedef struct {
@@ -41,7 +42,7 @@ typedef struct {
     double *buf;      /* BAND rows of (MW + HBK_PAD) pixels x ps channels */
     size_t rowlen;
     int32_t B0, B1;   /* rows of this band */
-    narrow_t *nw;
+    narrow_t *nw;     /* NULL: no lanes, the general path for everything (HBK_PATHS) */
 } band_t;
 
 /* The two vertices of edge (kind, j, i): H (i, j) -> (i+1, j), V (i, j) -> (i, j+1),

@@ -144,7 +144,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     const float *lo = h->p.box_min, *cl = h->cell;
     const int32_t slab = 8, chunks = (nz + slab - 1) / slab;
     const size_t layer = (size_t)c->dims[0] * (size_t)c->dims[1];
-    const int avx2 = __builtin_cpu_supports("avx2") != 0;
+    const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t ch = 0; ch < chunks; ++ch) {
         const int32_t z0 = ch * slab, z1 = z0 + slab < nz ? z0 + slab : nz; /* [z0, z1) */

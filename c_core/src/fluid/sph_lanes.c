@@ -9,7 +9,7 @@
 typedef float v8f __attribute__((vector_size(32)));
 typedef int32_t v8i __attribute__((vector_size(32)));
 
-int hbk_fluid_sph_lanes(void) { return __builtin_cpu_supports("avx2") != 0; }
+int hbk_fluid_sph_lanes(void) { return hbk_paths() >= HBK_PATHS_AVX2; }
 
 /* Eight floats from p, unaligned (a macro: a function returning a vector would change the
  * ABI between AVX2 and default code). */

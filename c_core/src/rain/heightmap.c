@@ -186,10 +186,12 @@ __attribute__((target("avx2"))) static void splat8(const float *b, float *band, 
 {
     SPLAT_BODY(v8f, v8i, 8)
 }
-/* Sixteen where AVX-512 is there: a drop's box (10 to 16 texels wide at 2048^2) in one go. */
+/* Sixteen where AVX-512 is there: a drop's box (10 to 16 texels wide at 2048^2) in one go.
+ * AVX-512 brings FMA, which GCC would fuse a * b + c into (one rounding, not two): not here,
+ * so the bytes stay those of 4 or 8 lanes. */
 typedef float v16f __attribute__((vector_size(64)));
 typedef int32_t v16i __attribute__((vector_size(64)));
-__attribute__((target("avx512f"))) static void splat16(const float *b, float *band,
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) static void splat16(const float *b, float *band,
                                                       size_t stride, int32_t r0, int32_t r1,
                                                       int disc)
 {
@@ -289,8 +291,8 @@ static hbk_result_t render(hbk_rain_t *h, hbk_image_t *img, int disc)
     finalize_t fin;
     finalize_init(&fin, p);
 #ifdef RAIN_HAVE_SPLAT8
-    const int wide = __builtin_cpu_supports("avx2");
-    const int wider = __builtin_cpu_supports("avx512f");
+    const int paths = hbk_paths();
+    const int wide = paths >= HBK_PATHS_AVX2, wider = paths >= HBK_PATHS_AVX512;
 #endif
     const float now = (float)h->time, life = p->wet_lifetime;
     const float cw = (float)p->width / (float)W, ch = (float)p->height / (float)H;
