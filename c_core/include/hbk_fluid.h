@@ -87,6 +87,10 @@ typedef struct hbk_fluid_params {
     float uvw_tile;             /* m, world size of one texture tile at a uvw reset */
     float reset_period;         /* s between resets of one uvw field (B is half a period later);
                                  * 0 = never reset (only field A, weight 1) */
+    float stretch_fade;         /* 0 = the cross-fade follows the reset schedule alone; > 0:
+                                 * where a field is stretched, it fades out early in favour of
+                                 * the other (weight x exp(-stretch / stretch_fade), stretch =
+                                 * mean squared stretch - 1, 0 for a rigid motion); 0..100 */
     float paint_duration;       /* s a local paint stroke lasts at full strength */
     float paint_fade;           /* s over which it then fades out */
     float texture_scale[HBK_FLUID_MAX_TEXTURES]; /* per texture: tiles per uvw unit (for the
@@ -179,7 +183,9 @@ typedef enum hbk_fluid_volume {
     HBK_FLUID_VOL_FEATURES = 6, /* vertices x HBK_FLUID_FEATURE_COUNT */
     HBK_FLUID_VOL_WRAP = 7,     /* voxels x 3: V_r flags per uvw component, 0 or 1 (field A) */
     HBK_FLUID_VOL_WRAP_B = 8,   /* voxels x 3: V_r of field B */
-    HBK_FLUID_VOL_COUNT = 9
+    HBK_FLUID_VOL_UVW_WEIGHT = 9, /* vertices x 1: the cross-fade weight of field A there
+                                   * (hbk_fluid_uvw_weight everywhere unless stretch_fade) */
+    HBK_FLUID_VOL_COUNT = 10
 } hbk_fluid_volume_t;
 /* Floats a volume needs (0 for NULL or an unknown volume). */
 HBK_EXPORT size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume);
@@ -187,7 +193,9 @@ HBK_EXPORT size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume);
 HBK_EXPORT hbk_result_t hbk_fluid_get_volume(hbk_fluid_t *h, int32_t volume, float *out,
                                              size_t count);
 /* Weight of uvw field A in the cross-fade; B's is 1 - A's. It is 0 the frame A is reset and 1
- * the frame B is. 1 when reset_period = 0. 0 for NULL. */
+ * the frame B is. 1 when reset_period = 0. 0 for NULL. With stretch_fade, the weight varies
+ * in space (HBK_FLUID_VOL_UVW_WEIGHT, hbk_fluid_get_mesh_weight) around this one, still 0 and
+ * 1 at the resets. */
 HBK_EXPORT float hbk_fluid_uvw_weight(const hbk_fluid_t *h);
 /* uvw of field `which` (0 = A, 1 = B) at world position pos (clamped to the box), trilinear
  * with the wrap flags of the voxel. */
@@ -235,6 +243,8 @@ HBK_EXPORT hbk_result_t hbk_fluid_mesh_counts(hbk_fluid_t *h, int32_t *vertices,
 HBK_EXPORT hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal,
                                            int32_t *tris, float *uvw_a, float *uvw_b,
                                            float *blend, float *features);
+/* The cross-fade weight of field A at each mesh vertex (vertices floats, caller's buffer). */
+HBK_EXPORT hbk_result_t hbk_fluid_get_mesh_weight(hbk_fluid_t *h, float *weight);
 
 /* Milliseconds the last step / surface update spent in: [0] SPH, [1] density, V_m and
  * features, [2] advection and paint, [3] surface. For benchmarks; not deterministic, not state. */

@@ -138,6 +138,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, mc_closed)                  \
     X(fluid, mc_sphere)                  \
     X(fluid, crossfade)                  \
+    X(fluid, stretch_fade)               \
     X(fluid, threads_identical)          \
     X(fluid, paths_same_bytes)           \
     X(fluid, state_roundtrip)            \

@@ -755,3 +755,105 @@ void test_fluid_paths_same_bytes(void)
     free(x[0]);
     free(x[1]);
 }
+
+/* Shear flow vx = s (z - 1/2): field A (reset at frame 0, every 24 frames) and B (reset at
+ * frame 12) stretch as M = I - s t e_x e_z^T, so stretch = (s t)^2 / 3 for a field of age t.
+ * The adapted weight is w fA / (w fA + (1 - w) fB), f = exp(-stretch / stretch_fade); 0 and 1
+ * at the resets; the schedule's w without stretch_fade or under a rigid (uniform) flow. */
+static void shear_grid(hbk_fluid_t *h, float s)
+{
+    int32_t n[3];
+    const size_t nv = hbk_fluid_grid_vertices(h, n);
+    float *v = calloc(3 * nv, sizeof *v), *surf = malloc(nv * sizeof *surf);
+    for (size_t i = 0; i < nv; ++i) {
+        const double z = (double)(i / ((size_t)n[0] * (size_t)n[1])) / (n[2] - 1);
+        v[3 * i] = (float)(s * (z - 0.5));
+        surf[i] = 1.0f; /* fluid everywhere */
+    }
+    hbk_fluid_set_velocity_grid(h, v, surf);
+    free(v);
+    free(surf);
+}
+
+void test_fluid_stretch_fade(void)
+{
+    const int32_t R = 32;
+    const float s = 2.0f, fade = 0.5f;
+    for (int mode = 0; mode < 3; ++mode) { /* shear adapted, shear plain, uniform adapted */
+        hbk_fluid_params_t p = params(R, HBK_FLUID_VELOCITY_GRID);
+        p.dt = 1.0f / 24.0f;
+        p.reset_period = 1.0f; /* 24 frames: A at 0, 24; B at 12 */
+        p.max_flow = 8.0f;
+        p.stretch_fade = mode == 1 ? 0.0f : fade;
+        hbk_fluid_t *h = make(&p);
+        CHECK(h);
+        if (mode == 2) {
+            const float u[3] = {0.4f, 0.2f, 0.0f};
+            uniform_grid(h, u);
+        } else {
+            shear_grid(h, s);
+        }
+        const size_t nv = hbk_fluid_grid_vertices(h, NULL);
+        float *w = malloc(nv * sizeof *w);
+        for (int f = 1; f <= 24; ++f) {
+            CHECK_OK(hbk_fluid_step(h, NULL));
+            CHECK_OK(hbk_fluid_get_volume(h, HBK_FLUID_VOL_UVW_WEIGHT, w, nv));
+            const float wg = hbk_fluid_uvw_weight(h);
+            double worst = 0.0, mean = 0.0;
+            int n = 0;
+            /* Where the flow came from inside the box (the box repeats its border values into
+             * inflow): |z - 1/2| <= 0.16 moves at most 0.24 m in 0.75 s. */
+            for (int32_t k = 11; k <= 21; ++k)
+                for (int32_t j = 2; j < R - 1; ++j)
+                    for (int32_t i = 10; i <= 22; ++i) {
+                        const float x = w[(size_t)i + (R + 1) * ((size_t)j + (R + 1) * (size_t)k)];
+                        CHECK(x >= 0.0f && x <= 1.0f);
+                        mean += x;
+                        ++n;
+                        if (mode != 0) worst = fmax(worst, fabs(x - wg));
+                    }
+            mean /= n;
+            if (f == 12 || f == 24) { /* a reset: the reset field is never seen */
+                for (size_t v = 0; v < nv; ++v) CHECK(w[v] == (f == 12 ? 1.0f : 0.0f));
+                continue;
+            }
+            if (mode == 1) CHECK(worst == 0.0); /* off: the schedule alone */
+            if (mode == 2) CHECK(worst < 1e-4); /* rigid motion: nothing stretched */
+            if (mode == 0) {
+                const double ta = f / 24.0, tb = f < 12 ? ta : (f - 12) / 24.0;
+                const double fa = exp(-(s * ta) * (s * ta) / 3.0 / fade);
+                const double fb = exp(-(s * tb) * (s * tb) / 3.0 / fade);
+                const double want = wg * fa / (wg * fa + (1.0 - wg) * fb);
+                CHECK_NEAR(mean, want, 5e-3); /* uvw are floats */
+                if (f == 18) CHECK(mean < 0.5 * wg); /* A, older, fades out early */
+            }
+        }
+        /* At a surface (a ball of fluid now): the weights sampled at its vertices. */
+        float *vel = calloc(3 * nv, sizeof *vel), *ball = malloc(nv * sizeof *ball);
+        for (size_t v = 0; v < nv; ++v) {
+            const double x = (double)(v % (R + 1)) / R - 0.5,
+                         y = (double)(v / (R + 1) % (R + 1)) / R - 0.5,
+                         z = (double)(v / ((R + 1) * (R + 1))) / R - 0.5;
+            ball[v] = x * x + y * y + z * z < 0.09 ? 1.0f : 0.0f;
+        }
+        hbk_fluid_set_velocity_grid(h, vel, ball);
+        CHECK_OK(hbk_fluid_step(h, NULL)); /* frame 25 */
+        CHECK_OK(hbk_fluid_update_surface(h, NULL));
+        int32_t mv, mt;
+        CHECK_OK(hbk_fluid_mesh_counts(h, &mv, &mt));
+        CHECK(mv > 0);
+        float *mw = malloc((size_t)mv * sizeof *mw);
+        CHECK_OK(hbk_fluid_get_mesh_weight(h, mw));
+        const float wg = hbk_fluid_uvw_weight(h);
+        for (int32_t v = 0; v < mv; ++v) {
+            CHECK(mw[v] >= 0.0f && mw[v] <= 1.0f);
+            if (mode == 1) CHECK(mw[v] == wg); /* off: the schedule alone */
+        }
+        CHECK(hbk_fluid_get_mesh_weight(h, NULL) == HBK_ERR_INVALID_ARGUMENT);
+        free(mw);
+        free(vel);
+        free(ball);
+        free(w);
+        hbk_fluid_destroy(h);
+    }
+}

@@ -39,6 +39,38 @@ def test_blend_weights_stay_normalised_after_paint():
         assert b[..., 2].max() > 0.5  # the paint is there
 
 
+def shear_run(stretch_fade, frames=18):
+    """A shear flow vx = 2 (z - 1/2) 1/s: A reset at frame 0, B at frame 12 (period 1 s)."""
+    p = dict(GRID, resolution=(32, 32, 32), dt=1 / 24, reset_period=1.0, uvw_tile=0.25,
+             max_flow=8.0, stretch_fade=stretch_fade)
+    with fluid.Fluid(p) as f:
+        nx, ny, nz = f.vertices
+        z = np.linspace(0.0, 1.0, nz, dtype=np.float32)[:, None, None]
+        vel = np.zeros((nz, ny, nx, 3), np.float32)
+        vel[..., 0] = 2.0 * (z - 0.5)
+        f.set_velocity_grid(vel, np.ones((nz, ny, nx), np.float32))
+        for _ in range(frames):
+            f.step()
+        mesh = f.surface()
+        return f.uvw_weight(), f.volume("uvw_weight")[..., 0], mesh
+
+
+def test_cross_fade_weight_per_voxel_with_stretch_fade():
+    # Off: the frame's weight everywhere, in the grid and on the surface.
+    w, grid, mesh = shear_run(0.0)
+    assert w == pytest.approx(0.5)
+    np.testing.assert_array_equal(grid, np.float32(w))
+    np.testing.assert_array_equal(mesh["uvw_weight"], np.float32(w))
+    # On: A (18 frames old) is more stretched than B (6 frames): A fades out early in the
+    # middle band, away from the inflow walls, to w fA / (w fA + (1 - w) fB).
+    w, grid, mesh = shear_run(0.5)
+    fa, fb = np.exp(-(2 * 0.75) ** 2 / 3 / 0.5), np.exp(-(2 * 0.25) ** 2 / 3 / 0.5)
+    band = grid[11:22, 2:-2, 10:23]  # |z - 1/2| <= 0.16, 0.31 <= x <= 0.69
+    assert band.mean() == pytest.approx(w * fa / (w * fa + (1 - w) * fb), abs=0.01)
+    assert 0.0 <= grid.min() and grid.max() <= 1.0
+    assert len(mesh["uvw_weight"]) == len(mesh["positions"])
+
+
 def test_bad_parameters_name_themselves():
     with pytest.raises(errors.InvalidArgument, match=r"^resolution\[0\] = 2: must be in"):
         fluid.Fluid({"resolution": (2, 8, 8)})

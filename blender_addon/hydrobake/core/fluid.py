@@ -14,7 +14,7 @@ FEATURES = ("density", "density_rate", "flow_angle", "acceleration", "divergence
             "curvature")
 VOLUMES = {"uvw_a": (0, 3), "uvw_b": (1, 3), "blend": (2, None), "motion": (3, 3),
            "density": (4, 1), "surface": (5, 1), "features": (6, len(FEATURES)),
-           "wrap_a": (7, 3), "wrap_b": (8, 3)}
+           "wrap_a": (7, 3), "wrap_b": (8, 3), "uvw_weight": (9, 1)}
 
 
 class Obstacle(ctypes.Structure):
@@ -44,6 +44,7 @@ Handle.declare("fluid", [
     ("update_surface", [P(Progress)]),
     ("mesh_counts", [P(ctypes.c_int32), P(ctypes.c_int32)]),
     ("get_mesh", [ctypes.c_void_p] * 7),
+    ("get_mesh_weight", [ctypes.c_void_p]),
 ])
 _lib.declare([
     ("hbk_fluid_particle_count", ctypes.c_int32, [ctypes.c_void_p]),
@@ -133,7 +134,7 @@ class Fluid(Handle):
 
     def surface(self, progress=None):
         """The surface mesh: dict of positions, normals, triangles, uvw_a, uvw_b, blend,
-        features (per vertex)."""
+        features and uvw_weight (A's cross-fade weight) per vertex."""
         self.call("update_surface", progress)
         nv, nt = ctypes.c_int32(), ctypes.c_int32()
         self.call("mesh_counts", ctypes.byref(nv), ctypes.byref(nt))
@@ -145,6 +146,8 @@ class Fluid(Handle):
              "features": np.empty((nv, len(FEATURES)), np.float32)}
         self.call("get_mesh", *(m[n].ctypes.data for n in (
             "positions", "normals", "triangles", "uvw_a", "uvw_b", "blend", "features")))
+        m["uvw_weight"] = np.empty(nv, np.float32)
+        self.call("get_mesh_weight", m["uvw_weight"].ctypes.data)
         return m
 
 

@@ -430,7 +430,8 @@ size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume)
     switch (volume) {
     case HBK_FLUID_VOL_UVW_A: case HBK_FLUID_VOL_UVW_B: case HBK_FLUID_VOL_MOTION: return 3 * h->n_vert;
     case HBK_FLUID_VOL_BLEND: return (size_t)h->K * h->n_vert;
-    case HBK_FLUID_VOL_DENSITY: case HBK_FLUID_VOL_SURFACE: return h->n_vert;
+    case HBK_FLUID_VOL_DENSITY: case HBK_FLUID_VOL_SURFACE: case HBK_FLUID_VOL_UVW_WEIGHT:
+        return h->n_vert;
     case HBK_FLUID_VOL_FEATURES: return (size_t)HBK_FLUID_FEATURE_COUNT * h->n_vert;
     case HBK_FLUID_VOL_WRAP: case HBK_FLUID_VOL_WRAP_B: return 3 * h->n_vox;
     default: return 0;
@@ -456,6 +457,9 @@ hbk_result_t hbk_fluid_get_volume(hbk_fluid_t *h, int32_t volume, float *out, si
     case HBK_FLUID_VOL_DENSITY: src = h->density; break;
     case HBK_FLUID_VOL_SURFACE: src = h->surface; break;
     case HBK_FLUID_VOL_FEATURES: src = h->features; break;
+    case HBK_FLUID_VOL_UVW_WEIGHT:
+        hbk_fluid_weights(h, out, HBK_OMP_THREADS(h));
+        return HBK_OK;
     case HBK_FLUID_VOL_BLEND:
         for (size_t i = 0; i < h->n_vert; ++i)
             hbk_fluid_blend_at(h, h->v.base, h->v.paint, h->v.life, i, out + (size_t)h->K * i);

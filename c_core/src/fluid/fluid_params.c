@@ -30,6 +30,7 @@ void hbk_fluid_params_default(hbk_fluid_params_t *p)
     p->default_texture = 0;
     p->uvw_tile = 0.25f;
     p->reset_period = 2.0f;
+    p->stretch_fade = 0.0f; /* the schedule alone */
     p->paint_duration = 2.0f;
     p->paint_fade = 0.5f;
     for (int t = 0; t < HBK_FLUID_MAX_TEXTURES; ++t) {
@@ -68,6 +69,8 @@ static const hbk_param_info_t k_info[] = {
     I(default_texture, 1, 0, HBK_FLUID_MAX_TEXTURES - 1, "1", "Texture everywhere at the start."),
     F(uvw_tile, 1, 1e-4, 1e4, "m", "World size of one texture tile when uvw is reset."),
     F(reset_period, 1, 0, 1e4, "s", "Seconds between resets of one uvw field; 0 = never; 1..4."),
+    F(stretch_fade, 1, 0, 100, "1",
+      "Stretch at which a uvw field fades out early where it is stretched; 0 = off; 0.5..2."),
     F(paint_duration, 1, 0, 1e5, "s", "How long local paint lasts at full strength."),
     F(paint_fade, 1, 0, 1e5, "s", "How long local paint then takes to fade out."),
     F(texture_scale, HBK_FLUID_MAX_TEXTURES, 1e-4, 1e4, "1", "Per texture: tiles per uvw unit."),

@@ -330,6 +330,9 @@ void hbk_fluid_reset_uvw(const hbk_fluid_t *h, float *uvw, uint8_t *wrap, int th
 void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap,
                            const uint8_t *moving, int threads);
 
+/* weight.c: the cross-fade weight of field A per vertex (nv floats), adapted to stretch. */
+void hbk_fluid_weights(const hbk_fluid_t *h, float *out, int threads);
+
 /* advect.c: advects h->v into h->scratch by h->motion over dt (does not swap). */
 void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads);
 

@@ -15,10 +15,11 @@ Inputs:
 Streams per frame:
     fluid_####.vdb    density (float), velocity (vec3, contravariant-relative), uvw and
                       uvw_b (vec3, invariant), blend_0..blend_{k-1} (float); the cross-fade
-                      weight of uvw in the grid metadata "uvw_weight" and as a constant grid
-                      "uvw_weight" (for volume shaders)
-    surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features, and
-                      sample_k (RGB) for each voxel texture k
+                      weight of uvw in the grid metadata "uvw_weight" (the frame's) and as a
+                      grid "uvw_weight" (for volume shaders: constant, or per voxel with the
+                      setting stretch_fade)
+    surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
+                      uvw_weight, and sample_k (RGB) for each voxel texture k
 """
 import numpy as np
 
@@ -88,18 +89,17 @@ class FluidEffect(Effect):
                       vector_type="INVARIANT", metadata={"uvw_weight": weight}, **common),
                  dict(name="uvw_b", array=xyz(self.fluid.volume("uvw_b")),
                       vector_type="INVARIANT", **common)]
-        # The cross-fade weight as a (constant, so tiny) grid: a volume shader reads grids.
-        shape = grids[0]["array"].shape
-        grids.append(dict(name="uvw_weight", array=np.full(shape, weight, np.float32),
+        # The cross-fade weight of uvw A as a grid, for volume shaders: the frame's weight
+        # everywhere (a constant grid, so tiny), or per voxel with stretch_fade.
+        grids.append(dict(name="uvw_weight", array=xyz(self.fluid.volume("uvw_weight")),
                           **common))
         blend = xyz(self.fluid.volume("blend"))
         if blend.ndim == 3:
             blend = blend[..., None]
         grids += [dict(name=f"blend_{k}", array=np.ascontiguousarray(blend[..., k]), **common)
                   for k in range(blend.shape[3])]
+        # The mesh carries the cross-fade weight of uvw A per vertex (an attribute for shaders).
         mesh = dict(self.mesh)
-        # The cross-fade weight of uvw A, per vertex so a shader can read it as an attribute.
-        mesh["uvw_weight"] = np.full(len(mesh["positions"]), weight, np.float32)
         scales = self.params["fluid"].texture_scale
         for k, tex in sorted(self.voxel_textures.items()):
             mesh[f"sample_{k}"] = solid_textures.surface_colour(
