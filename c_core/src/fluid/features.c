@@ -35,6 +35,7 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     cmin = cmin < h->cell[2] ? cmin : h->cell[2];
     const float scale = h->p.source == HBK_FLUID_VELOCITY_GRID ? 1.0f : h->p.rest_density;
     const float gmin = 0.02f * scale / cmin, gmin2 = gmin * gmin;
+    const size_t st[3] = {1, (size_t)nx, (size_t)nx * (size_t)ny};
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
@@ -48,11 +49,16 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                 o[HBK_FLUID_FEATURE_DENSITY_RATE] = prev ? (d - h->density[vi]) * inv_dt : 0.0f;
                 float g[3], gg = 0.0f, vv = 0.0f, gv = 0.0f, div = 0.0f;
                 for (int a = 0; a < 3; ++a) {
-                    g[a] = -diff(h, h->g_density, 1, 0, ijk, a); /* outward normal direction */
+                    /* diff() for both fields, its neighbours found once */
+                    const int lo = ijk[a] > 0, hi = ijk[a] < h->nv[a] - 1;
+                    const size_t il = vi - (lo ? st[a] : 0), ih = vi + (hi ? st[a] : 0);
+                    const float sc = h->inv_cell[a], half = lo + hi == 2 ? 0.5f : 1.0f;
+                    g[a] = -((h->g_density[ih] - h->g_density[il]) * sc * half); /* outward */
                     gg += g[a] * g[a];
                     vv += v[a] * v[a];
                     gv += g[a] * v[a];
-                    div += diff(h, h->g_motion, 3, a, ijk, a);
+                    div += (h->g_motion[3 * ih + (size_t)a] - h->g_motion[3 * il + (size_t)a]) *
+                           sc * half;
                 }
                 float ang = (float)(0.5 * M_PI);
                 if (gg > 0.0f && vv > 0.0f) {
