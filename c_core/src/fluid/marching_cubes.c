@@ -110,19 +110,32 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     if (!h->mc_row_v) h->mc_row_v = malloc((rows + 1) * sizeof *h->mc_row_v);
     if (!h->mc_row_t) h->mc_row_t = malloc((rows + 1) * sizeof *h->mc_row_t);
     if (!h->mc_in) h->mc_in = malloc(npad);
-    uint8_t *mask = h->mc_mask, *in_at = h->mc_in;
+    if (!h->mc_row_in) h->mc_row_in = malloc(rows);
+    uint8_t *mask = h->mc_mask, *in_at = h->mc_in, *row_in = h->mc_row_in;
     int32_t *first = h->mc_first;
     int64_t *row_v = h->mc_row_v, *row_t = h->mc_row_t;
     float *pos = NULL, *nrm = NULL;
     int32_t *tri = NULL;
     hbk_result_t r = HBK_OK;
-    if (!mask || !in_at || !first || !row_v || !row_t) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+    if (!mask || !in_at || !row_in || !first || !row_v || !row_t) {
+        r = HBK_ERR_OUT_OF_MEMORY;
+        goto done;
+    }
     /* (0) Inside or not, per padded vertex, once (each is read by 15 edges and 8 cubes). */
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez; ++k)
-        for (int32_t j = 0; j < ey; ++j)
-            for (int32_t i = 0; i < ex; ++i) in_at[pidx(&m, i, j, k)] = (uint8_t)inside(&m, i, j, k);
+        for (int32_t j = 0; j < ey; ++j) {
+            uint8_t any = 0, all = 1;
+            for (int32_t i = 0; i < ex; ++i) {
+                const uint8_t v = (uint8_t)inside(&m, i, j, k);
+                in_at[pidx(&m, i, j, k)] = v;
+                any |= v;
+                all &= v;
+            }
+            /* 0 or 1: the whole row outside or inside; 2: both */
+            row_in[(size_t)j + (size_t)ey * (size_t)k] = any == all ? any : 2;
+        }
     int8_t tris_of[256]; /* triangles of a cube, by its corners' inside bits */
     for (int bits = 0; bits < 256; ++bits) tris_of[bits] = (int8_t)cube_tris(bits);
     /* Offset of padded vertex (i, j, k) + corner/direction bits c. */
@@ -133,6 +146,21 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
             int64_t nvr = 0, ntr = 0;
+            /* The edges and cubes of this row reach vertex rows j..j+1 of layers k..k+1: all
+             * outside or all inside, it has neither crossings nor triangles (and no pass reads
+             * its marks: every crossing edge lies in rows that are not skipped). */
+            const uint8_t s0 = row_in[(size_t)j + (size_t)ey * (size_t)k];
+            int same = s0 != 2;
+            for (int q = 1; q < 4 && same; ++q) {
+                const int32_t jj = j + (q & 1), kk = k + (q >> 1);
+                if (jj < ey && kk < ez) same = row_in[(size_t)jj + (size_t)ey * (size_t)kk] == s0;
+            }
+            if (same) {
+                memset(mask + pidx(&m, 0, j, k), 0, (size_t)ex);
+                row_v[1 + (size_t)j + (size_t)ey * (size_t)k] = 0;
+                row_t[1 + (size_t)j + (size_t)ey * (size_t)k] = 0;
+                continue;
+            }
             for (int32_t i = 0; i < ex; ++i) {
                 const size_t p = pidx(&m, i, j, k);
                 const int a = in_at[p];
@@ -191,7 +219,9 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
-            int32_t id = (int32_t)row_v[(size_t)j + (size_t)ey * (size_t)k];
+            const size_t q = (size_t)j + (size_t)ey * (size_t)k;
+            if (row_v[q + 1] == row_v[q]) continue; /* no vertex: nothing reads its `first` */
+            int32_t id = (int32_t)row_v[q];
             for (int32_t i = 0; i < ex; ++i) {
                 const size_t pi = pidx(&m, i, j, k);
                 first[pi] = id;
@@ -222,7 +252,9 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez - 1; ++k)
         for (int32_t j = 0; j < ey - 1; ++j) {
-            size_t out = (size_t)row_t[(size_t)j + (size_t)ey * (size_t)k];
+            const size_t q = (size_t)j + (size_t)ey * (size_t)k;
+            if (row_t[q + 1] == row_t[q]) continue; /* no triangle in this row */
+            size_t out = (size_t)row_t[q];
             for (int32_t i = 0; i < ex - 1; ++i) {
                 const size_t p = pidx(&m, i, j, k);
                 int bits = 0;
