@@ -5,6 +5,7 @@
  * work for every source, including particle systems whose particles come and go. */
 #include "internal_fluid.h"
 #include <omp.h>
+#include <stdlib.h>
 
 /* Central difference of channel c of an nv x ch field along axis a at vertex (i, j, k), per
  * metre; one-sided at the borders. */
@@ -23,6 +24,32 @@ static inline float diff(const hbk_fluid_t *h, const float *f, int ch, int c, co
     return span ? (fh - fl) * h->inv_cell[a] * (span == 2 ? 0.5f : 1.0f) : 0.0f;
 }
 
+/* Every float of f[0 .. n) is +0, bit for bit. */
+static int all_zero(const float *f, size_t n)
+{
+    uint32_t any = 0;
+    for (size_t i = 0; i < n; ++i) {
+        uint32_t b;
+        memcpy(&b, f + i, sizeof b);
+        any |= b;
+    }
+    return any == 0;
+}
+
+/* Row (j, k) and the rows its differences read (j +- 1, k +- 1) are all zero now, and the row
+ * itself last frame too (when there is a last frame). */
+static int quiet(const uint8_t *zc, const uint8_t *zp, int prev, int32_t j, int32_t k,
+                 int32_t ny, int32_t nz)
+{
+    const size_t r = (size_t)j + (size_t)ny * (size_t)k;
+    if (!zc[r] || (prev && !zp[r])) return 0;
+    if (j > 0 && !zc[r - 1]) return 0;
+    if (j < ny - 1 && !zc[r + 1]) return 0;
+    if (k > 0 && !zc[r - (size_t)ny]) return 0;
+    if (k < nz - 1 && !zc[r + (size_t)ny]) return 0;
+    return 1;
+}
+
 void hbk_fluid_features(hbk_fluid_t *h, int threads)
 {
     const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2];
@@ -36,10 +63,40 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     const float scale = h->p.source == HBK_FLUID_VELOCITY_GRID ? 1.0f : h->p.rest_density;
     const float gmin = 0.02f * scale / cmin, gmin2 = gmin * gmin;
     const size_t st[3] = {1, (size_t)nx, (size_t)nx * (size_t)ny};
+    /* Rows whose density and velocity are all +0 (bit for bit), now and (zp) last frame: far
+     * from the fluid, a vertex's features are then constants (below), computed without it. */
+    const size_t rows = (size_t)ny * (size_t)nz;
+    uint8_t *zc = malloc(2 * rows), *zp = zc ? zc + rows : NULL;
+    if (zc) {
+#pragma omp parallel for num_threads(threads) schedule(static)
+        for (size_t r = 0; r < rows; ++r) {
+            const size_t v0 = r * (size_t)nx;
+            zc[r] = all_zero(h->g_density + v0, (size_t)nx) &&
+                    all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx);
+            zp[r] = all_zero(h->density + v0, (size_t)nx) &&
+                    all_zero(h->motion + 3 * v0, 3 * (size_t)nx);
+        }
+    }
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
-        for (int32_t j = 0; j < ny; ++j)
+        for (int32_t j = 0; j < ny; ++j) {
+            if (zc && quiet(zc, zp, prev, j, k, ny, nz)) {
+                /* What the loop below gives for zero fields: a rate and acceleration of +0,
+                 * the gradient -0 (so a -0 normal), no flow angle (pi / 2). */
+                const size_t v0 = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
+                for (int32_t i = 0; i < nx; ++i) {
+                    float *o = h->g_features + (size_t)F * (v0 + (size_t)i);
+                    o[HBK_FLUID_FEATURE_DENSITY] = 0.0f;
+                    o[HBK_FLUID_FEATURE_DENSITY_RATE] = 0.0f;
+                    o[HBK_FLUID_FEATURE_FLOW_ANGLE] = (float)(0.5 * M_PI);
+                    o[HBK_FLUID_FEATURE_ACCELERATION] = 0.0f;
+                    o[HBK_FLUID_FEATURE_DIVERGENCE] = 0.0f;
+                    float *nrm = h->g_normal + 3 * (v0 + (size_t)i);
+                    nrm[0] = nrm[1] = nrm[2] = -0.0f;
+                }
+                continue;
+            }
             for (int32_t i = 0; i < nx; ++i) {
                 const int32_t ijk[3] = {i, j, k};
                 const size_t vi = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
@@ -82,6 +139,8 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                 const float inv = has ? 1.0f / sqrtf(gg) : 0.0f;
                 for (int a = 0; a < 3; ++a) nrm[a] = g[a] * inv;
             }
+        }
+    free(zc);
     /* Mean curvature: half the divergence of that normal field, where it is defined around. */
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
