@@ -220,11 +220,9 @@ static inline hbk_v4f hbk_fluid_tri4(const hbk_v4f c[8], const float t[3])
     return f + t[2] * (g - f);
 }
 
-static inline void hbk_fluid_sample3(const hbk_fluid_t *h, const float *f,
-                                     const hbk_fluid_lerp_t *l, float out[3])
+static inline void hbk_fluid_sample3_o(const float *f, const size_t off[8],
+                                       const hbk_fluid_lerp_t *l, float out[3])
 {
-    size_t off[8];
-    hbk_fluid_corners(h, off);
     hbk_v4f c[8];
     for (int k = 0; k < 8; ++k) memcpy(&c[k], f + 3 * (l->base + off[k]), sizeof c[k]);
     const hbk_v4f r = hbk_fluid_tri4(c, l->t);
@@ -233,12 +231,20 @@ static inline void hbk_fluid_sample3(const hbk_fluid_t *h, const float *f,
     out[2] = r[2];
 }
 
-static inline void hbk_fluid_sample_wrapped3(const hbk_fluid_t *h, const float *uvw,
-                                             const uint8_t *wrap, const hbk_fluid_lerp_t *l,
-                                             float out[3])
+static inline void hbk_fluid_sample3(const hbk_fluid_t *h, const float *f,
+                                     const hbk_fluid_lerp_t *l, float out[3])
 {
     size_t off[8];
     hbk_fluid_corners(h, off);
+    hbk_fluid_sample3_o(f, off, l, out);
+}
+
+/* The _o samplers take the corner offsets (hbk_fluid_corners) from the caller, once for many
+ * samples. */
+static inline void hbk_fluid_sample_wrapped3_o(const float *uvw, const uint8_t *wrap,
+                                               const size_t off[8], const hbk_fluid_lerp_t *l,
+                                               float out[3])
+{
     const uint8_t fl = wrap[l->voxel];
     const hbk_v4i m = {-(fl & 1), -(fl >> 1 & 1), -(fl >> 2 & 1), 0};
     const hbk_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, half = zero + 0.5f, one = zero + 1.0f;
@@ -259,12 +265,19 @@ static inline void hbk_fluid_sample_wrapped3(const hbk_fluid_t *h, const float *
     out[2] = r[2];
 }
 
-/* hbk_fluid_sample_field for a field with 4 floats of padding: four channels at a time. */
-static inline void hbk_fluid_sample_n(const hbk_fluid_t *h, const float *f, int ch,
-                                      const hbk_fluid_lerp_t *l, float *out)
+static inline void hbk_fluid_sample_wrapped3(const hbk_fluid_t *h, const float *uvw,
+                                             const uint8_t *wrap, const hbk_fluid_lerp_t *l,
+                                             float out[3])
 {
     size_t off[8];
     hbk_fluid_corners(h, off);
+    hbk_fluid_sample_wrapped3_o(uvw, wrap, off, l, out);
+}
+
+/* hbk_fluid_sample_field for a field with 4 floats of padding: four channels at a time. */
+static inline void hbk_fluid_sample_n_o(const float *f, int ch, const size_t off[8],
+                                        const hbk_fluid_lerp_t *l, float *out)
+{
     for (int a = 0; a < ch; a += 4) {
         hbk_v4f c[8];
         for (int k = 0; k < 8; ++k)
