@@ -115,8 +115,7 @@ void hbk_cr_narrow_flush(const band_t *b)
     static void (*const draw[2][2][2])(double *, size_t, int64_t, const narrow_t *) = {
         {{narrow_draw_4, narrow_draw_4s}, {narrow_draw_3, narrow_draw_3s}},
         {{narrow_draw_4_avx2, narrow_draw_4s_avx2}, {narrow_draw_3_avx2, narrow_draw_3s_avx2}}};
-    draw[nw->avx2 != 0][nw->thin][nw->shifted](b->buf, b->rowlen,
-                                                                     b->B0 + nw->K, nw);
+    draw[nw->avx2 != 0][nw->thin][nw->shifted](b->buf, b->rowlen, b->B0 + nw->K, nw);
     nw->n = 0;
     nw->shifted = 0;
     nw->rlo = INT64_MAX;

@@ -55,7 +55,8 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     hbk_fluid_cells_free(&h->cells);
     free(h->mesh_pos); free(h->mesh_nrm); free(h->mesh_tri);
     free(h->next_pos); free(h->next_nrm); free(h->next_tri);
-    free(h->mc_mask); free(h->mc_in); free(h->mc_row_in); free(h->mc_first); free(h->mc_row_v); free(h->mc_row_t);
+    free(h->mc_mask); free(h->mc_in); free(h->mc_row_in);
+    free(h->mc_first); free(h->mc_row_v); free(h->mc_row_t);
     free(h);
 }
 
@@ -101,9 +102,9 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_mplanes = malloc(3 * nv * sizeof(float));
     h->moving = malloc(nv);
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
-        !h->density ||
-        !h->surface || !h->features || !h->g_motion || !h->g_density || !h->g_surface ||
-        !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes || !h->moving || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
+        !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
+        !h->moving || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",

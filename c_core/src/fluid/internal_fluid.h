@@ -184,31 +184,11 @@ static inline float hbk_fluid_tri(const float c[8], const float t[3])
     return f + t[2] * (g - f);
 }
 
-static inline void hbk_fluid_sample_wrapped_l(const hbk_fluid_t *h, const float *uvw,
-                                              const uint8_t *wrap, const hbk_fluid_lerp_t *l,
-                                              float out[3])
-{
-    size_t off[8];
-    hbk_fluid_corners(h, off);
-    const uint8_t flags = wrap[l->voxel];
-    for (int a = 0; a < 3; ++a) {
-        float c[8];
-        for (int k = 0; k < 8; ++k) c[k] = uvw[3 * (l->base + off[k]) + (size_t)a];
-        if (flags & (1u << a)) {
-            for (int k = 0; k < 8; ++k)
-                if (c[k] < 0.5f) c[k] += 1.0f;
-            float v = hbk_fluid_tri(c, l->t);
-            if (v >= 1.0f) v -= 1.0f;
-            out[a] = v >= 0.0f && v < 1.0f ? v : 0.0f;
-        } else {
-            out[a] = hbk_fluid_tri(c, l->t);
-        }
-    }
-}
-
-/* The same for a 3-vector field, the three components side by side in one 4-float vector
- * (the field has 4 floats of padding); the same operations per component, so the same bytes
- * as hbk_fluid_sample_field and hbk_fluid_sample_wrapped_l. */
+/* Trilinear samples of a 3-vector field, the three components side by side in one 4-float
+ * vector (the field has 4 floats of padding): the same operations per component, so the same
+ * bytes as hbk_fluid_sample_field. The wrapped one honours V_r: a flagged component's corner
+ * values below 0.5 count as value + 1, and the result is taken modulo 1. The _o samplers take
+ * the corner offsets (hbk_fluid_corners) from the caller, once for many samples. */
 typedef float hbk_v4f __attribute__((vector_size(16)));
 typedef int32_t hbk_v4i __attribute__((vector_size(16)));
 
@@ -231,16 +211,6 @@ static inline void hbk_fluid_sample3_o(const float *f, const size_t off[8],
     out[2] = r[2];
 }
 
-static inline void hbk_fluid_sample3(const hbk_fluid_t *h, const float *f,
-                                     const hbk_fluid_lerp_t *l, float out[3])
-{
-    size_t off[8];
-    hbk_fluid_corners(h, off);
-    hbk_fluid_sample3_o(f, off, l, out);
-}
-
-/* The _o samplers take the corner offsets (hbk_fluid_corners) from the caller, once for many
- * samples. */
 static inline void hbk_fluid_sample_wrapped3_o(const float *uvw, const uint8_t *wrap,
                                                const size_t off[8], const hbk_fluid_lerp_t *l,
                                                float out[3])

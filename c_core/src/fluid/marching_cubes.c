@@ -377,8 +377,8 @@ hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32
         for (int a = 0; a < 3; ++a) g[a] = (x[a] - h->p.box_min[a]) * h->inv_cell[a];
         hbk_fluid_lerp_t l;
         hbk_fluid_lerp_at(h, g, &l);
-        if (uvw_a) hbk_fluid_sample_wrapped_l(h, h->v.uvw[0], h->v.wrap[0], &l, uvw_a + 3 * (size_t)v);
-        if (uvw_b) hbk_fluid_sample_wrapped_l(h, h->v.uvw[1], h->v.wrap[1], &l, uvw_b + 3 * (size_t)v);
+        if (uvw_a) hbk_fluid_sample_wrapped3(h, h->v.uvw[0], h->v.wrap[0], &l, uvw_a + 3 * (size_t)v);
+        if (uvw_b) hbk_fluid_sample_wrapped3(h, h->v.uvw[1], h->v.wrap[1], &l, uvw_b + 3 * (size_t)v);
         if (blend) {
             /* Blend of the 8 corners, each already normalised, then trilinear. */
             float c[8][HBK_FLUID_MAX_TEXTURES], *o = blend + (size_t)K * (size_t)v, s = 0.0f;

@@ -10,7 +10,7 @@ void hbk_fluid_sample_wrapped(const hbk_fluid_t *h, const float *uvw, const uint
 {
     hbk_fluid_lerp_t l;
     hbk_fluid_lerp_at(h, x, &l);
-    hbk_fluid_sample_wrapped_l(h, uvw, wrap, &l, out);
+    hbk_fluid_sample_wrapped3(h, uvw, wrap, &l, out);
 }
 
 static inline float frac1(double v)
