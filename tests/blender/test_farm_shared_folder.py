@@ -23,8 +23,13 @@ def test_two_machines_render_each_frame_once(blender, tmp_path):
     saved = [[line for line in o.splitlines() if line.startswith("Saved:")] for o in outs]
     files = sorted(os.listdir(tmp_path / "frames"))
     assert files == [f"f_{i:04d}.png" for i in range(1, 7)]
-    assert all(saved), saved  # both machines took frames: the placeholders shared the work
-    assert sum(map(len, saved)) < 12  # nobody rendered everything: frames were skipped
+    # The placeholders share the work: a frame one machine has taken is skipped by the other,
+    # so the renders add up to the frames, but for the race above (at most one per machine).
+    # How they split depends on start-up times: on a busy machine the second Blender may
+    # start when the first has taken every frame, and then renders none.
+    rendered = [os.path.basename(line.split("'")[1]) for o in saved for line in o]
+    assert sorted(set(rendered)) == files
+    assert len(rendered) <= len(files) + 2, saved
     from PIL import Image
     for f in files:  # every frame is a finished render that found the baked caustic maps
         img = Image.open(tmp_path / "frames" / f).convert("RGB")
