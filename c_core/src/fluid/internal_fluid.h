@@ -189,6 +189,8 @@ static inline float hbk_fluid_tri(const float c[8], const float t[3])
  * bytes as hbk_fluid_sample_field. The wrapped one honours V_r: a flagged component's corner
  * values below 0.5 count as value + 1, and the result is taken modulo 1. The _o samplers take
  * the corner offsets (hbk_fluid_corners) from the caller, once for many samples. */
+/* The corner loops fully unrolled: -O2 keeps them as loops, re-deriving each corner's address. */
+#define HBK_UNROLL8 _Pragma("GCC unroll 8")
 typedef float hbk_v4f __attribute__((vector_size(16)));
 typedef int32_t hbk_v4i __attribute__((vector_size(16)));
 
@@ -204,7 +206,7 @@ static inline void hbk_fluid_sample3_o(const float *f, const size_t off[8],
                                        const hbk_fluid_lerp_t *l, float out[3])
 {
     hbk_v4f c[8];
-    for (int k = 0; k < 8; ++k) memcpy(&c[k], f + 3 * (l->base + off[k]), sizeof c[k]);
+    HBK_UNROLL8 for (int k = 0; k < 8; ++k) memcpy(&c[k], f + 3 * (l->base + off[k]), sizeof c[k]);
     const hbk_v4f r = hbk_fluid_tri4(c, l->t);
     out[0] = r[0];
     out[1] = r[1];
@@ -219,7 +221,7 @@ static inline void hbk_fluid_sample_wrapped3_o(const float *uvw, const uint8_t *
     const hbk_v4i m = {-(fl & 1), -(fl >> 1 & 1), -(fl >> 2 & 1), 0};
     const hbk_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, half = zero + 0.5f, one = zero + 1.0f;
     hbk_v4f c[8];
-    for (int k = 0; k < 8; ++k) {
+    HBK_UNROLL8 for (int k = 0; k < 8; ++k) {
         hbk_v4f v;
         memcpy(&v, uvw + 3 * (l->base + off[k]), sizeof v);
         const hbk_v4i up = m & (v < half); /* a wrapped component below 0.5 counts + 1 */
@@ -250,7 +252,7 @@ static inline void hbk_fluid_sample_n_o(const float *f, int ch, const size_t off
 {
     for (int a = 0; a < ch; a += 4) {
         hbk_v4f c[8];
-        for (int k = 0; k < 8; ++k)
+        HBK_UNROLL8 for (int k = 0; k < 8; ++k)
             memcpy(&c[k], f + (size_t)ch * (l->base + off[k]) + (size_t)a, sizeof c[k]);
         const hbk_v4f r = hbk_fluid_tri4(c, l->t);
         for (int q = 0; q < 4 && a + q < ch; ++q) out[a + q] = r[q];
@@ -279,7 +281,7 @@ static inline uint8_t hbk_fluid_repair_voxel(const float *uvw, const size_t off[
 {
     const hbk_v4f half = {0.5f, 0.5f, 0.5f, 0.5f}, one = half + half;
     hbk_v4f lo = one + one, hi = -one, wlo = lo, whi = hi;
-    for (int c = 0; c < 8; ++c) {
+    HBK_UNROLL8 for (int c = 0; c < 8; ++c) {
         hbk_v4f v;
         memcpy(&v, uvw + 3 * (b + off[c]), sizeof v);
         /* v + 1 below 0.5, else v + 0 (the same for comparisons, even at -0) */
