@@ -16,8 +16,9 @@ typedef struct {
  * particle are dx = lo + kx cl - x and ryz. */
 static inline __attribute__((always_inline)) void
 splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float cl,
-          const float *x, const float *v, float ryz)
+          const float *x, const float *v, float ryz, int32_t nx)
 {
+    (void)nx;
     for (int32_t kx = a0; kx <= a1; ++kx) {
         const float dx = lo + (float)kx * cl - x[0];
         const float r2 = dx * dx + ryz;
@@ -37,11 +38,14 @@ splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float 
     }
 }
 
-/* splat_row eight vertices at a time, with masked loads and stores: a vertex out of reach is
- * not touched, as in the scalar code, and the values are its operations': the same bytes. */
+/* splat_row eight vertices at a time: a vertex out of reach is not changed and the values are
+ * its operations', so the same bytes. Away from the row's end the lanes out of reach add +0
+ * (a sum is never -0, so adding +0 keeps its bits) with plain loads and stores, which are far
+ * cheaper than masked stores; within 8 of the end, where lanes would reach the next row (perhaps
+ * another thread's slab), the stores are masked. */
 __attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
 splat_row_avx2(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float cl,
-               const float *x, const float *v, float ryz)
+               const float *x, const float *v, float ryz, int32_t nx)
 {
     const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
@@ -53,18 +57,21 @@ splat_row_avx2(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, f
         const v8i mh = in & (r2 < H2), mr = in & (r2 < R2);
         float *at[6] = {s->dens + row + kx, s->wsum + row + kx, s->mot[0] + row + kx,
                         s->mot[1] + row + kx, s->mot[2] + row + kx, s->surf + row + kx};
-        if (__builtin_ia32_movmskps256((v8f)mh)) {
-            const v8f d = H2 - r2, w = d * d * d;
-            const v8f add[5] = {s->dens_k * w, w, w * v[0], w * v[1], w * v[2]};
-            for (int q = 0; q < 5; ++q) {
-                const v8f old = __builtin_ia32_maskloadps256((const v8f *)at[q], mh);
-                __builtin_ia32_maskstoreps256((v8f *)at[q], mh, old + add[q]);
+        const v8f d = H2 - r2, w = d * d * d, t = one - r2 * s->inv_R2;
+        const v8f add[6] = {s->dens_k * w, w, w * v[0], w * v[1], w * v[2], t * t * t};
+        if (kx + 8 <= nx) {
+            HBK_UNROLL8 for (int q = 0; q < 6; ++q) {
+                v8f old;
+                memcpy(&old, at[q], sizeof old);
+                old += (v8f)((v8i)add[q] & (q < 5 ? mh : mr));
+                memcpy(at[q], &old, sizeof old);
             }
+            continue;
         }
-        if (__builtin_ia32_movmskps256((v8f)mr)) {
-            const v8f t = one - r2 * s->inv_R2;
-            const v8f old = __builtin_ia32_maskloadps256((const v8f *)at[5], mr);
-            __builtin_ia32_maskstoreps256((v8f *)at[5], mr, old + t * t * t);
+        HBK_UNROLL8 for (int q = 0; q < 6; ++q) {
+            const v8i m = q < 5 ? mh : mr;
+            const v8f old = __builtin_ia32_maskloadps256((const v8f *)at[q], m);
+            __builtin_ia32_maskstoreps256((v8f *)at[q], m, old + add[q]);
         }
     }
 }
@@ -94,7 +101,7 @@ splat_row_avx2(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, f
                 const float ryz = dy * dy + dz * dz;                                         \
                 if (ryz >= s->H2 && ryz >= s->R2) continue;                                  \
                 const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz);      \
-                ROW(s, row, a0[0], a1[0], lo[0], cl[0], x, v, ryz);                          \
+                ROW(s, row, a0[0], a1[0], lo[0], cl[0], x, v, ryz, nx);                     \
             }                                                                                \
         }                                                                                    \
     }
