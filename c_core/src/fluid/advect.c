@@ -17,125 +17,278 @@ static inline void trace(const hbk_fluid_t *h, const float *motion, const size_t
     for (int a = 0; a < 3; ++a) src[a] = x[a] - dt * vm[a] * h->inv_cell[a];
 }
 
+/* The AVX2 path: the two uvw fields (or the base blend and the paint) of a corner side by side
+ * in one 8-float vector, A in lanes 0-3 and B in 4-7, so one set of operations samples both.
+ * Each lane's operations are the 4-float samplers', so the bytes are theirs. */
+typedef float v8f __attribute__((vector_size(32)));
+typedef int32_t v8i __attribute__((vector_size(32)));
+
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+corners_pair(const float *a, const float *b, size_t ch, const size_t off[8],
+             const hbk_fluid_lerp_t *l, v8f c[8])
+{
+    HBK_UNROLL8 for (int k = 0; k < 8; ++k) {
+        hbk_v4f va, vb;
+        memcpy(&va, a + ch * (l->base + off[k]), sizeof va);
+        memcpy(&vb, b + ch * (l->base + off[k]), sizeof vb);
+        c[k] = __builtin_shufflevector(va, vb, 0, 1, 2, 3, 4, 5, 6, 7);
+    }
+}
+
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+tri_pair(const v8f c[8], const float t[3], v8f *r)
+{
+    const v8f a = c[0] + t[0] * (c[1] - c[0]), b = c[2] + t[0] * (c[3] - c[2]);
+    const v8f d = c[4] + t[0] * (c[5] - c[4]), e = c[6] + t[0] * (c[7] - c[6]);
+    const v8f f = a + t[1] * (b - a), g = d + t[1] * (e - d);
+    *r = f + t[2] * (g - f);
+}
+
+/* hbk_fluid_sample_wrapped3_o of both fields. */
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+sample_wrapped_pair(const float *ua, const float *ub, uint8_t fa, uint8_t fb,
+                    const size_t off[8], const hbk_fluid_lerp_t *l, float *oa, float *ob)
+{
+    const v8i m = {-(fa & 1), -(fa >> 1 & 1), -(fa >> 2 & 1), 0,
+                   -(fb & 1), -(fb >> 1 & 1), -(fb >> 2 & 1), 0};
+    const v8f zero = {0}, half = zero + 0.5f, one = zero + 1.0f;
+    v8f c[8], r;
+    corners_pair(ua, ub, 3, off, l, c);
+    HBK_UNROLL8 for (int k = 0; k < 8; ++k) {
+        const v8i up = m & (c[k] < half);
+        c[k] = (v8f)(((v8i)(c[k] + one) & up) | ((v8i)c[k] & ~up));
+    }
+    tri_pair(c, l->t, &r);
+    const v8i over = m & (r >= one);
+    r = (v8f)(((v8i)(r - one) & over) | ((v8i)r & ~over));
+    const v8i bad = m & ~((r >= zero) & (r < one));
+    r = (v8f)((v8i)r & ~bad);
+    for (int q = 0; q < 3; ++q) {
+        oa[q] = r[q];
+        ob[q] = r[4 + q];
+    }
+}
+
+/* hbk_fluid_repair_voxel of both fields. */
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uint8_t *fa,
+            uint8_t *fb)
+{
+    const v8f half = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f}, one = half + half;
+    const hbk_fluid_lerp_t l = {b, 0, {0, 0, 0}};
+    v8f c[8], lo = one + one, hi = -one, wlo = lo, whi = hi;
+    corners_pair(ua, ub, 3, off, &l, c);
+    HBK_UNROLL8 for (int k = 0; k < 8; ++k) {
+        const v8f w = c[k] + (v8f)((v8i)one & (c[k] < half));
+        lo = __builtin_ia32_minps256(c[k], lo);
+        hi = __builtin_ia32_maxps256(c[k], hi);
+        wlo = __builtin_ia32_minps256(w, wlo);
+        whi = __builtin_ia32_maxps256(w, whi);
+    }
+    const v8i direct = hi - lo <= half, across = whi - wlo < half;
+    uint8_t f[2] = {*fa, *fb};
+    for (int s = 0; s < 2; ++s)
+        for (int a = 0; a < 3; ++a) {
+            if (direct[4 * s + a]) f[s] &= (uint8_t)~(1u << a);
+            else if (across[4 * s + a]) f[s] |= (uint8_t)(1u << a);
+        }
+    *fa = f[0];
+    *fb = f[1];
+}
+
+/* The per-vertex samples of the moving vertices of row (j, k), and the plain copies of the
+ * still ones; UVW samples both uvw fields, BP the base blend and the paint. */
+#define ADVECT_ROW(UVW, BP)                                                                  \
+    const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
+    for (int32_t i = 0; i < nx; ++i) {                                                       \
+        const size_t vi = row + (size_t)i;                                                   \
+        const float *v0 = m + 3 * vi;                                                        \
+        const float x[3] = {(float)i, (float)j, (float)k};                                   \
+        float src[3];                                                                        \
+        if ((i & 3) == 0) { /* the rows ahead that the next samples will read */             \
+            const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny, ahead = vi + 16;     \
+            for (int q = 0; q < 2; ++q) {                                                    \
+                const size_t p = ahead + sy + (q ? sz : 0);                                  \
+                if (p >= h->n_vert) break;                                                   \
+                __builtin_prefetch(in->uvw[0] + 3 * p);                                      \
+                __builtin_prefetch(in->uvw[1] + 3 * p);                                      \
+                __builtin_prefetch(m + 3 * p);                                               \
+                __builtin_prefetch(in->base + (size_t)K * p);                                \
+                if (paint) __builtin_prefetch(in->paint + (size_t)K * p);                    \
+            }                                                                                \
+        }                                                                                    \
+        const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;                  \
+        h->moving[vi] = (uint8_t)!still;                                                     \
+        if (still) continue; /* copied with its run, below */                                \
+        trace(h, m, off, x, dt, v0, src);                                                    \
+        hbk_fluid_lerp_t l;                                                                  \
+        hbk_fluid_lerp_at(h, src, &l);                                                       \
+        UVW;                                                                                 \
+        float *b = out->base + (size_t)K * vi;                                               \
+        BP;                                                                                  \
+        /* Interpolation is a convex combination; renormalise only the rounding. */          \
+        float s = 0.0f;                                                                      \
+        for (int t = 0; t < K; ++t) s += b[t];                                               \
+        if (s > 0.0f) for (int t = 0; t < K; ++t) b[t] /= s;                                 \
+        else { for (int t = 0; t < K; ++t) b[t] = 0.0f; b[h->p.default_texture] = 1.0f; }    \
+        if (paint) hbk_fluid_sample_n_o(in->life, 1, off, &l, out->life + vi);               \
+    }                                                                                        \
+    copy_still(h, in, out, row, paint);
+
+/* Still vertices: a plain copy, so zero flow changes nothing bit for bit; a run at a time. */
+static void copy_still(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out,
+                       size_t row, int paint)
+{
+    const int32_t nx = h->nv[0];
+    for (int32_t i = 0; i < nx;) {
+        if (h->moving[row + (size_t)i]) {
+            ++i;
+            continue;
+        }
+        int32_t e = i + 1;
+        while (e < nx && !h->moving[row + (size_t)e]) ++e;
+        const size_t s = row + (size_t)i, n = (size_t)(e - i), kk = (size_t)h->K;
+        memcpy(out->uvw[0] + 3 * s, in->uvw[0] + 3 * s, 3 * n * sizeof(float));
+        memcpy(out->uvw[1] + 3 * s, in->uvw[1] + 3 * s, 3 * n * sizeof(float));
+        memcpy(out->base + kk * s, in->base + kk * s, kk * n * sizeof(float));
+        if (paint) {
+            memcpy(out->paint + kk * s, in->paint + kk * s, kk * n * sizeof(float));
+            memcpy(out->life + s, in->life + s, n * sizeof(float));
+        }
+        i = e;
+    }
+}
+
+#define ROW_ARGS                                                                             \
+    const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out,                 \
+        const size_t off[8], float dt, int32_t j, int32_t k
+#define ROW_SETUP                                                                            \
+    const int32_t nx = h->nv[0], ny = h->nv[1], K = h->K;                                    \
+    const float *m = h->motion;                                                              \
+    const int paint = h->paint_active;
+
+static void advect_row(ROW_ARGS)
+{
+    ROW_SETUP
+    ADVECT_ROW((hbk_fluid_sample_wrapped3_o(in->uvw[0], in->wrap[0], off, &l, out->uvw[0] + 3 * vi),
+                hbk_fluid_sample_wrapped3_o(in->uvw[1], in->wrap[1], off, &l, out->uvw[1] + 3 * vi)),
+               (hbk_fluid_sample_n_o(in->base, K, off, &l, b),
+                paint ? hbk_fluid_sample_n_o(in->paint, K, off, &l, out->paint + (size_t)K * vi)
+                      : (void)0))
+}
+
+/* The base blend and the paint side by side when K <= 4 (one vector each). */
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+sample_bp(const hbk_fluid_vols_t *in, int K, int paint, const size_t off[8],
+          const hbk_fluid_lerp_t *l, float *b, float *p)
+{
+    if (!paint || K > 4) {
+        hbk_fluid_sample_n_o(in->base, K, off, l, b);
+        if (paint) hbk_fluid_sample_n_o(in->paint, K, off, l, p);
+        return;
+    }
+    v8f c[8], r;
+    corners_pair(in->base, in->paint, (size_t)K, off, l, c);
+    tri_pair(c, l->t, &r);
+    for (int q = 0; q < K; ++q) {
+        b[q] = r[q];
+        p[q] = r[4 + q];
+    }
+}
+
+__attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
+{
+    ROW_SETUP
+    ADVECT_ROW(sample_wrapped_pair(in->uvw[0], in->uvw[1], in->wrap[0][l.voxel],
+                                   in->wrap[1][l.voxel], off, &l, out->uvw[0] + 3 * vi,
+                                   out->uvw[1] + 3 * vi),
+               sample_bp(in, K, paint, off, &l, b, out->paint + (size_t)K * vi))
+    __builtin_ia32_vzeroupper(); /* the caller is SSE code */
+}
+
+/* V_r of the voxels of row (j, k) of voxels (see hbk_fluid_advect); REPAIR re-derives f0, f1
+ * from the corners of vertex b. */
+#define FLAGS_ROW(REPAIR)                                                                    \
+    const int32_t nx = h->nv[0], ny = h->nv[1];                                              \
+    const int32_t rx = h->p.resolution[0], ry = h->p.resolution[1];                          \
+    const float *m = h->motion;                                                              \
+    /* Which vertices of the row's four vertex rows move, per column: a voxel moves if its  \
+     * two columns do. A still row copies its flags whole. */                                \
+    const size_t b0 = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                     \
+    const size_t v0i = (size_t)rx * ((size_t)j + (size_t)ry * (size_t)k);                    \
+    uint8_t col[257], rowany = 0; /* resolution <= 256 */                                    \
+    for (int32_t i = 0; i < nx; ++i) {                                                       \
+        col[i] = h->moving[b0 + off[0] + (size_t)i] | h->moving[b0 + off[2] + (size_t)i] |   \
+                 h->moving[b0 + off[4] + (size_t)i] | h->moving[b0 + off[6] + (size_t)i];    \
+        rowany |= col[i];                                                                    \
+    }                                                                                        \
+    if (!rowany && checked) {                                                                \
+        memcpy(out->wrap[0] + v0i, in->wrap[0] + v0i, (size_t)rx);                           \
+        memcpy(out->wrap[1] + v0i, in->wrap[1] + v0i, (size_t)rx);                           \
+        return;                                                                              \
+    }                                                                                        \
+    for (int32_t i = 0; i < rx; ++i) {                                                       \
+        const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \
+        const uint8_t any = col[i] | col[i + 1];                                             \
+        uint8_t f0 = in->wrap[0][vox], f1 = in->wrap[1][vox];                                \
+        if (any) {                                                                           \
+            const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};          \
+            /* hbk_fluid_lerp_at of the centre, without its clamps */                        \
+            hbk_fluid_lerp_t l = {b, vox, {0.5f, 0.5f, 0.5f}};                               \
+            float v0[3], src[3];                                                             \
+            hbk_fluid_sample3_o(m, off, &l, v0);                                             \
+            trace(h, m, off, x, dt, v0, src);                                                \
+            hbk_fluid_lerp_at(h, src, &l);                                                   \
+            f0 = in->wrap[0][l.voxel];                                                       \
+            f1 = in->wrap[1][l.voxel];                                                       \
+        }                                                                                    \
+        if (any || !checked) REPAIR;                                                         \
+        out->wrap[0][vox] = f0;                                                              \
+        out->wrap[1][vox] = f1;                                                              \
+    }
+
+#define FLAGS_ARGS ROW_ARGS, int checked
+
+static void flags_row(FLAGS_ARGS)
+{
+    FLAGS_ROW((f0 = hbk_fluid_repair_voxel(out->uvw[0], off, b, f0),
+               f1 = hbk_fluid_repair_voxel(out->uvw[1], off, b, f1)))
+}
+
+__attribute__((target("avx2"))) static void flags_row_avx2_body(FLAGS_ARGS)
+{
+    FLAGS_ROW(repair_pair(out->uvw[0], out->uvw[1], off, b, &f0, &f1))
+}
+
+__attribute__((target("avx2"))) static void flags_row_avx2(FLAGS_ARGS)
+{
+    flags_row_avx2_body(h, in, out, off, dt, j, k, checked);
+    __builtin_ia32_vzeroupper(); /* the caller is SSE code */
+}
+
 void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
 {
-    const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2], K = h->K;
-    const float *m = h->motion;
     const hbk_fluid_vols_t *in = &h->v;
     hbk_fluid_vols_t *out = &h->scratch;
-    const int paint = h->paint_active;
     size_t off[8]; /* a voxel's corners from its vertex (i, j, k) */
     hbk_fluid_corners(h, off);
+    const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
+    const int32_t ny = h->nv[1], nz = h->nv[2];
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
-        for (int32_t j = 0; j < ny; ++j) {
-            const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
-            for (int32_t i = 0; i < nx; ++i) {
-                const size_t vi = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
-                const float *v0 = m + 3 * vi;
-                const float x[3] = {(float)i, (float)j, (float)k};
-                float src[3];
-                if ((i & 3) == 0) { /* the rows ahead that the next samples will read */
-                    const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny, ahead = vi + 16;
-                    for (int q = 0; q < 2; ++q) {
-                        const size_t p = ahead + sy + (q ? sz : 0);
-                        if (p >= h->n_vert) break;
-                        __builtin_prefetch(in->uvw[0] + 3 * p);
-                        __builtin_prefetch(in->uvw[1] + 3 * p);
-                        __builtin_prefetch(m + 3 * p);
-                        __builtin_prefetch(in->base + (size_t)K * p);
-                        if (paint) __builtin_prefetch(in->paint + (size_t)K * p);
-                    }
-                }
-                const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;
-                h->moving[vi] = (uint8_t)!still;
-                if (still) continue; /* copied with its run, below */
-                trace(h, m, off, x, dt, v0, src);
-                hbk_fluid_lerp_t l;
-                hbk_fluid_lerp_at(h, src, &l);
-                hbk_fluid_sample_wrapped3_o(in->uvw[0], in->wrap[0], off, &l, out->uvw[0] + 3 * vi);
-                hbk_fluid_sample_wrapped3_o(in->uvw[1], in->wrap[1], off, &l, out->uvw[1] + 3 * vi);
-                float *b = out->base + (size_t)K * vi;
-                hbk_fluid_sample_n_o(in->base, K, off, &l, b);
-                /* Interpolation is a convex combination; renormalise only the rounding. */
-                float s = 0.0f;
-                for (int t = 0; t < K; ++t) s += b[t];
-                if (s > 0.0f) for (int t = 0; t < K; ++t) b[t] /= s;
-                else { for (int t = 0; t < K; ++t) b[t] = 0.0f; b[h->p.default_texture] = 1.0f; }
-                if (paint) {
-                    hbk_fluid_sample_n_o(in->paint, K, off, &l, out->paint + (size_t)K * vi);
-                    hbk_fluid_sample_n_o(in->life, 1, off, &l, out->life + vi);
-                }
-            }
-            /* Still vertices: a plain copy, so zero flow changes nothing bit for bit; a run
-             * of them at a time. */
-            for (int32_t i = 0; i < nx;) {
-                if (h->moving[row + (size_t)i]) {
-                    ++i;
-                    continue;
-                }
-                int32_t e = i + 1;
-                while (e < nx && !h->moving[row + (size_t)e]) ++e;
-                const size_t s = row + (size_t)i, n = (size_t)(e - i), kk = (size_t)K;
-                memcpy(out->uvw[0] + 3 * s, in->uvw[0] + 3 * s, 3 * n * sizeof(float));
-                memcpy(out->uvw[1] + 3 * s, in->uvw[1] + 3 * s, 3 * n * sizeof(float));
-                memcpy(out->base + kk * s, in->base + kk * s, kk * n * sizeof(float));
-                if (paint) {
-                    memcpy(out->paint + kk * s, in->paint + kk * s, kk * n * sizeof(float));
-                    memcpy(out->life + s, in->life + s, n * sizeof(float));
-                }
-                i = e;
-            }
-        }
+        for (int32_t j = 0; j < ny; ++j) (avx2 ? advect_row_avx2 : advect_row)(h, in, out, off, dt, j, k);
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from
      * the new corners where the short way is unambiguous. A voxel whose corners all stand
      * still keeps its flag: its centre traces back to itself, and its corners' uvw are the
      * ones its flags were repaired from last frame (but the first frame after create or
      * load_state repairs every voxel). */
-    const int32_t rx = h->p.resolution[0], ry = h->p.resolution[1], rz = h->p.resolution[2];
+    const int32_t ry = h->p.resolution[1], rz = h->p.resolution[2];
     const int checked = h->wrap_checked;
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < rz; ++k)
-        for (int32_t j = 0; j < ry; ++j) {
-            /* Which vertices of the row's four vertex rows move, per column: a voxel moves
-             * if its two columns do. A still row copies its flags whole. */
-            const size_t b0 = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
-            const size_t v0i = (size_t)rx * ((size_t)j + (size_t)ry * (size_t)k);
-            uint8_t col[257], rowany = 0; /* resolution <= 256 */
-            for (int32_t i = 0; i < nx; ++i) {
-                col[i] = h->moving[b0 + off[0] + (size_t)i] | h->moving[b0 + off[2] + (size_t)i] |
-                         h->moving[b0 + off[4] + (size_t)i] | h->moving[b0 + off[6] + (size_t)i];
-                rowany |= col[i];
-            }
-            if (!rowany && checked) {
-                memcpy(out->wrap[0] + v0i, in->wrap[0] + v0i, (size_t)rx);
-                memcpy(out->wrap[1] + v0i, in->wrap[1] + v0i, (size_t)rx);
-                continue;
-            }
-            for (int32_t i = 0; i < rx; ++i) {
-                const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;
-                const uint8_t any = col[i] | col[i + 1];
-                uint8_t f0 = in->wrap[0][vox], f1 = in->wrap[1][vox];
-                if (any) {
-                    const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};
-                    /* hbk_fluid_lerp_at of the centre, without its clamps */
-                    hbk_fluid_lerp_t l = {b, vox, {0.5f, 0.5f, 0.5f}};
-                    float v0[3], src[3];
-                    hbk_fluid_sample3_o(m, off, &l, v0);
-                    trace(h, m, off, x, dt, v0, src);
-                    hbk_fluid_lerp_at(h, src, &l);
-                    f0 = in->wrap[0][l.voxel];
-                    f1 = in->wrap[1][l.voxel];
-                }
-                if (any || !checked) {
-                    f0 = hbk_fluid_repair_voxel(out->uvw[0], off, b, f0);
-                    f1 = hbk_fluid_repair_voxel(out->uvw[1], off, b, f1);
-                }
-                out->wrap[0][vox] = f0;
-                out->wrap[1][vox] = f1;
-            }
-        }
+        for (int32_t j = 0; j < ry; ++j)
+            (avx2 ? flags_row_avx2 : flags_row)(h, in, out, off, dt, j, k, checked);
     h->wrap_checked = 1;
 }

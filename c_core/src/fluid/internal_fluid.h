@@ -116,6 +116,14 @@ static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, 
     return i < 0 ? 0 : i >= c->dims[a] ? c->dims[a] - 1 : i;
 }
 
+/* SPH sums in eight lanes (sph.c and sph_lanes.c alike): candidate j of a row of cells that
+ * starts at sorted index a adds to lane (j - a) mod 8, and the lanes are added in this tree. */
+static inline int hbk_fluid_lane_of(int32_t j, int32_t a) { return (int)((j - a) & 7); }
+static inline float hbk_fluid_lane_sum(const float p[8])
+{
+    return ((p[0] + p[1]) + (p[2] + p[3])) + ((p[4] + p[5]) + (p[6] + p[7]));
+}
+
 /* sph.c: one substep on h->pos / h->vel. */
 hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
 /* sph_lanes.c: the gathers of a particle (with its nim wall images) in AVX2 lanes, with the
@@ -184,13 +192,14 @@ static inline float hbk_fluid_tri(const float c[8], const float t[3])
     return f + t[2] * (g - f);
 }
 
+/* The corner loops fully unrolled: -O2 keeps them as loops, re-deriving each corner's address. */
+#define HBK_UNROLL8 _Pragma("GCC unroll 8")
+
 /* Trilinear samples of a 3-vector field, the three components side by side in one 4-float
  * vector (the field has 4 floats of padding): the same operations per component, so the same
  * bytes as hbk_fluid_sample_field. The wrapped one honours V_r: a flagged component's corner
  * values below 0.5 count as value + 1, and the result is taken modulo 1. The _o samplers take
  * the corner offsets (hbk_fluid_corners) from the caller, once for many samples. */
-/* The corner loops fully unrolled: -O2 keeps them as loops, re-deriving each corner's address. */
-#define HBK_UNROLL8 _Pragma("GCC unroll 8")
 typedef float hbk_v4f __attribute__((vector_size(16)));
 typedef int32_t hbk_v4i __attribute__((vector_size(16)));
 

@@ -90,7 +90,7 @@ static void mirrors_near(const hbk_fluid_t *h, const float *x, float H, mirrors_
 }
 
 /* Calls body(j) for every particle j (sorted index) in the 27 cells around cell (cx, cy, cz);
- * the three cells of a row are one contiguous range of the sorted arrays. */
+ * the three cells of a row are one contiguous range of the sorted arrays, from a_. */
 #define FOR_NEIGHBOURS(c, cx, cy, cz, j, ...)                                             \
     for (int32_t nz_ = (cz) - 1; nz_ <= (cz) + 1; ++nz_) {                                   \
         if (nz_ < 0 || nz_ >= (c)->dims[2]) continue;                                        \
@@ -100,8 +100,9 @@ static void mirrors_near(const hbk_fluid_t *h, const float *x, float H, mirrors_
                                                         (size_t)nz_);                        \
             const int32_t x0_ = (cx) > 0 ? (cx) - 1 : 0;                                     \
             const int32_t x1_ = (cx) + 1 < (c)->dims[0] ? (cx) + 1 : (c)->dims[0] - 1;       \
+            const int32_t a_ = (c)->start[row_ + (size_t)x0_];                               \
             const int32_t e_ = (c)->start[row_ + (size_t)x1_ + 1];                           \
-            for (int32_t j = (c)->start[row_ + (size_t)x0_]; j < e_; ++j) { __VA_ARGS__ }         \
+            for (int32_t j = a_; j < e_; ++j) { __VA_ARGS__ }                                \
         }                                                                                    \
     }
 
@@ -135,7 +136,7 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
                       cy = (cell / c->dims[0]) % c->dims[1], cz = cell / (c->dims[0] * c->dims[1]);
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
-        float sum = 0.0f;
+        float sum = 0.0f, part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
         if (lanes)
             sum = hbk_fluid_density_lanes(c, soa, st, cx, cy, cz, xi, H, mi.n,
                                           (const float (*)[3])mi.sgn, (const float (*)[3])mi.off);
@@ -146,9 +147,13 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
                 for (int a = 0; a < 3; ++a)
                     d3[a] = xi[a] - (im < 0 ? xj[a] : mi.sgn[im][a] * xj[a] + mi.off[im][a]);
                 const float r2 = d3[0] * d3[0] + d3[1] * d3[1] + d3[2] * d3[2];
-                if (r2 < H2) { const float q = H - sqrtf(r2); sum += q * q * q; }
+                if (r2 < H2) {
+                    const float q = H - sqrtf(r2);
+                    part[hbk_fluid_lane_of(j, a_)] += q * q * q;
+                }
             }
         })
+        if (!lanes) sum = hbk_fluid_lane_sum(part);
         const float rho = m * wsp * sum;
         s[8 * (size_t)i + 6] = rho;
         /* p >= 0: a free surface must not pull particles together (tensile instability).
@@ -166,7 +171,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
                       cy = (cell / c->dims[0]) % c->dims[1], cz = cell / (c->dims[0] * c->dims[1]);
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
-        float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0};
+        float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0}, part[6][8];
+        memset(part, 0, sizeof part);
         if (lanes)
             hbk_fluid_forces_lanes(c, soa, st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
                                    (const float (*)[3])mi.sgn, (const float (*)[3])mi.off, ap,
@@ -174,6 +180,7 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             /* im = -1: j itself (not i); im >= 0: j's images (i's own included). */
+            float *pa = part[0] + hbk_fluid_lane_of(j, a_);
             for (int im = j == i ? 0 : -1; im < mi.n; ++im) {
                 float d3[3], vj[3];
                 for (int a = 0; a < 3; ++a) {
@@ -187,12 +194,17 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
                 if (rr > 1e-9f * H) {
                     /* -m (P_i + P_j) grad_i W, grad_i W = -spiky q^2 (x_i - x_j) / r: apart. */
                     const float f = m * (xi[7] + xj[7]) * spiky * q * q / rr;
-                    for (int a = 0; a < 3; ++a) ap[a] += f * d3[a];
+                    for (int a = 0; a < 3; ++a) pa[8 * a] += f * d3[a];
                 }
                 const float w = m / xj[6] * visc * q;
-                for (int a = 0; a < 3; ++a) fv[a] += w * (vj[a] - xi[3 + a]);
+                for (int a = 0; a < 3; ++a) pa[8 * (3 + a)] += w * (vj[a] - xi[3 + a]);
             }
         })
+        if (!lanes)
+            for (int a = 0; a < 3; ++a) {
+                ap[a] = hbk_fluid_lane_sum(part[a]);
+                fv[a] = hbk_fluid_lane_sum(part[3 + a]);
+            }
         const float rhoi = xi[6];
         float v[3], x[3];
         for (int a = 0; a < 3; ++a) {

@@ -1,8 +1,9 @@
-/* The SPH gathers of a particle away from the walls, eight candidate neighbours at a time in
- * AVX2 lanes. Each pair's terms are the scalar code's operations (no FMA, IEEE sqrt and
- * division in every lane), and the terms of the neighbours within reach are then added one by
- * one in the candidates' order, as the scalar loop adds them: the same bytes, several times
- * faster. The candidates are read from the structure-of-arrays copy of the sorted particles
+/* The SPH gathers of a particle, eight candidate neighbours at a time in AVX2 lanes. Each
+ * pair's terms are the scalar code's operations (no FMA, IEEE sqrt and division in every lane)
+ * and each lane keeps its own partial sums, which hbk_fluid_lane_sum adds at the end: the
+ * scalar code sums in the same lanes (hbk_fluid_lane_of), so the bytes are the same. (Adding
+ * each neighbour's terms one by one in order, as before, cost a mispredicted branch or two per
+ * eight candidates.) The candidates are read from the structure-of-arrays copy of the sorted particles
  * (h->soa: x, y, z, vx, vy, vz, density, p / density^2, each padded by 8). */
 #include "internal_fluid.h"
 
@@ -19,12 +20,6 @@ int hbk_fluid_sph_lanes(void) { return hbk_paths() >= HBK_PATHS_AVX2; }
         __builtin_memcpy(&v_, (p), sizeof v_);                                               \
         v_;                                                                                  \
     })
-
-/* Bit l set when lane l holds a candidate below `end` and mask lane l is set (a macro: it
- * uses an AVX instruction). */
-#define bits_of(mask, j, end)                                                                \
-    ((unsigned)__builtin_ia32_movmskps256((v8f)(mask)) &                                     \
-     ((end) - (j) >= 8 ? 0xffu : (1u << ((end) - (j))) - 1u))
 
 /* The rows of cells around (cx, cy, cz): each a contiguous range of sorted particles. */
 #define FOR_ROWS(c, cx, cy, cz, a_, e_, ...)                                                 \
@@ -44,7 +39,6 @@ int hbk_fluid_sph_lanes(void) { return hbk_paths() >= HBK_PATHS_AVX2; }
 
 /* Images: 0 is the neighbour itself; 1 .. nim its mirror images across the walls (sgn * x +
  * off per axis), in the scalar loop's order. */
-enum { MAX_IMAGES = 27 };
 
 __attribute__((target("avx2"))) float
 hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
@@ -54,13 +48,12 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t str
     const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
     const v8f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
     const v8f h = zero + H, h2 = zero + H * H;
-    float sum = 0.0f;
-    float t[MAX_IMAGES][8];
-    unsigned bim[MAX_IMAGES];
+    const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    v8f part = zero;
     FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
             const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
-            unsigned any = 0;
+            const v8i in = lane + j < e;
             for (int im = 0; im <= nim; ++im) {
                 v8f dx, dy, dz;
                 if (im == 0) {
@@ -72,23 +65,16 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t str
                     dz = z - (sg[2] * zj + of[2]);
                 }
                 const v8f r2 = dx * dx + dy * dy + dz * dz;
-                bim[im] = bits_of(r2 < h2, j, e);
-                any |= bim[im];
-                if (!bim[im]) continue;
+                const v8i near = in & (r2 < h2);
+                if (!__builtin_ia32_movmskps256((v8f)near)) continue;
                 const v8f q = h - __builtin_ia32_sqrtps256(r2), q3 = q * q * q;
-                __builtin_memcpy(t[im], &q3, sizeof t[im]);
-            }
-            if (!nim) { /* away from the walls: the set lanes in order */
-                for (unsigned b = any; b; b &= b - 1) sum += t[0][__builtin_ctz(b)];
-                continue;
-            }
-            for (unsigned b = any; b; b &= b - 1) {
-                const int l = __builtin_ctz(b);
-                for (int im = 0; im <= nim; ++im)
-                    if (bim[im] >> l & 1u) sum += t[im][l];
+                part += (v8f)((v8i)q3 & near); /* + 0 where out of reach: the same bits */
             }
         }
     })
+    float p[8];
+    __builtin_memcpy(p, &part, sizeof p);
+    const float sum = hbk_fluid_lane_sum(p);
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
     return sum;
 }
@@ -107,12 +93,11 @@ hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stri
     const v8f h = zero + H, h2 = zero + H * H, tiny = zero + 1e-9f * H;
     const v8f vm = zero + m, vs = zero + spiky, vv = zero + visc;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
-    float u[MAX_IMAGES][6][8];
-    unsigned bim[MAX_IMAGES], bpr[MAX_IMAGES];
+    v8f part[6] = {zero, zero, zero, zero, zero, zero};
     FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
             const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
-            unsigned any = 0;
+            const v8i in = lane + j < e;
             for (int im = 0; im <= nim; ++im) {
                 /* the scalar code's sg * x + of, with sg = 1 and of = 0 for j itself */
                 const float one[3] = {1.0f, 1.0f, 1.0f}, nil[3] = {0.0f, 0.0f, 0.0f};
@@ -121,33 +106,24 @@ hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stri
                           dz = z - (sg[2] * zj + of[2]);
                 const v8f r2 = dx * dx + dy * dy + dz * dz;
                 /* j itself is not its own neighbour, but its images are */
-                bim[im] = bits_of(im ? (r2 < h2) : (r2 < h2) & (lane + j != i), j, e);
-                any |= bim[im];
-                if (!bim[im]) continue;
+                const v8i near = in & (r2 < h2) & (im ? lane == lane : lane + j != i);
+                if (!__builtin_ia32_movmskps256((v8f)near)) continue;
                 const v8f rr = __builtin_ia32_sqrtps256(r2), q = h - rr;
-                bpr[im] = bits_of(rr > tiny, j, e);
+                const v8i push = near & (rr > tiny);
                 const v8f f = vm * (pi + load8(P + j)) * vs * q * q / rr;
                 const v8f w = vm / load8(R + j) * vv * q;
                 const v8f t[6] = {f * dx, f * dy, f * dz, w * (sg[0] * load8(VX + j) - vx),
                                   w * (sg[1] * load8(VY + j) - vy),
                                   w * (sg[2] * load8(VZ + j) - vz)};
-                __builtin_memcpy(u[im], t, sizeof u[im]);
-            }
-            for (unsigned b = any; b; b &= b - 1) {
-                const int l = __builtin_ctz(b);
-                for (int im = 0; im <= nim; ++im) {
-                    if (!(bim[im] >> l & 1u)) continue;
-                    if (bpr[im] >> l & 1u) {
-                        ap[0] += u[im][0][l];
-                        ap[1] += u[im][1][l];
-                        ap[2] += u[im][2][l];
-                    }
-                    fv[0] += u[im][3][l];
-                    fv[1] += u[im][4][l];
-                    fv[2] += u[im][5][l];
-                }
+                for (int q6 = 0; q6 < 6; ++q6) /* + 0 where out of reach: the same bits */
+                    part[q6] += (v8f)((v8i)t[q6] & (q6 < 3 ? push : near));
             }
         }
     })
+    for (int q6 = 0; q6 < 6; ++q6) {
+        float p[8];
+        __builtin_memcpy(p, &part[q6], sizeof p);
+        (q6 < 3 ? ap : fv)[q6 % 3] = hbk_fluid_lane_sum(p);
+    }
     __builtin_ia32_vzeroupper();
 }
