@@ -5,16 +5,25 @@
 #include <omp.h>
 #include <string.h>
 
-/* Source point in voxel units of the point x (voxel units), midpoint rule. */
-static inline void trace(const hbk_fluid_t *h, const float *motion, const size_t off[8],
-                         const float x[3], float dt, const float v0[3], float src[3])
+/* Back-traces by the midpoint rule from the point x (voxel units) where the flow is v0, in two
+ * halves: the midpoint (l), then the source from the flow there (l again). The rows below run
+ * each half over many points before the next: one point's halves are a chain of dependent
+ * loads, and many points' chains then overlap. */
+static inline void trace_mid(const hbk_fluid_t *h, const float x[3], float dt, const float v0[3],
+                             hbk_fluid_lerp_t *l)
 {
-    float mid[3], vm[3];
+    float mid[3];
     for (int a = 0; a < 3; ++a) mid[a] = x[a] - 0.5f * dt * v0[a] * h->inv_cell[a];
-    hbk_fluid_lerp_t l;
-    hbk_fluid_lerp_at(h, mid, &l);
-    hbk_fluid_sample3_o(motion, off, &l, vm);
+    hbk_fluid_lerp_at(h, mid, l);
+}
+
+static inline void trace_src(const hbk_fluid_t *h, const float *motion, const size_t off[8],
+                             const float x[3], float dt, hbk_fluid_lerp_t *l)
+{
+    float vm[3], src[3];
+    hbk_fluid_sample3_o(motion, off, l, vm);
     for (int a = 0; a < 3; ++a) src[a] = x[a] - dt * vm[a] * h->inv_cell[a];
+    hbk_fluid_lerp_at(h, src, l);
 }
 
 /* The AVX2 path: the two uvw fields (or the base blend and the paint) of a corner side by side
@@ -97,14 +106,16 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
 }
 
 /* The per-vertex samples of the moving vertices of row (j, k), and the plain copies of the
- * still ones; UVW samples both uvw fields, BP the base blend and the paint. */
+ * still ones; UVW samples both uvw fields, BP the base blend and the paint. Each step of the
+ * back-trace, then the samples, runs over the whole row before the next (see trace_mid). */
 #define ADVECT_ROW(UVW, BP)                                                                  \
     const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
+    hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
+    int32_t at[257], nmov = 0;                                                               \
     for (int32_t i = 0; i < nx; ++i) {                                                       \
         const size_t vi = row + (size_t)i;                                                   \
         const float *v0 = m + 3 * vi;                                                        \
         const float x[3] = {(float)i, (float)j, (float)k};                                   \
-        float src[3];                                                                        \
         if ((i & 3) == 0) { /* the rows ahead that the next samples will read */             \
             const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny, ahead = vi + 16;     \
             for (int q = 0; q < 2; ++q) {                                                    \
@@ -120,9 +131,16 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
         const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;                  \
         h->moving[vi] = (uint8_t)!still;                                                     \
         if (still) continue; /* copied with its run, below */                                \
-        trace(h, m, off, x, dt, v0, src);                                                    \
-        hbk_fluid_lerp_t l;                                                                  \
-        hbk_fluid_lerp_at(h, src, &l);                                                       \
+        trace_mid(h, x, dt, v0, &ls[nmov]);                                                  \
+        at[nmov++] = i;                                                                      \
+    }                                                                                        \
+    for (int32_t q = 0; q < nmov; ++q) {                                                     \
+        const float x[3] = {(float)at[q], (float)j, (float)k};                               \
+        trace_src(h, m, off, x, dt, &ls[q]);                                                 \
+    }                                                                                        \
+    for (int32_t q = 0; q < nmov; ++q) {                                                     \
+        const hbk_fluid_lerp_t l = ls[q];                                                    \
+        const size_t vi = row + (size_t)at[q];                                               \
         UVW;                                                                                 \
         float *b = out->base + (size_t)K * vi;                                               \
         BP;                                                                                  \
@@ -227,22 +245,32 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
         memcpy(out->wrap[1] + v0i, in->wrap[1] + v0i, (size_t)rx);                           \
         return;                                                                              \
     }                                                                                        \
+    /* The voxel each centre came from: the flow at the centres, the midpoints, the sources,  \
+     * each over the row before the next (see trace_mid). */                                 \
+    size_t from[257];                                                                        \
+    hbk_fluid_lerp_t ls[257];                                                                \
+    int32_t at[257], nmov = 0;                                                               \
     for (int32_t i = 0; i < rx; ++i) {                                                       \
         const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \
-        const uint8_t any = col[i] | col[i + 1];                                             \
-        uint8_t f0 = in->wrap[0][vox], f1 = in->wrap[1][vox];                                \
-        if (any) {                                                                           \
-            const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};          \
-            /* hbk_fluid_lerp_at of the centre, without its clamps */                        \
-            hbk_fluid_lerp_t l = {b, vox, {0.5f, 0.5f, 0.5f}};                               \
-            float v0[3], src[3];                                                             \
-            hbk_fluid_sample3_o(m, off, &l, v0);                                             \
-            trace(h, m, off, x, dt, v0, src);                                                \
-            hbk_fluid_lerp_at(h, src, &l);                                                   \
-            f0 = in->wrap[0][l.voxel];                                                       \
-            f1 = in->wrap[1][l.voxel];                                                       \
-        }                                                                                    \
-        if (any || !checked) REPAIR;                                                         \
+        from[i] = vox;                                                                       \
+        if (!(col[i] | col[i + 1])) continue;                                                \
+        const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};              \
+        /* hbk_fluid_lerp_at of the centre, without its clamps */                            \
+        const hbk_fluid_lerp_t l = {b, vox, {0.5f, 0.5f, 0.5f}};                             \
+        float v0[3];                                                                         \
+        hbk_fluid_sample3_o(m, off, &l, v0);                                                 \
+        trace_mid(h, x, dt, v0, &ls[nmov]);                                                  \
+        at[nmov++] = i;                                                                      \
+    }                                                                                        \
+    for (int32_t q = 0; q < nmov; ++q) {                                                     \
+        const float x[3] = {(float)at[q] + 0.5f, (float)j + 0.5f, (float)k + 0.5f};          \
+        trace_src(h, m, off, x, dt, &ls[q]);                                                 \
+        from[at[q]] = ls[q].voxel;                                                           \
+    }                                                                                        \
+    for (int32_t i = 0; i < rx; ++i) {                                                       \
+        const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \
+        uint8_t f0 = in->wrap[0][from[i]], f1 = in->wrap[1][from[i]];                        \
+        if ((col[i] | col[i + 1]) || !checked) REPAIR;                                       \
         out->wrap[0][vox] = f0;                                                              \
         out->wrap[1][vox] = f1;                                                              \
     }
