@@ -85,6 +85,8 @@ struct hbk_fluid {
     uint8_t *mc_mask, *mc_in, *mc_row_in;
     int32_t *mc_first;
     int64_t *mc_row_v, *mc_row_t;
+    float *mc_raw;              /* the edge vertices' crossings before the clamp to the box */
+    size_t mc_cap_raw;
     double ms[4];
 };
 

@@ -114,7 +114,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     uint8_t *mask = h->mc_mask, *in_at = h->mc_in, *row_in = h->mc_row_in;
     int32_t *first = h->mc_first;
     int64_t *row_v = h->mc_row_v, *row_t = h->mc_row_t;
-    float *pos = NULL, *nrm = NULL;
+    float *pos = NULL, *nrm = NULL, *raw = NULL;
     int32_t *tri = NULL;
     hbk_result_t r = HBK_OK;
     if (!mask || !in_at || !row_in || !first || !row_v || !row_t) {
@@ -211,6 +211,14 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
         h->next_tri = t2;
         h->next_cap_t = cap;
     }
+    if ((size_t)NV + 1 > h->mc_cap_raw) {
+        const size_t cap = (size_t)NV + 1 + ((size_t)NV + 1) / 4;
+        float *r2 = realloc(h->mc_raw, 3 * cap * sizeof *r2);
+        if (!r2) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
+        h->mc_raw = r2;
+        h->mc_cap_raw = cap;
+    }
+    raw = h->mc_raw;
     pos = h->next_pos;
     nrm = h->next_nrm;
     tri = h->next_tri;
@@ -229,6 +237,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                     if (!(mask[pi] >> (d - 1) & 1)) continue;
                     float x[3], t, g0[3], g1[3];
                     crossing(&m, i, j, k, d, x, &t);
+                    memcpy(raw + 3 * (size_t)id, x, sizeof x); /* unclamped, for pass (3) */
                     grad(&m, i, j, k, g0);
                     grad(&m, i + (d & 1), j + (d >> 1 & 1), k + (d >> 2 & 1), g1);
                     float n[3], nn = 0.0f;
@@ -286,8 +295,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                             const uint8_t mk = mask[pidx(&m, pi, pj, pk)];
                             ev[a][b] = first[pidx(&m, pi, pj, pk)] +
                                        pop8(mk & ((1u << (d - 1)) - 1u));
-                            float tt;
-                            crossing(&m, pi, pj, pk, d, ep[a][b], &tt);
+                            memcpy(ep[a][b], raw + 3 * (size_t)ev[a][b], sizeof ep[a][b]);
                         }
                     /* Reference direction: from the inside corners' mean to the outside's. */
                     float dirv[3] = {0, 0, 0};
