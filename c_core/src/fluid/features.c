@@ -121,7 +121,7 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                 if (gg > 0.0f && vv > 0.0f) {
                     float cs = gv / sqrtf(gg * vv);
                     cs = cs > 1.0f ? 1.0f : cs < -1.0f ? -1.0f : cs;
-                    ang = acosf(cs);
+                    ang = hbk_fluid_acos(cs);
                 }
                 o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang;
                 float acc = 0.0f;

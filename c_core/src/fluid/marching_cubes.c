@@ -413,7 +413,7 @@ hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32
             if (vv > 0.0f) {
                 float cs = (vm[0] * n[0] + vm[1] * n[1] + vm[2] * n[2]) / vv;
                 cs = cs > 1.0f ? 1.0f : cs < -1.0f ? -1.0f : cs;
-                if (n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f) ang = acosf(cs);
+                if (n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f) ang = hbk_fluid_acos(cs);
             }
             o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang;
         }
