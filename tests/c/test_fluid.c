@@ -592,10 +592,11 @@ void test_fluid_crossfade(void)
 }
 
 /* A full scene: SPH with obstacles, paint, rules and the surface. */
-static hbk_fluid_t *scene(int threads)
+static hbk_fluid_t *scene_r(int threads, float metaball_radius)
 {
     hbk_fluid_params_t p = params(24, HBK_FLUID_SIMULATE);
     p.threads = threads;
+    if (metaball_radius > 0.0f) p.metaball_radius = metaball_radius;
     p.max_particles = 4000;
     p.substeps = 10;
     p.seed = 1234;
@@ -613,6 +614,8 @@ static hbk_fluid_t *scene(int threads)
     hbk_fluid_set_feature_rule(h, 2, rlo, rhi);
     return h;
 }
+
+static hbk_fluid_t *scene(int threads) { return scene_r(threads, 0.0f); }
 
 static unsigned char *snapshot(hbk_fluid_t *h, size_t *size)
 {
@@ -735,25 +738,30 @@ void test_fluid_noise_tileable(void)
     free(u);
 }
 
-/* The SPH lanes and the vectorised splat (AVX2) give the bytes of the plain code: HBK_PATHS
- * switches them (see c_core/src/base/paths.c). Walls, obstacles, paint and resets included. */
+/* The SPH lanes, the vectorised splat and the paired advection (AVX2) give the bytes of the
+ * plain code: HBK_PATHS switches them (see c_core/src/base/paths.c). Walls, obstacles, paint
+ * and resets included; the metaball sum derived (radius = smoothing length, the default) and
+ * splatted on its own. */
 void test_fluid_paths_same_bytes(void)
 {
-    unsigned char *x[2] = {NULL, NULL};
-    size_t s[2] = {0, 0};
-    for (int k = 0; k < 2; ++k) {
-        if (k == 0) setenv("HBK_PATHS", "scalar", 1);
-        hbk_fluid_t *h = scene(2);
-        int ok = h != NULL;
-        for (int f = 0; f < 4 && ok; ++f) ok = hbk_fluid_step(h, NULL) == HBK_OK;
-        unsetenv("HBK_PATHS");
-        CHECK(ok);
-        x[k] = snapshot(h, &s[k]);
-        hbk_fluid_destroy(h);
+    for (int own = 0; own < 2; ++own) {
+        unsigned char *x[2] = {NULL, NULL};
+        size_t s[2] = {0, 0};
+        for (int k = 0; k < 2; ++k) {
+            if (k == 0) setenv("HBK_PATHS", "scalar", 1);
+            hbk_fluid_t *h = scene_r(2, own ? 0.05f : 0.0f);
+            int ok = h != NULL;
+            for (int f = 0; f < 4 && ok; ++f) ok = hbk_fluid_step(h, NULL) == HBK_OK;
+            ok = ok && hbk_fluid_update_surface(h, NULL) == HBK_OK;
+            unsetenv("HBK_PATHS");
+            CHECK(ok);
+            x[k] = snapshot(h, &s[k]);
+            hbk_fluid_destroy(h);
+        }
+        CHECK(s[0] == s[1] && !memcmp(x[0], x[1], s[0]));
+        free(x[0]);
+        free(x[1]);
     }
-    CHECK(s[0] == s[1] && !memcmp(x[0], x[1], s[0]));
-    free(x[0]);
-    free(x[1]);
 }
 
 /* Shear flow vx = s (z - 1/2): field A (reset at frame 0, every 24 frames) and B (reset at

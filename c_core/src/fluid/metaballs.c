@@ -1,5 +1,8 @@
 /* Particles to grid: SPH density, Shepard-averaged velocity (V_m before clamping) and the
- * metaball sum of the surface, at the grid vertices. */
+ * metaball sum of the surface, at the grid vertices. The density is the Shepard weight sum
+ * times a constant (both use poly6), and when the metaball radius is the smoothing length so
+ * is the metaball sum ((1 - r^2/R^2)^3 = (R^2 - r^2)^3 / R^6): the splat then adds four sums
+ * per vertex, not six, and the normalisation derives the others. */
 #include "internal_fluid.h"
 #include <omp.h>
 #include <string.h>
@@ -8,8 +11,9 @@ typedef float v8f __attribute__((vector_size(32)));
 typedef int32_t v8i __attribute__((vector_size(32)));
 
 typedef struct {
-    float *dens, *wsum, *surf, *mot[3]; /* vertex sums; motion as three planes */
-    float H2, R2, inv_R2, dens_k;
+    float *wsum, *surf, *mot[3]; /* vertex sums; motion as three planes */
+    float H2, R2, inv_R2;
+    int own_surf;                /* the metaball sum is splatted (R != H), not derived */
 } splat_t;
 
 /* Adds particle (x, v) to vertices [a0, a1] of one row (at `row`), whose offsets from the
@@ -25,13 +29,12 @@ splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float 
         const size_t vi = row + (size_t)kx;
         if (r2 < s->H2) {
             const float d = s->H2 - r2, w = d * d * d;
-            s->dens[vi] += s->dens_k * w;
             s->wsum[vi] += w;
             s->mot[0][vi] += w * v[0];
             s->mot[1][vi] += w * v[1];
             s->mot[2][vi] += w * v[2];
         }
-        if (r2 < s->R2) {
+        if (s->own_surf && r2 < s->R2) {
             const float t = 1.0f - r2 * s->inv_R2;
             s->surf[vi] += t * t * t;
         }
@@ -55,21 +58,24 @@ splat_row_avx2(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, f
         const v8f dx = (zero + lo) + k * cl - x[0];
         const v8f r2 = dx * dx + ryz;
         const v8i mh = in & (r2 < H2), mr = in & (r2 < R2);
-        float *at[6] = {s->dens + row + kx, s->wsum + row + kx, s->mot[0] + row + kx,
-                        s->mot[1] + row + kx, s->mot[2] + row + kx, s->surf + row + kx};
+        float *at[5] = {s->wsum + row + kx, s->mot[0] + row + kx, s->mot[1] + row + kx,
+                        s->mot[2] + row + kx, s->surf + row + kx};
         const v8f d = H2 - r2, w = d * d * d, t = one - r2 * s->inv_R2;
-        const v8f add[6] = {s->dens_k * w, w, w * v[0], w * v[1], w * v[2], t * t * t};
+        const v8f add[5] = {w, w * v[0], w * v[1], w * v[2], t * t * t};
+        const int n = 4 + s->own_surf;
         if (kx + 8 <= nx) {
-            HBK_UNROLL8 for (int q = 0; q < 6; ++q) {
+            HBK_UNROLL8 for (int q = 0; q < 5; ++q) {
+                if (q == n) break;
                 v8f old;
                 memcpy(&old, at[q], sizeof old);
-                old += (v8f)((v8i)add[q] & (q < 5 ? mh : mr));
+                old += (v8f)((v8i)add[q] & (q < 4 ? mh : mr));
                 memcpy(at[q], &old, sizeof old);
             }
             continue;
         }
-        HBK_UNROLL8 for (int q = 0; q < 6; ++q) {
-            const v8i m = q < 5 ? mh : mr;
+        HBK_UNROLL8 for (int q = 0; q < 5; ++q) {
+            if (q == n) break;
+            const v8i m = q < 4 ? mh : mr;
             const v8f old = __builtin_ia32_maskloadps256((const v8f *)at[q], m);
             __builtin_ia32_maskstoreps256((v8f *)at[q], m, old + add[q]);
         }
@@ -99,7 +105,7 @@ splat_row_avx2(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, f
             for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {                                    \
                 const float dy = lo[1] + (float)ky * cl[1] - x[1];                           \
                 const float ryz = dy * dy + dz * dz;                                         \
-                if (ryz >= s->H2 && ryz >= s->R2) continue;                                  \
+                if (ryz >= s->H2 && (!s->own_surf || ryz >= s->R2)) continue;                \
                 const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz);      \
                 ROW(s, row, a0[0], a1[0], lo[0], cl[0], x, v, ryz, nx);                     \
             }                                                                                \
@@ -129,24 +135,26 @@ splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
 {
     const size_t nv = h->n_vert;
-    memset(h->g_density, 0, nv * sizeof(float));
-    memset(h->g_surface, 0, nv * sizeof(float));
+    const float H = h->p.smoothing_length, R = h->p.metaball_radius;
+    const int own_surf = R != H;
+    const int32_t n = h->count;
     memset(h->g_mplanes, 0, 3 * nv * sizeof(float));
     memset(h->g_wsum, 0, nv * sizeof(float));
-    const int32_t n = h->count;
+    if (n == 0 || own_surf) memset(h->g_surface, 0, nv * sizeof(float));
     if (n == 0) {
+        memset(h->g_density, 0, nv * sizeof(float));
         memset(h->g_motion, 0, 3 * nv * sizeof(float));
         return HBK_OK;
     }
-    const float H = h->p.smoothing_length, R = h->p.metaball_radius;
     const float S = H > R ? H : R;
     hbk_fluid_cells_t *c = &h->cells;
     hbk_result_t r = hbk_fluid_cells_build(c, h->pos, n, h->p.box_min, h->p.box_max, S, threads);
     if (r) return r;
-    const splat_t s = {h->g_density, h->g_wsum, h->g_surface,
+    const splat_t s = {h->g_wsum, h->g_surface,
                        {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv},
-                       H * H, R * R, 1.0f / (R * R),
-                       (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)))};
+                       H * H, R * R, 1.0f / (R * R), own_surf};
+    const float dens_k = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
+    const float surf_k = (float)(1.0 / pow(R, 6));
     const int32_t nz = h->nv[2];
     const float *lo = h->p.box_min, *cl = h->cell;
     const int32_t slab = 8, chunks = (nz + slab - 1) / slab;
@@ -160,10 +168,12 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
         const int32_t p0 = c->start[(size_t)c0 * layer], p1 = c->start[(size_t)(c1 + 1) * layer];
         (avx2 ? splat_chunk_avx2 : splat_chunk_sse)(h, &s, z0, z1, p0, p1, S);
     }
-    /* Shepard-normalised velocity, interleaved. */
+    /* Shepard-normalised velocity, interleaved; the density and (R = H) the metaball sum. */
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (size_t i = 0; i < nv; ++i) {
         const float w = h->g_wsum[i];
+        h->g_density[i] = dens_k * w;
+        if (!own_surf) h->g_surface[i] = surf_k * w;
         for (int a = 0; a < 3; ++a) {
             const float sum = h->g_mplanes[(size_t)a * nv + i];
             h->g_motion[3 * i + (size_t)a] = w > 0.0f ? sum / w : sum;
