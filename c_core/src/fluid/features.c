@@ -7,22 +7,181 @@
 #include <omp.h>
 #include <stdlib.h>
 
-/* Central difference of channel c of an nv x ch field along axis a at vertex (i, j, k), per
- * metre; one-sided at the borders. */
-static inline float diff(const hbk_fluid_t *h, const float *f, int ch, int c, const int32_t ijk[3],
-                         int a)
+typedef float v8f __attribute__((vector_size(32)));
+typedef int32_t v8i __attribute__((vector_size(32)));
+
+/* What the passes share. V_m and the normal are read as three planes (one per axis), so that
+ * eight vertices of a row are eight floats in a row for the AVX2 path. */
+typedef struct feat {
+    const hbk_fluid_t *h;
+    const float *mp[3]; /* V_m (g_mplanes, free by now) */
+    float *np[3];       /* the outward unit normal (g_normal) */
+    size_t st[3];       /* vertex strides */
+    float inv_dt, gmin2;
+    int prev;           /* last frame's fields are there (the rates) */
+} feat_t;
+
+/* Central difference per metre of plane f along axis a at vertex vi = (i, j, k) (ijk[a] is
+ * the coordinate along a); one-sided at the borders. */
+static inline float diff(const feat_t *f, const float *p, size_t vi, const int32_t ijk[3], int a)
 {
-    static const size_t one = 1;
-    const size_t stride[3] = {one, (size_t)h->nv[0], (size_t)h->nv[0] * (size_t)h->nv[1]};
-    const size_t vi = (size_t)ijk[0] + stride[1] * (size_t)ijk[1] + stride[2] * (size_t)ijk[2];
-    const int lo = ijk[a] > 0, hi = ijk[a] < h->nv[a] - 1;
-    const float fl = f[(size_t)ch * (vi - (lo ? stride[a] : 0)) + (size_t)c];
-    const float fh = f[(size_t)ch * (vi + (hi ? stride[a] : 0)) + (size_t)c];
+    const int lo = ijk[a] > 0, hi = ijk[a] < f->h->nv[a] - 1;
+    const float fl = p[vi - (lo ? f->st[a] : 0)], fh = p[vi + (hi ? f->st[a] : 0)];
     const int span = lo + hi;
     /* / span, as a product: x / 2 and x * 0.5 are the same float (both the exact half,
      * rounded), and a division costs several products */
-    return span ? (fh - fl) * h->inv_cell[a] * (span == 2 ? 0.5f : 1.0f) : 0.0f;
+    return span ? (fh - fl) * f->h->inv_cell[a] * (span == 2 ? 0.5f : 1.0f) : 0.0f;
 }
+
+/* The features of vertex (i, j, k) but the curvature, and its normal. */
+static void vertex_features(const feat_t *f, int32_t i, int32_t j, int32_t k)
+{
+    const hbk_fluid_t *h = f->h;
+    const int32_t ijk[3] = {i, j, k};
+    const size_t vi = (size_t)i + f->st[1] * (size_t)j + f->st[2] * (size_t)k;
+    float *o = h->g_features + (size_t)HBK_FLUID_FEATURE_COUNT * vi;
+    const float d = h->g_density[vi];
+    const float v[3] = {f->mp[0][vi], f->mp[1][vi], f->mp[2][vi]};
+    o[HBK_FLUID_FEATURE_DENSITY] = d;
+    o[HBK_FLUID_FEATURE_DENSITY_RATE] = f->prev ? (d - h->density[vi]) * f->inv_dt : 0.0f;
+    float g[3], gg = 0.0f, vv = 0.0f, gv = 0.0f, div = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+        g[a] = -diff(f, h->g_density, vi, ijk, a); /* outward */
+        gg += g[a] * g[a];
+        vv += v[a] * v[a];
+        gv += g[a] * v[a];
+        div += diff(f, f->mp[a], vi, ijk, a);
+    }
+    float ang = (float)(0.5 * M_PI);
+    if (gg > 0.0f && vv > 0.0f) {
+        float cs = gv / sqrtf(gg * vv);
+        cs = cs > 1.0f ? 1.0f : cs < -1.0f ? -1.0f : cs;
+        ang = hbk_fluid_acos(cs);
+    }
+    o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang;
+    float acc = 0.0f;
+    if (f->prev) {
+        const float *pv = h->motion + 3 * vi;
+        const float ax = v[0] - pv[0], ay = v[1] - pv[1], az = v[2] - pv[2];
+        acc = sqrtf(ax * ax + ay * ay + az * az) * f->inv_dt;
+    }
+    o[HBK_FLUID_FEATURE_ACCELERATION] = acc;
+    o[HBK_FLUID_FEATURE_DIVERGENCE] = div;
+    /* The outward unit normal, where the density changes enough to have one: a uniform
+     * interior's tiny gradients would point anywhere. */
+    const int has = gg > f->gmin2;
+    const float inv = has ? 1.0f / sqrtf(gg) : 0.0f;
+    for (int a = 0; a < 3; ++a) f->np[a][vi] = g[a] * inv;
+}
+
+/* Half the divergence of the normal field at vertex (i, j, k): the mean curvature. */
+static void vertex_curvature(const feat_t *f, int32_t i, int32_t j, int32_t k)
+{
+    const int32_t ijk[3] = {i, j, k};
+    const size_t vi = (size_t)i + f->st[1] * (size_t)j + f->st[2] * (size_t)k;
+    float dn = 0.0f;
+    if (f->np[0][vi] != 0.0f || f->np[1][vi] != 0.0f || f->np[2][vi] != 0.0f)
+        for (int a = 0; a < 3; ++a) dn += diff(f, f->np[a], vi, ijk, a);
+    f->h->g_features[(size_t)HBK_FLUID_FEATURE_COUNT * vi + HBK_FLUID_FEATURE_CURVATURE] = 0.5f * dn;
+}
+
+/* The AVX2 path: eight vertices of a row away from every border (each difference central), in
+ * lanes, with vertex_features' and vertex_curvature's operations per lane: the same bytes. */
+#define L8(p)                                                                                \
+    ({                                                                                       \
+        v8f v_;                                                                              \
+        __builtin_memcpy(&v_, (p), sizeof v_);                                               \
+        v_;                                                                                  \
+    })
+#define SEL8(m, a, b) ((v8f)(((v8i)(a) & (m)) | ((v8i)(b) & ~(m))))
+
+__attribute__((target("avx2"))) static void features8(const feat_t *f, size_t vi)
+{
+    const hbk_fluid_t *h = f->h;
+    const v8f zero = {0}, one = zero + 1.0f, half = zero + 0.5f;
+    const float *D = h->g_density;
+    const v8f d = L8(D + vi);
+    const v8f rate = f->prev ? (d - L8(h->density + vi)) * f->inv_dt : zero;
+    v8f g[3], v[3], gg = zero, vv = zero, gv = zero, div = zero;
+    for (int a = 0; a < 3; ++a) {
+        const size_t s = f->st[a];
+        const float sc = h->inv_cell[a];
+        v[a] = L8(f->mp[a] + vi);
+        g[a] = -((L8(D + vi + s) - L8(D + vi - s)) * sc * half);
+        gg += g[a] * g[a];
+        vv += v[a] * v[a];
+        gv += g[a] * v[a];
+        div += (L8(f->mp[a] + vi + s) - L8(f->mp[a] + vi - s)) * sc * half;
+    }
+    /* the flow angle, hbk_fluid_acos in lanes (both of its branches, then the right one) */
+    v8f cs = gv / __builtin_ia32_sqrtps256(gg * vv);
+    cs = SEL8(cs > one, one, cs);
+    cs = SEL8(cs < -one, -one, cs);
+    const v8i nosign = (v8i){0} + 0x7fffffff;
+    const v8f a = (v8f)((v8i)cs & nosign), twice = zero + 2.0f;
+    const v8i wide = a > half;
+    const v8f z = SEL8(wide, half * (one - a), a * a);
+    const v8f sq = SEL8(wide, __builtin_ia32_sqrtps256(z), a);
+    const v8f p = ((((4.2163199048e-2f * z + 2.4181311049e-2f) * z + 4.5470025998e-2f) * z +
+                    7.4953002686e-2f) * z + 1.6666752422e-1f) * z * sq + sq;
+    const v8i neg = cs < zero;
+    const v8f pi = zero + 3.14159265f, pi2 = zero + 1.57079633f;
+    const v8f acw = SEL8(neg, pi - twice * p, twice * p), acn = SEL8(neg, pi2 + p, pi2 - p);
+    const v8f ang = SEL8((gg > zero) & (vv > zero), SEL8(wide, acw, acn), zero + (float)(0.5 * M_PI));
+    v8f acc = zero;
+    if (f->prev) {
+        const v8i idx = {0, 3, 6, 9, 12, 15, 18, 21};
+        const v8f all = (v8f)((v8i){0} - 1);
+        const float *pv = h->motion + 3 * vi;
+        v8f dv[3];
+        for (int q = 0; q < 3; ++q)
+            dv[q] = v[q] - __builtin_ia32_gathersiv8sf(zero, pv + q, idx, all, 4);
+        acc = __builtin_ia32_sqrtps256(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]) * f->inv_dt;
+    }
+    const v8f inv = SEL8(gg > f->gmin2, one / __builtin_ia32_sqrtps256(gg), zero);
+    for (int q = 0; q < 3; ++q) {
+        const v8f n = g[q] * inv;
+        __builtin_memcpy(f->np[q] + vi, &n, sizeof n);
+    }
+    float *o = h->g_features + (size_t)HBK_FLUID_FEATURE_COUNT * vi;
+    for (int l = 0; l < 8; ++l, o += HBK_FLUID_FEATURE_COUNT) {
+        o[HBK_FLUID_FEATURE_DENSITY] = d[l];
+        o[HBK_FLUID_FEATURE_DENSITY_RATE] = rate[l];
+        o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang[l];
+        o[HBK_FLUID_FEATURE_ACCELERATION] = acc[l];
+        o[HBK_FLUID_FEATURE_DIVERGENCE] = div[l];
+    }
+    __builtin_ia32_vzeroupper(); /* the caller is SSE code */
+}
+
+__attribute__((target("avx2"))) static void curvature8(const feat_t *f, size_t vi)
+{
+    const v8f zero = {0}, half = zero + 0.5f;
+    const v8i has = (L8(f->np[0] + vi) != zero) | (L8(f->np[1] + vi) != zero) |
+                    (L8(f->np[2] + vi) != zero);
+    v8f dn = zero;
+    for (int a = 0; a < 3; ++a)
+        dn += (L8(f->np[a] + vi + f->st[a]) - L8(f->np[a] + vi - f->st[a])) *
+              f->h->inv_cell[a] * half;
+    dn = half * SEL8(has, dn, zero);
+    float *o = f->h->g_features + (size_t)HBK_FLUID_FEATURE_COUNT * vi + HBK_FLUID_FEATURE_CURVATURE;
+    for (int l = 0; l < 8; ++l) o[(size_t)HBK_FLUID_FEATURE_COUNT * (size_t)l] = dn[l];
+    __builtin_ia32_vzeroupper();
+}
+
+/* Row (j, k) by PER (vertex_features or vertex_curvature), eight interior vertices at a time
+ * by PER8 when avx2 and the row is away from the y and z borders. */
+#define ROW(PER, PER8)                                                                       \
+    do {                                                                                     \
+        const int32_t nx = h->nv[0];                                                         \
+        int32_t i = 0;                                                                       \
+        if (avx2 && j > 0 && j < h->nv[1] - 1 && k > 0 && k < h->nv[2] - 1) {                \
+            PER(&f, 0, j, k);                                                                \
+            for (i = 1; i + 8 <= nx - 1; i += 8)                                             \
+                PER8(&f, (size_t)i + f.st[1] * (size_t)j + f.st[2] * (size_t)k);             \
+        }                                                                                    \
+        for (; i < nx; ++i) PER(&f, i, j, k);                                                \
+    } while (0)
 
 /* Every float of f[0 .. n) is +0, bit for bit. */
 static int all_zero(const float *f, size_t n)
@@ -53,36 +212,44 @@ static int quiet(const uint8_t *zc, const uint8_t *zp, int prev, int32_t j, int3
 void hbk_fluid_features(hbk_fluid_t *h, int threads)
 {
     const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2];
-    const float inv_dt = 1.0f / h->p.dt;
-    const int prev = h->have_fields;
+    const size_t nv = h->n_vert;
     const int F = HBK_FLUID_FEATURE_COUNT;
     /* A gradient counts as a surface's when the density changes by at least 2 % of its scale
      * (the rest density; 1 for a grid source's surface field) over one cell. */
     float cmin = h->cell[0] < h->cell[1] ? h->cell[0] : h->cell[1];
     cmin = cmin < h->cell[2] ? cmin : h->cell[2];
     const float scale = h->p.source == HBK_FLUID_VELOCITY_GRID ? 1.0f : h->p.rest_density;
-    const float gmin = 0.02f * scale / cmin, gmin2 = gmin * gmin;
-    const size_t st[3] = {1, (size_t)nx, (size_t)nx * (size_t)ny};
-    /* Rows whose density and velocity are all +0 (bit for bit), now and (zp) last frame: far
-     * from the fluid, a vertex's features are then constants (below), computed without it. */
+    const float gmin = 0.02f * scale / cmin;
+    const feat_t f = {h,
+                      {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv},
+                      {h->g_normal, h->g_normal + nv, h->g_normal + 2 * nv},
+                      {1, (size_t)nx, (size_t)nx * (size_t)ny},
+                      1.0f / h->p.dt,
+                      gmin * gmin,
+                      h->have_fields};
+    const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
+    /* V_m into planes; rows whose density and velocity are all +0 (bit for bit), now and (zp)
+     * last frame: far from the fluid, a vertex's features are then constants (below),
+     * computed without it. */
     const size_t rows = (size_t)ny * (size_t)nz;
     uint8_t *zc = malloc(2 * rows), *zp = zc ? zc + rows : NULL;
-    if (zc) {
 #pragma omp parallel for num_threads(threads) schedule(static)
-        for (size_t r = 0; r < rows; ++r) {
-            const size_t v0 = r * (size_t)nx;
-            zc[r] = all_zero(h->g_density + v0, (size_t)nx) &&
-                    all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx);
-            zp[r] = all_zero(h->density + v0, (size_t)nx) &&
-                    all_zero(h->motion + 3 * v0, 3 * (size_t)nx);
-        }
+    for (size_t r = 0; r < rows; ++r) {
+        const size_t v0 = r * (size_t)nx;
+        for (int32_t i = 0; i < nx; ++i)
+            for (int a = 0; a < 3; ++a)
+                h->g_mplanes[(size_t)a * nv + v0 + (size_t)i] = h->g_motion[3 * (v0 + (size_t)i) + (size_t)a];
+        if (!zc) continue;
+        zc[r] = all_zero(h->g_density + v0, (size_t)nx) &&
+                all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx);
+        zp[r] = all_zero(h->density + v0, (size_t)nx) && all_zero(h->motion + 3 * v0, 3 * (size_t)nx);
     }
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j) {
-            if (zc && quiet(zc, zp, prev, j, k, ny, nz)) {
-                /* What the loop below gives for zero fields: a rate and acceleration of +0,
+            if (zc && quiet(zc, zp, f.prev, j, k, ny, nz)) {
+                /* What vertex_features gives for zero fields: a rate and acceleration of +0,
                  * the gradient -0 (so a -0 normal), no flow angle (pi / 2). */
                 const size_t v0 = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
                 for (int32_t i = 0; i < nx; ++i) {
@@ -92,67 +259,16 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                     o[HBK_FLUID_FEATURE_FLOW_ANGLE] = (float)(0.5 * M_PI);
                     o[HBK_FLUID_FEATURE_ACCELERATION] = 0.0f;
                     o[HBK_FLUID_FEATURE_DIVERGENCE] = 0.0f;
-                    float *nrm = h->g_normal + 3 * (v0 + (size_t)i);
-                    nrm[0] = nrm[1] = nrm[2] = -0.0f;
+                    for (int a = 0; a < 3; ++a) f.np[a][v0 + (size_t)i] = -0.0f;
                 }
                 continue;
             }
-            for (int32_t i = 0; i < nx; ++i) {
-                const int32_t ijk[3] = {i, j, k};
-                const size_t vi = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
-                float *o = h->g_features + (size_t)F * vi;
-                const float d = h->g_density[vi], *v = h->g_motion + 3 * vi;
-                o[HBK_FLUID_FEATURE_DENSITY] = d;
-                o[HBK_FLUID_FEATURE_DENSITY_RATE] = prev ? (d - h->density[vi]) * inv_dt : 0.0f;
-                float g[3], gg = 0.0f, vv = 0.0f, gv = 0.0f, div = 0.0f;
-                for (int a = 0; a < 3; ++a) {
-                    /* diff() for both fields, its neighbours found once */
-                    const int lo = ijk[a] > 0, hi = ijk[a] < h->nv[a] - 1;
-                    const size_t il = vi - (lo ? st[a] : 0), ih = vi + (hi ? st[a] : 0);
-                    const float sc = h->inv_cell[a], half = lo + hi == 2 ? 0.5f : 1.0f;
-                    g[a] = -((h->g_density[ih] - h->g_density[il]) * sc * half); /* outward */
-                    gg += g[a] * g[a];
-                    vv += v[a] * v[a];
-                    gv += g[a] * v[a];
-                    div += (h->g_motion[3 * ih + (size_t)a] - h->g_motion[3 * il + (size_t)a]) *
-                           sc * half;
-                }
-                float ang = (float)(0.5 * M_PI);
-                if (gg > 0.0f && vv > 0.0f) {
-                    float cs = gv / sqrtf(gg * vv);
-                    cs = cs > 1.0f ? 1.0f : cs < -1.0f ? -1.0f : cs;
-                    ang = hbk_fluid_acos(cs);
-                }
-                o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang;
-                float acc = 0.0f;
-                if (prev) {
-                    const float *pv = h->motion + 3 * vi;
-                    const float ax = v[0] - pv[0], ay = v[1] - pv[1], az = v[2] - pv[2];
-                    acc = sqrtf(ax * ax + ay * ay + az * az) * inv_dt;
-                }
-                o[HBK_FLUID_FEATURE_ACCELERATION] = acc;
-                o[HBK_FLUID_FEATURE_DIVERGENCE] = div;
-                /* The outward unit normal, where the density changes enough to have one: a
-                 * uniform interior's tiny gradients would point anywhere. */
-                float *nrm = h->g_normal + 3 * vi;
-                const int has = gg > gmin2;
-                const float inv = has ? 1.0f / sqrtf(gg) : 0.0f;
-                for (int a = 0; a < 3; ++a) nrm[a] = g[a] * inv;
-            }
+            ROW(vertex_features, features8);
         }
     free(zc);
     /* Mean curvature: half the divergence of that normal field, where it is defined around. */
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
-        for (int32_t j = 0; j < ny; ++j)
-            for (int32_t i = 0; i < nx; ++i) {
-                const int32_t ijk[3] = {i, j, k};
-                const size_t vi = (size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
-                const float *nrm = h->g_normal + 3 * vi;
-                float dn = 0.0f;
-                if (nrm[0] != 0.0f || nrm[1] != 0.0f || nrm[2] != 0.0f)
-                    for (int a = 0; a < 3; ++a) dn += diff(h, h->g_normal, 3, a, ijk, a);
-                h->g_features[(size_t)F * vi + HBK_FLUID_FEATURE_CURVATURE] = 0.5f * dn;
-            }
+        for (int32_t j = 0; j < ny; ++j) ROW(vertex_curvature, curvature8);
 }
