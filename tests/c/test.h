@@ -132,6 +132,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, uniform_flow_shift)         \
     X(fluid, zero_flow_bitwise)          \
     X(fluid, wrap_short_way)             \
+    X(fluid, wrap_flags_advect)          \
     X(fluid, blend_normalised)           \
     X(fluid, density_lattice)            \
     X(fluid, sph_rest)                   \

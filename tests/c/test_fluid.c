@@ -222,6 +222,59 @@ void test_fluid_wrap_short_way(void)
     hbk_fluid_destroy(h);
 }
 
+/* V_r advects with the flow (paper: "offset V_c, V_b and V_r by V_m"): on a torn uvw field
+ * (every voxel's corners spread over a third of the tile both ways, so no repair applies) each
+ * voxel takes the flags of the voxel its centre came from. Uniform flow of one voxel per frame
+ * along x, and a shear vx ~ z, whose back-trace at a centre is the mean of its corners' (the
+ * centre of layer k moves (k + 1/2 - 8) / 2 voxels). */
+void test_fluid_wrap_flags_advect(void)
+{
+    const int32_t R = 16;
+    for (int shear = 0; shear < 2; ++shear) {
+        hbk_fluid_params_t p = params(R, HBK_FLUID_VELOCITY_GRID);
+        p.reset_period = 0.0f;
+        p.max_flow = 8.0f;
+        p.dt = 0.1f;
+        hbk_fluid_t *h = make(&p);
+        CHECK(h);
+        const int32_t n = R + 1;
+        for (int32_t k = 0; k < n; ++k)
+            for (int32_t j = 0; j < n; ++j)
+                for (int32_t i = 0; i < n; ++i) {
+                    float *u = h->v.uvw[0] + 3 * ((size_t)i + (size_t)n * ((size_t)j + (size_t)n * (size_t)k));
+                    for (int a = 0; a < 3; ++a) u[a] = (float)((i + j + k + a) % 3) / 3.0f;
+                }
+        for (size_t v = 0; v < h->n_vox; ++v) h->v.wrap[0][v] = (uint8_t)((v * 2654435761u) >> 13 & 7u);
+        uint8_t *before = malloc(h->n_vox);
+        memcpy(before, h->v.wrap[0], h->n_vox);
+        /* source - vertex = -dt vx / cell voxels along x */
+        float *vel = calloc(3 * h->n_vert, sizeof *vel);
+        for (size_t v = 0; v < h->n_vert; ++v) {
+            const double k = (double)(v / ((size_t)n * (size_t)n));
+            const double disp = shear ? 0.5 * (k - 8.0) : 1.0; /* voxels per frame, downstream */
+            vel[3 * v] = (float)(disp / R / p.dt);
+        }
+        hbk_fluid_set_velocity_grid(h, vel, NULL);
+        free(vel);
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        int bad = 0, checked = 0;
+        for (int32_t k = 0; k < R; ++k)
+            for (int32_t j = 0; j < R; ++j)
+                for (int32_t i = 0; i < R; ++i) {
+                    const double from = i + 0.5 - (shear ? 0.5 * (k + 0.5 - 8.0) : 1.0);
+                    if (from < 0.0 || from >= R) continue; /* inflow border */
+                    const int32_t fi = (int32_t)floor(from);
+                    const size_t vox = (size_t)i + (size_t)R * ((size_t)j + (size_t)R * (size_t)k);
+                    bad += h->v.wrap[0][vox] != before[(size_t)fi + (size_t)R * ((size_t)j + (size_t)R * (size_t)k)];
+                    ++checked;
+                }
+        if (bad) fprintf(stderr, "flags advect (%s): %d of %d voxels wrong\n", shear ? "shear" : "uniform", bad, checked);
+        CHECK(checked > R * R * R / 2 && bad == 0);
+        free(before);
+        hbk_fluid_destroy(h);
+    }
+}
+
 /* Blend weights sum to one after advection by a swirl, paint strokes, fading and feature
  * rules, on the grid and on the surface. */
 void test_fluid_blend_normalised(void)

@@ -18,9 +18,9 @@ static inline void trace_mid(const hbk_fluid_t *h, const float x[3], float dt, c
 }
 
 static inline void trace_src(const hbk_fluid_t *h, const float *motion, const size_t off[8],
-                             const float x[3], float dt, hbk_fluid_lerp_t *l)
+                             const float x[3], float dt, hbk_fluid_lerp_t *l, float src[3])
 {
-    float vm[3], src[3];
+    float vm[3];
     hbk_fluid_sample3_o(motion, off, l, vm);
     for (int a = 0; a < 3; ++a) src[a] = x[a] - dt * vm[a] * h->inv_cell[a];
     hbk_fluid_lerp_at(h, src, l);
@@ -94,20 +94,17 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
         wlo = __builtin_ia32_minps256(w, wlo);
         whi = __builtin_ia32_maxps256(w, whi);
     }
-    const v8i direct = hi - lo <= half, across = whi - wlo < half;
-    uint8_t f[2] = {*fa, *fb};
-    for (int s = 0; s < 2; ++s)
-        for (int a = 0; a < 3; ++a) {
-            if (direct[4 * s + a]) f[s] &= (uint8_t)~(1u << a);
-            else if (across[4 * s + a]) f[s] |= (uint8_t)(1u << a);
-        }
-    *fa = f[0];
-    *fb = f[1];
+    /* per component: direct clears the flag, else across sets it, else it stays */
+    const unsigned d = (unsigned)__builtin_ia32_movmskps256((v8f)(hi - lo <= half));
+    const unsigned x = (unsigned)__builtin_ia32_movmskps256((v8f)(whi - wlo < half)) & ~d;
+    *fa = (uint8_t)((*fa & ~d & 7u) | (x & 7u));
+    *fb = (uint8_t)((*fb & ~(d >> 4) & 7u) | (x >> 4 & 7u));
 }
 
 /* The per-vertex samples of the moving vertices of row (j, k), and the plain copies of the
  * still ones; UVW samples both uvw fields, BP the base blend and the paint. Each step of the
- * back-trace, then the samples, runs over the whole row before the next (see trace_mid). */
+ * back-trace, then the samples, runs over the whole row before the next (see trace_mid). The
+ * moving vertices' displacements (source - vertex, voxel units) go to h->disp for V_r. */
 #define ADVECT_ROW(UVW, BP)                                                                  \
     const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
     hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
@@ -136,7 +133,10 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
     }                                                                                        \
     for (int32_t q = 0; q < nmov; ++q) {                                                     \
         const float x[3] = {(float)at[q], (float)j, (float)k};                               \
-        trace_src(h, m, off, x, dt, &ls[q]);                                                 \
+        float src[3];                                                                        \
+        trace_src(h, m, off, x, dt, &ls[q], src);                                            \
+        float *d = h->disp + 3 * (row + (size_t)at[q]);                                      \
+        for (int a = 0; a < 3; ++a) d[a] = src[a] - x[a];                                    \
     }                                                                                        \
     for (int32_t q = 0; q < nmov; ++q) {                                                     \
         const hbk_fluid_lerp_t l = ls[q];                                                    \
@@ -224,12 +224,13 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
 
-/* V_r of the voxels of row (j, k) of voxels (see hbk_fluid_advect); REPAIR re-derives f0, f1
- * from the corners of vertex b. */
+/* V_r of the voxels of row (j, k) of voxels; REPAIR re-derives f0, f1 from the corners of
+ * vertex b. A voxel with a moving corner takes the flags of the voxel its centre came from: the
+ * centre plus the mean of its corners' displacements (the back-trace map, trilinear, at the
+ * centre: exact for uniform and for linear flow). */
 #define FLAGS_ROW(REPAIR)                                                                    \
     const int32_t nx = h->nv[0], ny = h->nv[1];                                              \
     const int32_t rx = h->p.resolution[0], ry = h->p.resolution[1];                          \
-    const float *m = h->motion;                                                              \
     /* Which vertices of the row's four vertex rows move, per column: a voxel moves if its  \
      * two columns do. A still row copies its flags whole. */                                \
     const size_t b0 = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                     \
@@ -245,27 +246,24 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
         memcpy(out->wrap[1] + v0i, in->wrap[1] + v0i, (size_t)rx);                           \
         return;                                                                              \
     }                                                                                        \
-    /* The voxel each centre came from: the flow at the centres, the midpoints, the sources,  \
-     * each over the row before the next (see trace_mid). */                                 \
     size_t from[257];                                                                        \
-    hbk_fluid_lerp_t ls[257];                                                                \
-    int32_t at[257], nmov = 0;                                                               \
     for (int32_t i = 0; i < rx; ++i) {                                                       \
         const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \
         from[i] = vox;                                                                       \
         if (!(col[i] | col[i + 1])) continue;                                                \
-        const float x[3] = {(float)i + 0.5f, (float)j + 0.5f, (float)k + 0.5f};              \
-        /* hbk_fluid_lerp_at of the centre, without its clamps */                            \
-        const hbk_fluid_lerp_t l = {b, vox, {0.5f, 0.5f, 0.5f}};                             \
-        float v0[3];                                                                         \
-        hbk_fluid_sample3_o(m, off, &l, v0);                                                 \
-        trace_mid(h, x, dt, v0, &ls[nmov]);                                                  \
-        at[nmov++] = i;                                                                      \
-    }                                                                                        \
-    for (int32_t q = 0; q < nmov; ++q) {                                                     \
-        const float x[3] = {(float)at[q] + 0.5f, (float)j + 0.5f, (float)k + 0.5f};          \
-        trace_src(h, m, off, x, dt, &ls[q]);                                                 \
-        from[at[q]] = ls[q].voxel;                                                           \
+        float d[3] = {0.0f, 0.0f, 0.0f};                                                     \
+        HBK_UNROLL8 for (int c = 0; c < 8; ++c) {                                            \
+            if (!h->moving[b + off[c]]) continue; /* displacement 0 */                       \
+            const float *dc = h->disp + 3 * (b + off[c]);                                    \
+            d[0] += dc[0];                                                                   \
+            d[1] += dc[1];                                                                   \
+            d[2] += dc[2];                                                                   \
+        }                                                                                    \
+        const float x[3] = {(float)i + 0.5f + 0.125f * d[0], (float)j + 0.5f + 0.125f * d[1], \
+                            (float)k + 0.5f + 0.125f * d[2]};                                \
+        hbk_fluid_lerp_t l;                                                                  \
+        hbk_fluid_lerp_at(h, x, &l);                                                         \
+        from[i] = l.voxel;                                                                   \
     }                                                                                        \
     for (int32_t i = 0; i < rx; ++i) {                                                       \
         const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \

@@ -67,6 +67,8 @@ struct hbk_fluid {
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
     float *g_mplanes;           /* 3 x nv: the velocity sums, one plane per axis */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
+    float *disp;                /* nv x 3: a moving vertex's back-trace, source - vertex, in
+                                 * voxels (advection, for V_r) */
     int32_t wrap_checked;       /* the flags were repaired from the uvw as they are (advection
                                  * then repairs only where something moved); 0 after create or
                                  * load_state, so the first frame checks every voxel */
@@ -324,13 +326,20 @@ static inline uint8_t hbk_fluid_repair_voxel(const float *uvw, const size_t off[
 #endif
     }
     const hbk_v4i direct = hi - lo <= half, across = whi - wlo < half;
+    /* The short way where it is clear (direct clears the flag, else across sets it); where
+     * both ways are long (a texture already torn apart) the advected flag decides, as in the
+     * paper. */
+#ifdef __SSE__
+    const unsigned d = (unsigned)__builtin_ia32_movmskps((hbk_v4f)direct) & 7u;
+    const unsigned x = (unsigned)__builtin_ia32_movmskps((hbk_v4f)across) & 7u & ~d;
+    return (uint8_t)((f & ~d) | x);
+#else
     for (int a = 0; a < 3; ++a) {
-        /* The short way where it is clear; where both ways are long (a texture already torn
-         * apart) the advected flag decides, as in the paper. */
         if (direct[a]) f &= (uint8_t)~(1u << a);
         else if (across[a]) f |= (uint8_t)(1u << a);
     }
     return f;
+#endif
 }
 
 /* Rest uvw mapping and its wrap flags. */
