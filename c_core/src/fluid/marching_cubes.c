@@ -51,11 +51,18 @@ static void grad(const mc_t *m, int32_t i, int32_t j, int32_t k, float g[3])
     g[2] = 0.5f * (val(m, i, j, k + 1) - val(m, i, j, k - 1)) * m->h->inv_cell[2];
 }
 
-/* Crossing point of edge (p, p + d) in world units, unclamped. */
-static void crossing(const mc_t *m, int32_t i, int32_t j, int32_t k, int d, float out[3], float *t_out)
+/* grad at the field value f of a vertex whose six neighbours are all in the grid (strides s):
+ * the same floats, without val's border tests. */
+static inline void grad_in(const mc_t *m, const float *f, const size_t s[3], float g[3])
+{
+    for (int a = 0; a < 3; ++a) g[a] = 0.5f * (f[s[a]] - f[-(ptrdiff_t)s[a]]) * m->h->inv_cell[a];
+}
+
+/* Crossing point of edge (p, p + d), field values f0 and f1, in world units, unclamped. */
+static void crossing_f(const mc_t *m, int32_t i, int32_t j, int32_t k, int d, float f0, float f1,
+                       float out[3], float *t_out)
 {
     const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
-    const float f0 = val(m, i, j, k), f1 = val(m, i1, j1, k1);
     float t = (m->iso - f0) / (f1 - f0);
     t = t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t;
     const int32_t a[3] = {i, j, k}, b[3] = {i1, j1, k1};
@@ -224,22 +231,40 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     tri = h->next_tri;
     /* (2) Edge vertices: position clamped into the box (caps on the walls), normal from the
      * interpolated field gradient. */
+    const size_t fs[3] = {1, (size_t)h->nv[0], (size_t)h->nv[0] * (size_t)h->nv[1]};
+    size_t fstep[8]; /* field offset of corner/direction bits c */
+    for (int c = 0; c < 8; ++c) fstep[c] = (c & 1) * fs[0] + (c >> 1 & 1) * fs[1] + (c >> 2 & 1) * fs[2];
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
             const size_t q = (size_t)j + (size_t)ey * (size_t)k;
             if (row_v[q + 1] == row_v[q]) continue; /* no vertex: nothing reads its `first` */
             int32_t id = (int32_t)row_v[q];
+            /* Edges whose ends and their neighbours lie in the grid (padded 2 .. e - 4) read
+             * the field directly. */
+            const int yz_in = j >= 2 && j <= ey - 4 && k >= 2 && k <= ez - 4;
             for (int32_t i = 0; i < ex; ++i) {
                 const size_t pi = pidx(&m, i, j, k);
                 first[pi] = id;
+                if (!mask[pi]) continue;
+                const int in = yz_in && i >= 2 && i <= ex - 4;
+                const float *f = in ? h->surface + ((size_t)(i - 1) + fs[1] * (size_t)(j - 1) +
+                                                     fs[2] * (size_t)(k - 1))
+                                    : NULL;
                 for (int d = 1; d < 8; ++d) {
                     if (!(mask[pi] >> (d - 1) & 1)) continue;
                     float x[3], t, g0[3], g1[3];
-                    crossing(&m, i, j, k, d, x, &t);
+                    if (in) {
+                        crossing_f(&m, i, j, k, d, f[0], f[fstep[d]], x, &t);
+                        grad_in(&m, f, fs, g0);
+                        grad_in(&m, f + fstep[d], fs, g1);
+                    } else {
+                        const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
+                        crossing_f(&m, i, j, k, d, val(&m, i, j, k), val(&m, i1, j1, k1), x, &t);
+                        grad(&m, i, j, k, g0);
+                        grad(&m, i1, j1, k1, g1);
+                    }
                     memcpy(raw + 3 * (size_t)id, x, sizeof x); /* unclamped, for pass (3) */
-                    grad(&m, i, j, k, g0);
-                    grad(&m, i + (d & 1), j + (d >> 1 & 1), k + (d >> 2 & 1), g1);
                     float n[3], nn = 0.0f;
                     for (int c = 0; c < 3; ++c) {
                         const float lo = h->p.box_min[c], hi = h->p.box_max[c];
