@@ -88,6 +88,7 @@ struct hbk_fluid {
     int32_t *mc_first;
     int64_t *mc_row_v, *mc_row_t;
     float *mc_raw;              /* the edge vertices' crossings before the clamp to the box */
+    struct mc_table *mc_table;  /* triangles per cube configuration (marching_cubes.c) */
     size_t mc_cap_raw;
     double ms[4];
 };

@@ -90,16 +90,70 @@ static inline int tet_tris(int in)
     return n == 1 || n == 3 ? 1 : n == 2 ? 2 : 0;
 }
 
-static int cube_tris(int bits)
+/* Every cube's triangles by its corners' inside bits, in the order of its tetrahedra: each
+ * vertex is the edge from corner `corner` (bits) in direction `dir` (1..7), and `dirv` is the
+ * tetrahedron's reference direction (from its inside corners' mean to its outside ones', in
+ * metres), which decides the winding. */
+typedef struct mc_tri {
+    uint8_t corner[3], dir[3], tet;
+} mc_tri_t;
+typedef struct mc_table {
+    int16_t first[257];     /* triangles of cube config b: tri[first[b] .. first[b + 1]) */
+    mc_tri_t tri[256 * 12];
+    float dirv[256][6][3];
+} mc_table_t;
+
+static void build_table(const hbk_fluid_t *h, mc_table_t *tb)
 {
     int n = 0;
-    for (int t = 0; t < 6; ++t) {
-        int c[4], in = 0;
-        tet(t, c);
-        for (int q = 0; q < 4; ++q) in |= (bits >> c[q] & 1) << q;
-        n += tet_tris(in);
+    for (int bits = 0; bits < 256; ++bits) {
+        tb->first[bits] = (int16_t)n;
+        for (int t = 0; t < 6; ++t) {
+            int c[4], in = 0;
+            tet(t, c);
+            for (int q = 0; q < 4; ++q) in |= (bits >> c[q] & 1) << q;
+            const int nt = tet_tris(in);
+            if (!nt) continue;
+            /* Inside corners first, then outside ones (tetrahedron-local numbers). */
+            int ins[4], outs[4], ni = 0, no = 0;
+            for (int q = 0; q < 4; ++q) {
+                if (in >> q & 1) ins[ni++] = q;
+                else outs[no++] = q;
+            }
+            /* Edge between corners qa and qb: from the lower corner (qa < qb along the path)
+             * in direction c[qb] - c[qa] (always a 0/1 vector). */
+            uint8_t ec[4][4], ed[4][4];
+            for (int a = 0; a < ni; ++a)
+                for (int b = 0; b < no; ++b) {
+                    int qa = ins[a], qb = outs[b];
+                    if (qa > qb) { int sw = qa; qa = qb; qb = sw; }
+                    ec[a][b] = (uint8_t)c[qa];
+                    ed[a][b] = (uint8_t)(c[qb] & ~c[qa]);
+                }
+            float *dv = tb->dirv[bits][t];
+            dv[0] = dv[1] = dv[2] = 0.0f;
+            for (int q = 0; q < 4; ++q) {
+                const float sgn = (in >> q & 1) ? -1.0f / (float)ni : 1.0f / (float)no;
+                dv[0] += sgn * (float)(c[q] & 1) * h->cell[0];
+                dv[1] += sgn * (float)(c[q] >> 1 & 1) * h->cell[1];
+                dv[2] += sgn * (float)(c[q] >> 2 & 1) * h->cell[2];
+            }
+            /* one triangle (ni 1 or 3), or the quad a0b0, a0b1, a1b1, a1b0 as two */
+            static const int qa4[4] = {0, 0, 1, 1}, qb4[4] = {0, 1, 1, 0};
+            static const int use[2][3] = {{0, 1, 2}, {0, 2, 3}};
+            for (int sidx = 0; sidx < nt; ++sidx, ++n) {
+                mc_tri_t *tr = &tb->tri[n];
+                tr->tet = (uint8_t)t;
+                for (int v = 0; v < 3; ++v) {
+                    const int a = ni == 1 ? 0 : ni == 3 ? v : qa4[use[sidx][v]];
+                    const int b = ni == 1 ? v : ni == 3 ? 0 : qb4[use[sidx][v]];
+                    tr->corner[v] = ec[a][b];
+                    tr->dir[v] = ed[a][b];
+                }
+            }
+        }
     }
-    return n;
+    tb->first[256] = (int16_t)n;
 }
 
 hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
@@ -143,8 +197,12 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
             /* 0 or 1: the whole row outside or inside; 2: both */
             row_in[(size_t)j + (size_t)ey * (size_t)k] = any == all ? any : 2;
         }
-    int8_t tris_of[256]; /* triangles of a cube, by its corners' inside bits */
-    for (int bits = 0; bits < 256; ++bits) tris_of[bits] = (int8_t)cube_tris(bits);
+    mc_table_t *tb = h->mc_table;
+    if (!tb && !(tb = h->mc_table = malloc(sizeof *tb))) {
+        r = HBK_ERR_OUT_OF_MEMORY;
+        goto done;
+    }
+    build_table(h, tb); /* cheap; the cell size could change with a load_state */
     /* Offset of padded vertex (i, j, k) + corner/direction bits c. */
     size_t step[8];
     for (int c = 0; c < 8; ++c) step[c] = pidx(&m, c & 1, c >> 1 & 1, c >> 2 & 1);
@@ -179,7 +237,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                         b |= (uint8_t)((q != a) << (c - 1));
                         bits |= q << c;
                     }
-                    ntr += tris_of[bits];
+                    ntr += tb->first[bits + 1] - tb->first[bits];
                 } else {
                     for (int d = 1; d < 8; ++d) {
                         const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
@@ -294,72 +352,29 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                 int bits = 0;
                 for (int c = 0; c < 8; ++c) bits |= in_at[p + step[c]] << c;
                 if (!bits || bits == 255) continue;
-                for (int t = 0; t < 6; ++t) {
-                    int c[4], in = 0;
-                    tet(t, c);
-                    for (int q = 0; q < 4; ++q) in |= (bits >> c[q] & 1) << q;
-                    const int nt = tet_tris(in);
-                    if (!nt) continue;
-                    /* Inside corners first, then outside ones (tetrahedron-local numbers). */
-                    int ins[4], outs[4], ni = 0, no = 0;
-                    for (int q = 0; q < 4; ++q) {
-                        if (in >> q & 1) ins[ni++] = q;
-                        else outs[no++] = q;
+                for (int n = tb->first[bits]; n < tb->first[bits + 1]; ++n) {
+                    const mc_tri_t *tr = &tb->tri[n];
+                    int32_t tv[3];
+                    const float *tp[3];
+                    for (int v = 0; v < 3; ++v) {
+                        const size_t pc = p + step[tr->corner[v]];
+                        tv[v] = first[pc] + pop8(mask[pc] & ((1u << (tr->dir[v] - 1)) - 1u));
+                        tp[v] = raw + 3 * (size_t)tv[v];
                     }
-                    /* Edge between corners qa and qb: from the lower corner (qa < qb along
-                     * the path) in direction c[qb] - c[qa] (always a 0/1 vector). */
-                    int32_t ev[4][4];
-                    float ep[4][4][3];
-                    for (int a = 0; a < ni; ++a)
-                        for (int b = 0; b < no; ++b) {
-                            int qa = ins[a], qb = outs[b];
-                            if (qa > qb) { int s = qa; qa = qb; qb = s; }
-                            const int d = c[qb] & ~c[qa];
-                            const int32_t pi = i + (c[qa] & 1), pj = j + (c[qa] >> 1 & 1),
-                                          pk = k + (c[qa] >> 2 & 1);
-                            const uint8_t mk = mask[pidx(&m, pi, pj, pk)];
-                            ev[a][b] = first[pidx(&m, pi, pj, pk)] +
-                                       pop8(mk & ((1u << (d - 1)) - 1u));
-                            memcpy(ep[a][b], raw + 3 * (size_t)ev[a][b], sizeof ep[a][b]);
-                        }
-                    /* Reference direction: from the inside corners' mean to the outside's. */
-                    float dirv[3] = {0, 0, 0};
-                    for (int q = 0; q < 4; ++q) {
-                        const float sgn = (in >> q & 1) ? -1.0f / (float)ni : 1.0f / (float)no;
-                        dirv[0] += sgn * (float)(c[q] & 1) * h->cell[0];
-                        dirv[1] += sgn * (float)(c[q] >> 1 & 1) * h->cell[1];
-                        dirv[2] += sgn * (float)(c[q] >> 2 & 1) * h->cell[2];
+                    const float *dirv = tb->dirv[bits][tr->tet];
+                    float e1[3], e2[3], cr[3];
+                    for (int c = 0; c < 3; ++c) {
+                        e1[c] = tp[1][c] - tp[0][c];
+                        e2[c] = tp[2][c] - tp[0][c];
                     }
-                    int32_t tv[2][3];
-                    const float *tp[2][3];
-                    if (ni == 1) {
-                        for (int b = 0; b < 3; ++b) { tv[0][b] = ev[0][b]; tp[0][b] = ep[0][b]; }
-                    } else if (ni == 3) {
-                        for (int a = 0; a < 3; ++a) { tv[0][a] = ev[a][0]; tp[0][a] = ep[a][0]; }
-                    } else { /* quad a0b0, a0b1, a1b1, a1b0 */
-                        const int qa[4] = {0, 0, 1, 1}, qb[4] = {0, 1, 1, 0};
-                        const int use[2][3] = {{0, 1, 2}, {0, 2, 3}};
-                        for (int s = 0; s < 2; ++s)
-                            for (int q = 0; q < 3; ++q) {
-                                tv[s][q] = ev[qa[use[s][q]]][qb[use[s][q]]];
-                                tp[s][q] = ep[qa[use[s][q]]][qb[use[s][q]]];
-                            }
-                    }
-                    for (int s = 0; s < nt; ++s) {
-                        float e1[3], e2[3], cr[3];
-                        for (int q = 0; q < 3; ++q) {
-                            e1[q] = tp[s][1][q] - tp[s][0][q];
-                            e2[q] = tp[s][2][q] - tp[s][0][q];
-                        }
-                        cr[0] = e1[1] * e2[2] - e1[2] * e2[1];
-                        cr[1] = e1[2] * e2[0] - e1[0] * e2[2];
-                        cr[2] = e1[0] * e2[1] - e1[1] * e2[0];
-                        const int flip = cr[0] * dirv[0] + cr[1] * dirv[1] + cr[2] * dirv[2] < 0.0f;
-                        tri[3 * out] = tv[s][0];
-                        tri[3 * out + 1] = tv[s][flip ? 2 : 1];
-                        tri[3 * out + 2] = tv[s][flip ? 1 : 2];
-                        ++out;
-                    }
+                    cr[0] = e1[1] * e2[2] - e1[2] * e2[1];
+                    cr[1] = e1[2] * e2[0] - e1[0] * e2[2];
+                    cr[2] = e1[0] * e2[1] - e1[1] * e2[0];
+                    const int flip = cr[0] * dirv[0] + cr[1] * dirv[1] + cr[2] * dirv[2] < 0.0f;
+                    tri[3 * out] = tv[0];
+                    tri[3 * out + 1] = tv[flip ? 2 : 1];
+                    tri[3 * out + 2] = tv[flip ? 1 : 2];
+                    ++out;
                 }
             }
         }
