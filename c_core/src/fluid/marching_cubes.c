@@ -30,6 +30,8 @@ static inline int inside(const mc_t *m, int32_t i, int32_t j, int32_t k)
 {
     return val(m, i, j, k) > m->iso;
 }
+typedef uint8_t v16u __attribute__((vector_size(16)));
+
 /* Bits set in an 8-bit mask (__builtin_popcount is a library call without -mpopcnt). */
 static inline int pop8(unsigned x)
 {
@@ -188,12 +190,23 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
             uint8_t any = 0, all = 1;
-            for (int32_t i = 0; i < ex; ++i) {
-                const uint8_t v = (uint8_t)inside(&m, i, j, k);
-                in_at[pidx(&m, i, j, k)] = v;
-                any |= v;
-                all &= v;
-            }
+            uint8_t *at = in_at + pidx(&m, 0, j, k);
+            if (j > 0 && k > 0 && j < ey - 1 && k < ez - 1) { /* the pad, then a field row */
+                const float *f = h->surface + (size_t)h->nv[0] * ((size_t)(j - 1) + (size_t)h->nv[1] * (size_t)(k - 1));
+                at[0] = at[ex - 1] = 0;
+                all = 0;
+                for (int32_t i = 1; i < ex - 1; ++i) {
+                    const uint8_t v = f[i - 1] > m.iso;
+                    at[i] = v;
+                    any |= v;
+                }
+            } else
+                for (int32_t i = 0; i < ex; ++i) {
+                    const uint8_t v = (uint8_t)inside(&m, i, j, k);
+                    at[i] = v;
+                    any |= v;
+                    all &= v;
+                }
             /* 0 or 1: the whole row outside or inside; 2: both */
             row_in[(size_t)j + (size_t)ey * (size_t)k] = any == all ? any : 2;
         }
@@ -226,7 +239,24 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                 row_t[1 + (size_t)j + (size_t)ey * (size_t)k] = 0;
                 continue;
             }
-            for (int32_t i = 0; i < ex; ++i) {
+            int32_t i = 0;
+            if (j + 1 < ey && k + 1 < ez) /* 16 whole cubes at a time, a byte each */
+                for (; i + 16 <= ex - 1; i += 16) {
+                    const size_t p = pidx(&m, i, j, k);
+                    v16u c[8];
+                    for (int q = 0; q < 8; ++q) memcpy(&c[q], in_at + p + step[q], sizeof c[q]);
+                    v16u bits = c[0], b = {0};
+                    for (int q = 1; q < 8; ++q) {
+                        bits |= c[q] << q;
+                        b |= (c[q] ^ c[0]) << (q - 1);
+                    }
+                    memcpy(mask + p, &b, sizeof b);
+                    for (int l = 0; l < 16; ++l) {
+                        nvr += pop8(b[l]);
+                        ntr += tb->first[bits[l] + 1] - tb->first[bits[l]];
+                    }
+                }
+            for (; i < ex; ++i) {
                 const size_t p = pidx(&m, i, j, k);
                 const int a = in_at[p];
                 uint8_t b = 0;
