@@ -14,7 +14,7 @@ typedef int32_t v8i __attribute__((vector_size(32)));
  * eight vertices of a row are eight floats in a row for the AVX2 path. */
 typedef struct feat {
     const hbk_fluid_t *h;
-    const float *mp[3]; /* V_m (g_mplanes, free by now) */
+    const float *mp[3]; /* V_m (g_mplanes, hbk_fluid_put_motion) */
     float *np[3];       /* the outward unit normal (g_normal) */
     size_t st[3];       /* vertex strides */
     float inv_dt, gmin2;
@@ -228,21 +228,19 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                       gmin * gmin,
                       h->have_fields};
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
-    /* V_m into planes; rows whose density and velocity are all +0 (bit for bit), now and (zp)
-     * last frame: far from the fluid, a vertex's features are then constants (below),
-     * computed without it. */
+    /* Rows whose density and velocity are all +0 (bit for bit), now and (zp) last frame: far
+     * from the fluid, a vertex's features are then constants (below), computed without it. */
     const size_t rows = (size_t)ny * (size_t)nz;
     uint8_t *zc = malloc(2 * rows), *zp = zc ? zc + rows : NULL;
+    if (zc) {
 #pragma omp parallel for num_threads(threads) schedule(static)
-    for (size_t r = 0; r < rows; ++r) {
-        const size_t v0 = r * (size_t)nx;
-        for (int32_t i = 0; i < nx; ++i)
-            for (int a = 0; a < 3; ++a)
-                h->g_mplanes[(size_t)a * nv + v0 + (size_t)i] = h->g_motion[3 * (v0 + (size_t)i) + (size_t)a];
-        if (!zc) continue;
-        zc[r] = all_zero(h->g_density + v0, (size_t)nx) &&
-                all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx);
-        zp[r] = all_zero(h->density + v0, (size_t)nx) && all_zero(h->motion + 3 * v0, 3 * (size_t)nx);
+        for (size_t r = 0; r < rows; ++r) {
+            const size_t v0 = r * (size_t)nx;
+            zc[r] = all_zero(h->g_density + v0, (size_t)nx) &&
+                    all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx);
+            zp[r] = all_zero(h->density + v0, (size_t)nx) &&
+                    all_zero(h->motion + 3 * v0, 3 * (size_t)nx);
+        }
     }
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)

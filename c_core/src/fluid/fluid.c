@@ -284,8 +284,13 @@ static hbk_result_t build_fields(hbk_fluid_t *h, int threads)
 {
     const size_t nv = h->n_vert;
     if (h->p.source == HBK_FLUID_VELOCITY_GRID) {
-        if (h->in_vel) memcpy(h->g_motion, h->in_vel, 3 * nv * sizeof(float));
-        else memset(h->g_motion, 0, 3 * nv * sizeof(float));
+        const float vmax = hbk_fluid_vmax(h);
+#pragma omp parallel for num_threads(threads) schedule(static)
+        for (size_t i = 0; i < nv; ++i) {
+            float v[3] = {0.0f, 0.0f, 0.0f};
+            if (h->in_vel) memcpy(v, h->in_vel + 3 * i, sizeof v);
+            hbk_fluid_put_motion(h, i, v, vmax);
+        }
         if (h->in_surface) {
             memcpy(h->g_surface, h->in_surface, nv * sizeof(float));
             memcpy(h->g_density, h->in_surface, nv * sizeof(float));
@@ -296,19 +301,6 @@ static hbk_result_t build_fields(hbk_fluid_t *h, int threads)
     } else {
         hbk_result_t r = hbk_fluid_particles_to_grid(h, threads);
         if (r) return hbk_fail(&h->msg, r, "particle grid: out of memory");
-    }
-    /* Paper: "too fast flow is clamped" - here to max_flow voxels per frame. */
-    float cmin = h->cell[0] < h->cell[1] ? h->cell[0] : h->cell[1];
-    cmin = cmin < h->cell[2] ? cmin : h->cell[2];
-    const float vmax = h->p.max_flow * cmin / h->p.dt, vmax2 = vmax * vmax;
-#pragma omp parallel for num_threads(threads) schedule(static)
-    for (size_t i = 0; i < nv; ++i) {
-        float *v = h->g_motion + 3 * i;
-        const float s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-        if (s2 > vmax2) {
-            const float f = vmax / sqrtf(s2);
-            v[0] *= f; v[1] *= f; v[2] *= f;
-        }
     }
     hbk_fluid_features(h, threads);
     return HBK_OK;

@@ -156,7 +156,30 @@ void hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t
                             float H, float m, float spiky, float visc, int nim,
                             const float (*sgn)[3], const float (*off)[3], float ap[3],
                             float fv[3]);
-/* sph.c: density, V_m and the metaball sum at the vertices into g_* from the particles. */
+/* Paper: "too fast flow is clamped" - here to max_flow voxels per frame (m/s). */
+static inline float hbk_fluid_vmax(const hbk_fluid_t *h)
+{
+    float cmin = h->cell[0] < h->cell[1] ? h->cell[0] : h->cell[1];
+    cmin = cmin < h->cell[2] ? cmin : h->cell[2];
+    return h->p.max_flow * cmin / h->p.dt;
+}
+/* V_m at vertex i from the flow v, clamped to vmax: into g_motion, and into the planes of
+ * g_mplanes that the features read. */
+static inline void hbk_fluid_put_motion(hbk_fluid_t *h, size_t i, float v[3], float vmax)
+{
+    const float s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if (s2 > vmax * vmax) {
+        const float f = vmax / sqrtf(s2);
+        v[0] *= f; v[1] *= f; v[2] *= f;
+    }
+    for (int a = 0; a < 3; ++a) {
+        h->g_motion[3 * i + (size_t)a] = v[a];
+        h->g_mplanes[(size_t)a * h->n_vert + i] = v[a];
+    }
+}
+
+/* metaballs.c: density, V_m (clamped, hbk_fluid_put_motion) and the metaball sum at the
+ * vertices into g_* from the particles. */
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads);
 
 /* features.c: g_features from g_density, g_motion and the previous frame. */
