@@ -130,12 +130,16 @@ __attribute__((target("avx2"))) static void features8(const feat_t *f, size_t vi
     const v8f ang = SEL8((gg > zero) & (vv > zero), SEL8(wide, acw, acn), zero + (float)(0.5 * M_PI));
     v8f acc = zero;
     if (f->prev) {
-        const v8i idx = {0, 3, 6, 9, 12, 15, 18, 21};
-        const v8f all = (v8f)((v8i){0} - 1);
+        /* last frame's V_m, interleaved: three loads and shuffles (a gather is slower) */
         const float *pv = h->motion + 3 * vi;
-        v8f dv[3];
-        for (int q = 0; q < 3; ++q)
-            dv[q] = v[q] - __builtin_ia32_gathersiv8sf(zero, pv + q, idx, all, 4);
+        const v8f a0 = L8(pv), a1 = L8(pv + 8), a2 = L8(pv + 16);
+        const v8f x01 = __builtin_shufflevector(a0, a1, 0, 3, 6, 9, 12, 15, 1, 4);
+        const v8f y01 = __builtin_shufflevector(a0, a1, 1, 4, 7, 10, 13, 2, 5, 8);
+        const v8f z01 = __builtin_shufflevector(a0, a1, 2, 5, 8, 11, 14, 0, 3, 6);
+        const v8f px = __builtin_shufflevector(x01, a2, 0, 1, 2, 3, 4, 5, 10, 13);
+        const v8f py = __builtin_shufflevector(y01, a2, 0, 1, 2, 3, 4, 8, 11, 14);
+        const v8f pz = __builtin_shufflevector(z01, a2, 0, 1, 2, 3, 4, 9, 12, 15);
+        const v8f dv[3] = {v[0] - px, v[1] - py, v[2] - pz};
         acc = __builtin_ia32_sqrtps256(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]) * f->inv_dt;
     }
     const v8f inv = SEL8(gg > f->gmin2, one / __builtin_ia32_sqrtps256(gg), zero);
