@@ -41,49 +41,8 @@ splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float 
     }
 }
 
-/* splat_row eight vertices at a time: a vertex out of reach is not changed and the values are
- * its operations', so the same bytes. Away from the row's end the lanes out of reach add +0
- * (a sum is never -0, so adding +0 keeps its bits) with plain loads and stores, which are far
- * cheaper than masked stores; within 8 of the end, where lanes would reach the next row (perhaps
- * another thread's slab), the stores are masked. */
-__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
-splat_row_avx2(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float cl,
-               const float *x, const float *v, float ryz, int32_t nx)
-{
-    const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
-    const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
-    for (int32_t kx = a0; kx <= a1; kx += 8) {
-        const v8i in = lane + kx <= a1;
-        const v8f k = __builtin_convertvector(lane + kx, v8f);
-        const v8f dx = (zero + lo) + k * cl - x[0];
-        const v8f r2 = dx * dx + ryz;
-        const v8i mh = in & (r2 < H2), mr = in & (r2 < R2);
-        float *at[5] = {s->wsum + row + kx, s->mot[0] + row + kx, s->mot[1] + row + kx,
-                        s->mot[2] + row + kx, s->surf + row + kx};
-        const v8f d = H2 - r2, w = d * d * d, t = one - r2 * s->inv_R2;
-        const v8f add[5] = {w, w * v[0], w * v[1], w * v[2], t * t * t};
-        const int n = 4 + s->own_surf;
-        if (kx + 8 <= nx) {
-            HBK_UNROLL8 for (int q = 0; q < 5; ++q) {
-                if (q == n) break;
-                v8f old;
-                memcpy(&old, at[q], sizeof old);
-                old += (v8f)((v8i)add[q] & (q < 4 ? mh : mr));
-                memcpy(at[q], &old, sizeof old);
-            }
-            continue;
-        }
-        HBK_UNROLL8 for (int q = 0; q < 5; ++q) {
-            if (q == n) break;
-            const v8i m = q < 4 ? mh : mr;
-            const v8f old = __builtin_ia32_maskloadps256((const v8f *)at[q], m);
-            __builtin_ia32_maskstoreps256((v8f *)at[q], m, old + add[q]);
-        }
-    }
-}
-
 /* One chunk: vertex z-slab [z0, z1), from the particles (sorted) p0 .. p1 - 1, each row by
- * ROW (splat_row or splat_row_avx2). */
+ * ROW. */
 #define SPLAT_CHUNK(ROW)                                                                     \
     const hbk_fluid_cells_t *c = &h->cells;                                                  \
     const int32_t nx = h->nv[0], ny = h->nv[1];                                              \
@@ -118,11 +77,99 @@ static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, 
     SPLAT_CHUNK(splat_row)
 }
 
+/* splat_chunk_sse eight vertices of a row at a time, each lane with splat_row's operations
+ * (a vertex out of reach is not changed: the same bytes). A particle's x offsets are squared
+ * once for all its rows. Away from a row's end, lanes out of reach add +0 (a sum is never -0,
+ * so adding +0 keeps its bits) with plain loads and stores, far cheaper than masked stores;
+ * within 8 of the end, where lanes would reach the next row (perhaps another thread's slab),
+ * the stores are masked. OWN: the metaball sum is splatted too. */
+#define SPLAT_ADD(p, add, m)                                                                 \
+    do {                                                                                     \
+        if (full[b]) {                                                                       \
+            v8f o_;                                                                          \
+            memcpy(&o_, (p), sizeof o_);                                                     \
+            o_ += (v8f)((v8i)(add) & (m));                                                   \
+            memcpy((p), &o_, sizeof o_);                                                     \
+        } else {                                                                             \
+            const v8f o_ = __builtin_ia32_maskloadps256((const v8f *)(p), (m));              \
+            __builtin_ia32_maskstoreps256((v8f *)(p), (m), o_ + (add));                      \
+        }                                                                                    \
+    } while (0)
+
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32_t p0,
+           int32_t p1, float S, const int OWN)
+{
+    const hbk_fluid_cells_t *c = &h->cells;
+    const int32_t nx = h->nv[0], ny = h->nv[1];
+    const float *lo = h->p.box_min, *cl = h->cell, *ic = h->inv_cell;
+    const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
+    const v8f iR2 = zero + s->inv_R2;
+    const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    for (int32_t k = p0; k < p1; ++k) {
+        const int32_t id = c->order[k];
+        const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;
+        int32_t a0[3], a1[3];
+        for (int a = 0; a < 3; ++a) {
+            a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);
+            a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);
+            if (a0[a] < 0) a0[a] = 0;
+            if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;
+        }
+        if (a0[2] < z0) a0[2] = z0;
+        if (a1[2] > z1 - 1) a1[2] = z1 - 1;
+        if (a0[0] > a1[0]) continue;
+        const int nb = (a1[0] - a0[0]) / 8 + 1;
+        if (nb > 2) { /* reach over 16 vertices (coarse particles on a fine grid) */
+            const int32_t q = k + 1;
+            splat_chunk_sse(h, s, z0, z1, k, q, S);
+            continue;
+        }
+        v8f dx2[2];
+        v8i inx[2];
+        int full[2];
+        for (int b = 0; b < nb; ++b) {
+            const int32_t kx = a0[0] + 8 * b;
+            const v8f kk = __builtin_convertvector(lane + kx, v8f);
+            const v8f dx = (zero + lo[0]) + kk * cl[0] - x[0];
+            dx2[b] = dx * dx;
+            inx[b] = lane + kx <= a1[0];
+            full[b] = kx + 8 <= nx;
+        }
+        for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
+            const float dz = lo[2] + (float)kz * cl[2] - x[2];
+            for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {
+                const float dy = lo[1] + (float)ky * cl[1] - x[1];
+                const float ryz = dy * dy + dz * dz;
+                if (ryz >= s->H2 && (!OWN || ryz >= s->R2)) continue;
+                const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz) + (size_t)a0[0];
+                for (int b = 0; b < nb; ++b) {
+                    const size_t at = row + 8 * (size_t)b;
+                    const v8f r2 = dx2[b] + ryz;
+                    const v8i mh = inx[b] & (r2 < H2);
+                    const v8f d = H2 - r2, w = d * d * d;
+                    SPLAT_ADD(s->wsum + at, w, mh);
+                    SPLAT_ADD(s->mot[0] + at, w * v[0], mh);
+                    SPLAT_ADD(s->mot[1] + at, w * v[1], mh);
+                    SPLAT_ADD(s->mot[2] + at, w * v[2], mh);
+                    if (OWN) {
+                        const v8i mr = inx[b] & (r2 < R2);
+                        const v8f t = one - r2 * iR2;
+                        SPLAT_ADD(s->surf + at, t * t * t, mr);
+                    }
+                }
+            }
+        }
+    }
+}
+#undef SPLAT_ADD
+
 __attribute__((target("avx2"))) static void
 splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32_t p0,
                  int32_t p1, float S)
 {
-    SPLAT_CHUNK(splat_row_avx2)
+    if (s->own_surf) splat_avx2(h, s, z0, z1, p0, p1, S, 1);
+    else splat_avx2(h, s, z0, z1, p0, p1, S, 0);
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
 #undef SPLAT_CHUNK
