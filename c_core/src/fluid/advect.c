@@ -103,8 +103,9 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
 
 /* The per-vertex samples of the moving vertices of row (j, k), and the plain copies of the
  * still ones; UVW samples both uvw fields, BP the base blend and the paint. Each step of the
- * back-trace, then the samples, runs over the whole row before the next (see trace_mid). The
- * moving vertices' displacements (source - vertex, voxel units) go to h->disp for V_r. */
+ * back-trace, then each field's samples, runs over the whole row before the next (see
+ * trace_mid): short loops keep more vertices' loads in flight. The moving vertices'
+ * displacements (source - vertex, voxel units) go to h->disp for V_r. */
 #define ADVECT_ROW(UVW, BP)                                                                  \
     const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
     hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
@@ -142,14 +143,24 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
         const hbk_fluid_lerp_t l = ls[q];                                                    \
         const size_t vi = row + (size_t)at[q];                                               \
         UVW;                                                                                 \
+    }                                                                                        \
+    for (int32_t q = 0; q < nmov; ++q) {                                                     \
+        const hbk_fluid_lerp_t l = ls[q];                                                    \
+        const size_t vi = row + (size_t)at[q];                                               \
         float *b = out->base + (size_t)K * vi;                                               \
         BP;                                                                                  \
+    }                                                                                        \
+    for (int32_t q = 0; q < nmov; ++q) {                                                     \
+        float *b = out->base + (size_t)K * (row + (size_t)at[q]);                            \
         /* Interpolation is a convex combination; renormalise only the rounding. */          \
         float s = 0.0f;                                                                      \
         for (int t = 0; t < K; ++t) s += b[t];                                               \
         if (s > 0.0f) for (int t = 0; t < K; ++t) b[t] /= s;                                 \
         else { for (int t = 0; t < K; ++t) b[t] = 0.0f; b[h->p.default_texture] = 1.0f; }    \
-        if (paint) hbk_fluid_sample_n_o(in->life, 1, off, &l, out->life + vi);               \
+    }                                                                                        \
+    for (int32_t q = 0; paint && q < nmov; ++q) {                                            \
+        const size_t vi = row + (size_t)at[q];                                               \
+        hbk_fluid_sample_n_o(in->life, 1, off, &ls[q], out->life + vi);                      \
     }                                                                                        \
     copy_still(h, in, out, row, paint);
 
