@@ -183,6 +183,11 @@ __attribute__((target("avx2"))) static void curvature8(const feat_t *f, size_t v
             PER(&f, 0, j, k);                                                                \
             for (i = 1; i + 8 <= nx - 1; i += 8)                                             \
                 PER8(&f, (size_t)i + f.st[1] * (size_t)j + f.st[2] * (size_t)k);             \
+            if (i < nx - 1 && nx >= 10) { /* the last eight, again in part: the same values */ \
+                i = nx - 9;                                                                  \
+                PER8(&f, (size_t)i + f.st[1] * (size_t)j + f.st[2] * (size_t)k);             \
+                i = nx - 1;                                                                  \
+            }                                                                                \
         }                                                                                    \
         for (; i < nx; ++i) PER(&f, i, j, k);                                                \
     } while (0)
