@@ -115,7 +115,7 @@ hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stri
                 const v8f t[6] = {f * dx, f * dy, f * dz, w * (sg[0] * load8(VX + j) - vx),
                                   w * (sg[1] * load8(VY + j) - vy),
                                   w * (sg[2] * load8(VZ + j) - vz)};
-                for (int q6 = 0; q6 < 6; ++q6) /* + 0 where out of reach: the same bits */
+                HBK_UNROLL8 for (int q6 = 0; q6 < 6; ++q6) /* + 0 out of reach: the same bits */
                     part[q6] += (v8f)((v8i)t[q6] & (q6 < 3 ? push : near));
             }
         }
