@@ -124,6 +124,7 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
                 __builtin_prefetch(m + 3 * p);                                               \
                 __builtin_prefetch(in->base + (size_t)K * p);                                \
                 if (paint) __builtin_prefetch(in->paint + (size_t)K * p);                    \
+                if (paint) __builtin_prefetch(in->life + p);                                 \
             }                                                                                \
         }                                                                                    \
         const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;                  \
