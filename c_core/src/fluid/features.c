@@ -240,7 +240,7 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     /* Rows whose density and velocity are all +0 (bit for bit), now and (zp) last frame: far
      * from the fluid, a vertex's features are then constants (below), computed without it. */
     const size_t rows = (size_t)ny * (size_t)nz;
-    uint8_t *zc = malloc(2 * rows), *zp = zc ? zc + rows : NULL;
+    uint8_t *zc = malloc(3 * rows), *zp = zc ? zc + rows : NULL, *qr = zc ? zc + 2 * rows : NULL;
     if (zc) {
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (size_t r = 0; r < rows; ++r) {
@@ -255,10 +255,13 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j) {
-            if (zc && quiet(zc, zp, f.prev, j, k, ny, nz)) {
+            const size_t r = (size_t)j + (size_t)ny * (size_t)k;
+            if (zc) qr[r] = quiet(zc, zp, f.prev, j, k, ny, nz);
+            if (zc && qr[r]) {
                 /* What vertex_features gives for zero fields: a rate and acceleration of +0,
-                 * the gradient -0 (so a -0 normal), no flow angle (pi / 2). */
-                const size_t v0 = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);
+                 * the gradient -0 (so a -0 normal), no flow angle (pi / 2); and then what
+                 * vertex_curvature gives for a -0 normal, +0. */
+                const size_t v0 = (size_t)nx * r;
                 for (int32_t i = 0; i < nx; ++i) {
                     float *o = h->g_features + (size_t)F * (v0 + (size_t)i);
                     o[HBK_FLUID_FEATURE_DENSITY] = 0.0f;
@@ -266,16 +269,18 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                     o[HBK_FLUID_FEATURE_FLOW_ANGLE] = (float)(0.5 * M_PI);
                     o[HBK_FLUID_FEATURE_ACCELERATION] = 0.0f;
                     o[HBK_FLUID_FEATURE_DIVERGENCE] = 0.0f;
+                    o[HBK_FLUID_FEATURE_CURVATURE] = 0.0f;
                     for (int a = 0; a < 3; ++a) f.np[a][v0 + (size_t)i] = -0.0f;
                 }
                 continue;
             }
             ROW(vertex_features, features8);
         }
-    free(zc);
     /* Mean curvature: half the divergence of that normal field, where it is defined around. */
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
-        for (int32_t j = 0; j < ny; ++j) ROW(vertex_curvature, curvature8);
+        for (int32_t j = 0; j < ny; ++j)
+            if (!zc || !qr[(size_t)j + (size_t)ny * (size_t)k]) ROW(vertex_curvature, curvature8);
+    free(zc);
 }
