@@ -50,6 +50,18 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t str
     const v8f h = zero + H, h2 = zero + H * H;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
     v8f part = zero;
+    if (!nim) /* away from the walls: no branch on empty groups (a mispredicted one cost more
+               * than the square roots) */
+        FOR_ROWS(c, cx, cy, cz, a, e, {
+            for (int32_t j = a; j < e; j += 8) {
+                const v8f dx = x - load8(X + j), dy = y - load8(Y + j), dz = z - load8(Z + j);
+                const v8f r2 = dx * dx + dy * dy + dz * dz;
+                const v8i near = (lane + j < e) & (r2 < h2);
+                const v8f q = h - __builtin_ia32_sqrtps256(r2), q3 = q * q * q;
+                part += (v8f)((v8i)q3 & near); /* + 0 where out of reach: the same bits */
+            }
+        })
+    else
     FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
             const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
@@ -94,6 +106,39 @@ hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stri
     const v8f vm = zero + m, vs = zero + spiky, vv = zero + visc;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
     v8f part[6] = {zero, zero, zero, zero, zero, zero};
+    if (!nim) { /* away from the walls: a row's distances and square roots first, then the
+                 * terms, so that the square roots of several groups overlap */
+        FOR_ROWS(c, cx, cy, cz, a, e, {
+            for (int32_t j0 = a; j0 < e; j0 += 64) {
+                v8f D[8][3], RR[8];
+                v8i N[8];
+                const int ng = (e - j0 + 7) / 8 < 8 ? (e - j0 + 7) / 8 : 8;
+                for (int g = 0; g < ng; ++g) { /* the scalar code's 1 * x + 0 (signed zeros) */
+                    const int32_t j = j0 + 8 * g;
+                    D[g][0] = x - (1.0f * load8(X + j) + 0.0f);
+                    D[g][1] = y - (1.0f * load8(Y + j) + 0.0f);
+                    D[g][2] = z - (1.0f * load8(Z + j) + 0.0f);
+                    const v8f r2 = D[g][0] * D[g][0] + D[g][1] * D[g][1] + D[g][2] * D[g][2];
+                    N[g] = (lane + j < e) & (r2 < h2) & (lane + j != i);
+                    RR[g] = __builtin_ia32_sqrtps256(r2);
+                }
+                for (int g = 0; g < ng; ++g) {
+                    if (!__builtin_ia32_movmskps256((v8f)N[g])) continue;
+                    const int32_t j = j0 + 8 * g;
+                    const v8f rr = RR[g], q = h - rr;
+                    const v8i near = N[g], push = near & (rr > tiny);
+                    const v8f f = vm * (pi + load8(P + j)) * vs * q * q / rr;
+                    const v8f w = vm / load8(R + j) * vv * q;
+                    const v8f t[6] = {f * D[g][0], f * D[g][1], f * D[g][2],
+                                      w * (1.0f * load8(VX + j) - vx),
+                                      w * (1.0f * load8(VY + j) - vy),
+                                      w * (1.0f * load8(VZ + j) - vz)};
+                    HBK_UNROLL8 for (int q6 = 0; q6 < 6; ++q6)
+                        part[q6] += (v8f)((v8i)t[q6] & (q6 < 3 ? push : near));
+                }
+            }
+        })
+    } else
     FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
             const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
