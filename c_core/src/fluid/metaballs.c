@@ -20,9 +20,8 @@ typedef struct {
  * particle are dx = lo + kx cl - x and ryz. */
 static inline __attribute__((always_inline)) void
 splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float cl,
-          const float *x, const float *v, float ryz, int32_t nx)
+          const float *x, const float *v, float ryz)
 {
-    (void)nx;
     for (int32_t kx = a0; kx <= a1; ++kx) {
         const float dx = lo + (float)kx * cl - x[0];
         const float r2 = dx * dx + ryz;
@@ -41,40 +40,36 @@ splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float 
     }
 }
 
-/* One chunk: vertex z-slab [z0, z1), from the particles (sorted) p0 .. p1 - 1, each row by
- * ROW. */
-#define SPLAT_CHUNK(ROW)                                                                     \
-    const hbk_fluid_cells_t *c = &h->cells;                                                  \
-    const int32_t nx = h->nv[0], ny = h->nv[1];                                              \
-    const float *lo = h->p.box_min, *cl = h->cell, *ic = h->inv_cell;                        \
-    for (int32_t k = p0; k < p1; ++k) {                                                      \
-        const int32_t id = c->order[k];                                                      \
-        const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;              \
-        int32_t a0[3], a1[3];                                                                \
-        for (int a = 0; a < 3; ++a) {                                                        \
-            a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);                              \
-            a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);                             \
-            if (a0[a] < 0) a0[a] = 0;                                                        \
-            if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;                                  \
-        }                                                                                    \
-        if (a0[2] < z0) a0[2] = z0;                                                          \
-        if (a1[2] > z1 - 1) a1[2] = z1 - 1;                                                  \
-        for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {                                        \
-            const float dz = lo[2] + (float)kz * cl[2] - x[2];                               \
-            for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {                                    \
-                const float dy = lo[1] + (float)ky * cl[1] - x[1];                           \
-                const float ryz = dy * dy + dz * dz;                                         \
-                if (ryz >= s->H2 && (!s->own_surf || ryz >= s->R2)) continue;                \
-                const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz);      \
-                ROW(s, row, a0[0], a1[0], lo[0], cl[0], x, v, ryz, nx);                     \
-            }                                                                                \
-        }                                                                                    \
-    }
-
+/* One chunk: vertex z-slab [z0, z1), from the particles (sorted) p0 .. p1 - 1. */
 static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
                             int32_t p0, int32_t p1, float S)
 {
-    SPLAT_CHUNK(splat_row)
+    const hbk_fluid_cells_t *c = &h->cells;
+    const int32_t nx = h->nv[0], ny = h->nv[1];
+    const float *lo = h->p.box_min, *cl = h->cell, *ic = h->inv_cell;
+    for (int32_t k = p0; k < p1; ++k) {
+        const int32_t id = c->order[k];
+        const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;
+        int32_t a0[3], a1[3];
+        for (int a = 0; a < 3; ++a) {
+            a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);
+            a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);
+            if (a0[a] < 0) a0[a] = 0;
+            if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;
+        }
+        if (a0[2] < z0) a0[2] = z0;
+        if (a1[2] > z1 - 1) a1[2] = z1 - 1;
+        for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
+            const float dz = lo[2] + (float)kz * cl[2] - x[2];
+            for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {
+                const float dy = lo[1] + (float)ky * cl[1] - x[1];
+                const float ryz = dy * dy + dz * dz;
+                if (ryz >= s->H2 && (!s->own_surf || ryz >= s->R2)) continue;
+                const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz);
+                splat_row(s, row, a0[0], a1[0], lo[0], cl[0], x, v, ryz);
+            }
+        }
+    }
 }
 
 /* splat_chunk_sse eight vertices of a row at a time, each lane with splat_row's operations
@@ -172,7 +167,6 @@ splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
     else splat_avx2(h, s, z0, z1, p0, p1, S, 0);
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
-#undef SPLAT_CHUNK
 
 /* Scatter by owner: vertex z-slabs are chunks of the loop; each chunk walks the particles
  * (in sorted order) whose support reaches it and adds to its own vertices only, so every
