@@ -21,7 +21,7 @@ typedef struct feat {
     int prev;           /* last frame's fields are there (the rates) */
 } feat_t;
 
-/* Central difference per metre of plane f along axis a at vertex vi = (i, j, k) (ijk[a] is
+/* Central difference per metre of plane p along axis a at vertex vi = (i, j, k) (ijk[a] is
  * the coordinate along a); one-sided at the borders. */
 static inline float diff(const feat_t *f, const float *p, size_t vi, const int32_t ijk[3], int a)
 {
