@@ -50,7 +50,6 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->g_wsum);
     free(h->g_mplanes);
     free(h->moving);
-    free(h->disp);
     free(h->sorted);
     free(h->soa);
     hbk_fluid_cells_free(&h->cells);
@@ -102,11 +101,11 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_wsum = malloc(nv * sizeof(float));
     h->g_mplanes = malloc(3 * nv * sizeof(float));
     h->moving = malloc(nv);
-    h->disp = malloc(3 * nv * sizeof(float));
+    h->disp = h->g_normal; /* the features are done with it before the advection */
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
-        !h->moving || !h->disp || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !h->moving || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",

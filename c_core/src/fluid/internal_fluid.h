@@ -65,10 +65,10 @@ struct hbk_fluid {
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
-    float *g_mplanes;           /* 3 x nv: the velocity sums, one plane per axis */
+    float *g_mplanes;           /* 3 x nv, a plane per axis: the splat's velocity sums, then V_m */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
     float *disp;                /* nv x 3: a moving vertex's back-trace, source - vertex, in
-                                 * voxels (advection, for V_r) */
+                                 * voxels (advection, for V_r); g_normal's buffer */
     int32_t wrap_checked;       /* the flags were repaired from the uvw as they are (advection
                                  * then repairs only where something moved); 0 after create or
                                  * load_state, so the first frame checks every voxel */
