@@ -110,6 +110,11 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
     const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
     hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
     int32_t at[257], nmov = 0;                                                               \
+    if (h->zero_rows && h->zero_rows[(size_t)j + (size_t)ny * (size_t)k]) { /* V_m all +0 */ \
+        memset(h->moving + row, 0, (size_t)nx);                                              \
+        copy_still(h, in, out, row, paint);                                                  \
+        return;                                                                              \
+    }                                                                                        \
     for (int32_t i = 0; i < nx; ++i) {                                                       \
         const size_t vi = row + (size_t)i;                                                   \
         const float *v0 = m + 3 * vi;                                                        \
@@ -226,13 +231,19 @@ sample_bp(const hbk_fluid_vols_t *in, int K, int paint, const size_t off[8],
     }
 }
 
-__attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+advect_row_avx2_body(ROW_ARGS)
 {
     ROW_SETUP
     ADVECT_ROW(sample_wrapped_pair(in->uvw[0], in->uvw[1], in->wrap[0][l.voxel],
                                    in->wrap[1][l.voxel], off, &l, out->uvw[0] + 3 * vi,
                                    out->uvw[1] + 3 * vi),
                sample_bp(in, K, paint, off, &l, b, out->paint + (size_t)K * vi))
+}
+
+__attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
+{
+    advect_row_avx2_body(h, in, out, off, dt, j, k);
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
 

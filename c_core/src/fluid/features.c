@@ -237,10 +237,11 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
                       gmin * gmin,
                       h->have_fields};
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
-    /* Rows whose density and velocity are all +0 (bit for bit), now and (zp) last frame: far
-     * from the fluid, a vertex's features are then constants (below), computed without it. */
+    /* Rows whose density and velocity are all +0 (bit for bit), now (zc, which the advection
+     * then reads) and (zp) last frame: far from the fluid, a vertex's features are then
+     * constants (below), computed without it. */
     const size_t rows = (size_t)ny * (size_t)nz;
-    uint8_t *zc = malloc(3 * rows), *zp = zc ? zc + rows : NULL, *qr = zc ? zc + 2 * rows : NULL;
+    uint8_t *zc = h->zero_rows, *zp = zc ? zc + rows : NULL, *qr = zc ? zc + 2 * rows : NULL;
     if (zc) {
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (size_t r = 0; r < rows; ++r) {
@@ -282,5 +283,4 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j)
             if (!zc || !qr[(size_t)j + (size_t)ny * (size_t)k]) ROW(vertex_curvature, curvature8);
-    free(zc);
 }

@@ -50,6 +50,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->g_wsum);
     free(h->g_mplanes);
     free(h->moving);
+    free(h->zero_rows);
     free(h->sorted);
     free(h->soa);
     hbk_fluid_cells_free(&h->cells);
@@ -101,6 +102,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_wsum = malloc(nv * sizeof(float));
     h->g_mplanes = malloc(3 * nv * sizeof(float));
     h->moving = malloc(nv);
+    h->zero_rows = malloc(3 * (size_t)h->nv[1] * (size_t)h->nv[2]); /* optional */
     h->disp = h->g_normal; /* the features are done with it before the advection */
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||

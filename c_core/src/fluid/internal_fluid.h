@@ -67,6 +67,9 @@ struct hbk_fluid {
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
     float *g_mplanes;           /* 3 x nv, a plane per axis: the splat's velocity sums, then V_m */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
+    uint8_t *zero_rows;         /* 3 x rows (features.c): density and V_m all +0 in the vertex
+                                 * row now, last frame, and around; the advection skips the
+                                 * first kind (or NULL: no skipping) */
     float *disp;                /* nv x 3: a moving vertex's back-trace, source - vertex, in
                                  * voxels (advection, for V_r); g_normal's buffer */
     int32_t wrap_checked;       /* the flags were repaired from the uvw as they are (advection
