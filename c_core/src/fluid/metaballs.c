@@ -40,25 +40,34 @@ splat_row(const splat_t *s, size_t row, int32_t a0, int32_t a1, float lo, float 
     }
 }
 
+/* The vertices [a0, a1] per axis within S of the particle at x, z clipped to the chunk's slab
+ * [z0, z1). */
+static inline void reach(const hbk_fluid_t *h, const float *x, float S, int32_t z0, int32_t z1,
+                         int32_t a0[3], int32_t a1[3])
+{
+    const float *lo = h->p.box_min, *ic = h->inv_cell;
+    for (int a = 0; a < 3; ++a) {
+        a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);
+        a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);
+        if (a0[a] < 0) a0[a] = 0;
+        if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;
+    }
+    if (a0[2] < z0) a0[2] = z0;
+    if (a1[2] > z1 - 1) a1[2] = z1 - 1;
+}
+
 /* One chunk: vertex z-slab [z0, z1), from the particles (sorted) p0 .. p1 - 1. */
 static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
                             int32_t p0, int32_t p1, float S)
 {
     const hbk_fluid_cells_t *c = &h->cells;
     const int32_t nx = h->nv[0], ny = h->nv[1];
-    const float *lo = h->p.box_min, *cl = h->cell, *ic = h->inv_cell;
+    const float *lo = h->p.box_min, *cl = h->cell;
     for (int32_t k = p0; k < p1; ++k) {
         const int32_t id = c->order[k];
         const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;
         int32_t a0[3], a1[3];
-        for (int a = 0; a < 3; ++a) {
-            a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);
-            a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);
-            if (a0[a] < 0) a0[a] = 0;
-            if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;
-        }
-        if (a0[2] < z0) a0[2] = z0;
-        if (a1[2] > z1 - 1) a1[2] = z1 - 1;
+        reach(h, x, S, z0, z1, a0, a1);
         for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
             const float dz = lo[2] + (float)kz * cl[2] - x[2];
             for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {
@@ -97,7 +106,7 @@ splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32
 {
     const hbk_fluid_cells_t *c = &h->cells;
     const int32_t nx = h->nv[0], ny = h->nv[1];
-    const float *lo = h->p.box_min, *cl = h->cell, *ic = h->inv_cell;
+    const float *lo = h->p.box_min, *cl = h->cell;
     const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
     const v8f iR2 = zero + s->inv_R2;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
@@ -105,14 +114,7 @@ splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32
         const int32_t id = c->order[k];
         const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;
         int32_t a0[3], a1[3];
-        for (int a = 0; a < 3; ++a) {
-            a0[a] = (int32_t)ceilf((x[a] - S - lo[a]) * ic[a]);
-            a1[a] = (int32_t)floorf((x[a] + S - lo[a]) * ic[a]);
-            if (a0[a] < 0) a0[a] = 0;
-            if (a1[a] > h->nv[a] - 1) a1[a] = h->nv[a] - 1;
-        }
-        if (a0[2] < z0) a0[2] = z0;
-        if (a1[2] > z1 - 1) a1[2] = z1 - 1;
+        reach(h, x, S, z0, z1, a0, a1);
         if (a0[0] > a1[0]) continue;
         const int nb = (a1[0] - a0[0]) / 8 + 1;
         if (nb > 2) { /* reach over 16 vertices (coarse particles on a fine grid) */
