@@ -143,6 +143,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, threads_identical)          \
     X(fluid, paths_same_bytes)           \
     X(fluid, state_roundtrip)            \
+    X(fluid, reload_every_frame)         \
     X(fluid, cancel)                     \
     X(fluid, noise_tileable)
 

@@ -110,11 +110,16 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
     const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
     hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
     int32_t at[257], nmov = 0;                                                               \
-    if (h->zero_rows && h->zero_rows[(size_t)j + (size_t)ny * (size_t)k]) { /* V_m all +0 */ \
+    const size_t jk = (size_t)j + (size_t)ny * (size_t)k;                                    \
+    if (h->zero_rows && h->zero_rows[jk]) { /* V_m all +0 */                                 \
         memset(h->moving + row, 0, (size_t)nx);                                              \
-        copy_still(h, in, out, row, paint);                                                  \
+        if (!h->same_rows[jk]) copy_still(h, in, out, row, paint);                           \
+        else if (paint) /* the life fades in both buffers: not part of "same" */             \
+            memcpy(out->life + row, in->life + row, (size_t)nx * sizeof(float));             \
+        h->same_rows[jk] = 1;                                                                \
         return;                                                                              \
     }                                                                                        \
+    h->same_rows[jk] = 0;                                                                    \
     for (int32_t i = 0; i < nx; ++i) {                                                       \
         const size_t vi = row + (size_t)i;                                                   \
         const float *v0 = m + 3 * vi;                                                        \
@@ -264,11 +269,16 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
                  h->moving[b0 + off[4] + (size_t)i] | h->moving[b0 + off[6] + (size_t)i];    \
         rowany |= col[i];                                                                    \
     }                                                                                        \
+    const size_t vjk = (size_t)j + (size_t)ry * (size_t)k;                                   \
     if (!rowany && checked) {                                                                \
-        memcpy(out->wrap[0] + v0i, in->wrap[0] + v0i, (size_t)rx);                           \
-        memcpy(out->wrap[1] + v0i, in->wrap[1] + v0i, (size_t)rx);                           \
+        if (!h->same_vox[vjk]) {                                                             \
+            memcpy(out->wrap[0] + v0i, in->wrap[0] + v0i, (size_t)rx);                       \
+            memcpy(out->wrap[1] + v0i, in->wrap[1] + v0i, (size_t)rx);                       \
+        }                                                                                    \
+        h->same_vox[vjk] = 1;                                                                \
         return;                                                                              \
     }                                                                                        \
+    h->same_vox[vjk] = 0;                                                                    \
     size_t from[257];                                                                        \
     for (int32_t i = 0; i < rx; ++i) {                                                       \
         const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \

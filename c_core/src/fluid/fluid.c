@@ -51,6 +51,8 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->g_mplanes);
     free(h->moving);
     free(h->zero_rows);
+    free(h->same_rows);
+    free(h->same_vox);
     free(h->sorted);
     free(h->soa);
     hbk_fluid_cells_free(&h->cells);
@@ -103,11 +105,13 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_mplanes = malloc(3 * nv * sizeof(float));
     h->moving = malloc(nv);
     h->zero_rows = malloc(3 * (size_t)h->nv[1] * (size_t)h->nv[2]); /* optional */
+    h->same_rows = calloc((size_t)h->nv[1] * (size_t)h->nv[2], 1);
+    h->same_vox = calloc((size_t)p->resolution[1] * (size_t)p->resolution[2], 1);
     h->disp = h->g_normal; /* the features are done with it before the advection */
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
-        !h->moving || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !h->moving || !h->same_rows || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",
@@ -378,8 +382,10 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     swap_f(&h->motion, &h->g_motion);
     hbk_fluid_vols_t *n = &h->scratch;
     const uint64_t frame = h->frame + 1, P = hbk_fluid_period_frames(&h->p);
-    if (P && frame % P == 0) hbk_fluid_reset_uvw(h, n->uvw[0], n->wrap[0], threads);
-    if (P && frame % P == P / 2) hbk_fluid_reset_uvw(h, n->uvw[1], n->wrap[1], threads);
+    const int reset_a = P && frame % P == 0, reset_b = P && frame % P == P / 2;
+    if (reset_a) hbk_fluid_reset_uvw(h, n->uvw[0], n->wrap[0], threads);
+    if (reset_b) hbk_fluid_reset_uvw(h, n->uvw[1], n->wrap[1], threads);
+    if (reset_a || reset_b) hbk_fluid_vols_differ(h);
     int paint_active = h->paint_active;
     if (paint_active) {
         int any = 0;

@@ -72,6 +72,10 @@ struct hbk_fluid {
                                  * first kind (or NULL: no skipping) */
     float *disp;                /* nv x 3: a moving vertex's back-trace, source - vertex, in
                                  * voxels (advection, for V_r); g_normal's buffer */
+    uint8_t *same_rows;         /* ny x nz: the vertex row of v and scratch holds the same uvw,
+                                 * base and (if the paint was active since) paint: a still row
+                                 * need not be copied again (advection) */
+    uint8_t *same_vox;          /* ry x rz: the same for a voxel row of the flags */
     int32_t wrap_checked;       /* the flags were repaired from the uvw as they are (advection
                                  * then repairs only where something moved); 0 after create or
                                  * load_state, so the first frame checks every voxel */
@@ -375,6 +379,13 @@ void hbk_fluid_reset_uvw(const hbk_fluid_t *h, float *uvw, uint8_t *wrap, int th
  * `moving`, only voxels with a moving corner (the others keep flags already repaired). */
 void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap,
                            const uint8_t *moving, int threads);
+
+/* Anything but the advection that writes h->v or h->scratch makes them differ. */
+static inline void hbk_fluid_vols_differ(hbk_fluid_t *h)
+{
+    memset(h->same_rows, 0, (size_t)h->nv[1] * (size_t)h->nv[2]);
+    memset(h->same_vox, 0, (size_t)h->p.resolution[1] * (size_t)h->p.resolution[2]);
+}
 
 /* weight.c: the cross-fade weight of field A per vertex (nv floats), adapted to stretch. */
 void hbk_fluid_weights(const hbk_fluid_t *h, float *out, int threads);

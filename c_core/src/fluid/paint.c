@@ -37,23 +37,30 @@ void hbk_fluid_apply_rules(hbk_fluid_t *h, float *base, const float *features, i
     int any = 0;
     for (int t = 0; t < h->K; ++t) any |= h->rule_on[t];
     if (!any) return;
-    const size_t nv = h->n_vert;
+    const int32_t nx = h->nv[0], rows = h->nv[1] * h->nv[2];
     const int K = h->K, F = HBK_FLUID_FEATURE_COUNT;
+    /* By rows: a row whose base this changes no longer matches the other buffer's. */
 #pragma omp parallel for num_threads(threads) schedule(static)
-    for (size_t i = 0; i < nv; ++i) {
-        const float *f = features + (size_t)F * i;
-        int match = -1;
-        for (int t = 0; t < K; ++t) {
-            if (!h->rule_on[t]) continue;
-            int in = 1;
-            for (int c = 0; c < F && in; ++c) in = f[c] >= h->rule_lo[t][c] && f[c] <= h->rule_hi[t][c];
-            if (in) match = t;
-        }
-        if (match >= 0) {
+    for (int32_t r = 0; r < rows; ++r) {
+        int changed = 0;
+        for (size_t i = (size_t)r * (size_t)nx; i < (size_t)(r + 1) * (size_t)nx; ++i) {
+            const float *f = features + (size_t)F * i;
+            int match = -1;
+            for (int t = 0; t < K; ++t) {
+                if (!h->rule_on[t]) continue;
+                int in = 1;
+                for (int c = 0; c < F && in; ++c) in = f[c] >= h->rule_lo[t][c] && f[c] <= h->rule_hi[t][c];
+                if (in) match = t;
+            }
+            if (match < 0) continue;
+            float one_hot[HBK_FLUID_MAX_TEXTURES] = {0};
+            one_hot[match] = 1.0f;
             float *b = base + (size_t)K * i;
-            for (int t = 0; t < K; ++t) b[t] = 0.0f;
-            b[match] = 1.0f;
+            if (!memcmp(b, one_hot, (size_t)K * sizeof(float))) continue;
+            memcpy(b, one_hot, (size_t)K * sizeof(float));
+            changed = 1;
         }
+        if (changed) h->same_rows[r] = 0;
     }
 }
 
@@ -103,6 +110,7 @@ static hbk_result_t stroke(hbk_fluid_t *h, int32_t texture, const float *mask,
         h->v.life[i] = L;
     }
     h->paint_active = 1;
+    hbk_fluid_vols_differ(h);
     return HBK_OK;
 }
 

@@ -166,5 +166,6 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     h->paint_active = hd.paint_active;
     h->frame = hd.frame;
     h->wrap_checked = 0; /* the next advection repairs every voxel's flags */
+    hbk_fluid_vols_differ(h);
     return HBK_OK;
 }
