@@ -781,6 +781,33 @@ void test_fluid_reload_every_frame(void)
     hbk_fluid_destroy(h[1]);
 }
 
+/* With the paint cleared, the state holds no stale paint: a step undone by load_state leaves
+ * the same bytes as no step, though it swapped the buffers. */
+void test_fluid_state_no_stale_paint(void)
+{
+    hbk_fluid_t *a = scene(2), *b = scene(2);
+    CHECK(a && b);
+    for (int f = 0; f < 2; ++f) {
+        CHECK_OK(hbk_fluid_step(a, NULL));
+        CHECK_OK(hbk_fluid_step(b, NULL));
+    }
+    CHECK_OK(hbk_fluid_clear_paint(a));
+    CHECK_OK(hbk_fluid_clear_paint(b));
+    size_t s0, sa, sb;
+    unsigned char *x0 = snapshot(b, &s0);
+    CHECK_OK(hbk_fluid_step(b, NULL));
+    CHECK_OK(hbk_fluid_load_state(b, x0, s0));
+    for (int f = 0; f < 3; ++f) {
+        CHECK_OK(hbk_fluid_step(a, NULL));
+        CHECK_OK(hbk_fluid_step(b, NULL));
+    }
+    unsigned char *xa = snapshot(a, &sa), *xb = snapshot(b, &sb);
+    CHECK(sa == sb && !memcmp(xa, xb, sa));
+    free(x0); free(xa); free(xb);
+    hbk_fluid_destroy(a);
+    hbk_fluid_destroy(b);
+}
+
 void test_fluid_cancel(void)
 {
     hbk_fluid_t *h = scene(2);

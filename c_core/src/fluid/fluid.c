@@ -409,6 +409,7 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     h->v = h->scratch;
     h->scratch = tmp;
     commit_fields(h);
+    if (h->paint_active && !paint_active) hbk_fluid_paint_off(h); /* the last paint faded */
     h->paint_active = paint_active;
     h->frame = frame;
     h->ms[0] = (t1 - t0) * 1e3;

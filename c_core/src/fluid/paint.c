@@ -147,10 +147,22 @@ hbk_result_t hbk_fluid_paint_sphere(hbk_fluid_t *h, int32_t texture, const float
     return stroke(h, texture, NULL, center, radius, falloff);
 }
 
+/* No paint: both buffers' paint and life are zero, so that a saved state never holds stale
+ * paint from whichever buffer the last swap left (the advection skips them meanwhile). */
+void hbk_fluid_paint_off(hbk_fluid_t *h)
+{
+    const size_t nv = h->n_vert, K = (size_t)h->K;
+    h->paint_active = 0;
+    memset(h->v.paint, 0, nv * K * sizeof(float));
+    memset(h->v.life, 0, nv * sizeof(float));
+    memset(h->scratch.paint, 0, nv * K * sizeof(float));
+    memset(h->scratch.life, 0, nv * sizeof(float));
+}
+
 hbk_result_t hbk_fluid_clear_paint(hbk_fluid_t *h)
 {
     ENTER(h);
-    h->paint_active = 0;
+    hbk_fluid_paint_off(h);
     return HBK_OK;
 }
 

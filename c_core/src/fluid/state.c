@@ -167,5 +167,6 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     h->frame = hd.frame;
     h->wrap_checked = 0; /* the next advection repairs every voxel's flags */
     hbk_fluid_vols_differ(h);
+    if (!h->paint_active) hbk_fluid_paint_off(h);
     return HBK_OK;
 }
