@@ -49,6 +49,8 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->g_normal);
     free(h->g_wsum);
     free(h->g_mplanes);
+    free(h->splat_ylo);
+    free(h->splat_yhi);
     free(h->moving);
     free(h->zero_rows);
     free(h->same_rows);
@@ -103,6 +105,8 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_normal = malloc(3 * nv * sizeof(float));
     h->g_wsum = malloc(nv * sizeof(float));
     h->g_mplanes = malloc(3 * nv * sizeof(float));
+    h->splat_ylo = malloc((size_t)h->nv[2] * sizeof(int32_t));
+    h->splat_yhi = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->moving = malloc(nv);
     h->zero_rows = malloc(3 * (size_t)h->nv[1] * (size_t)h->nv[2]); /* optional */
     h->same_rows = calloc((size_t)h->nv[1] * (size_t)h->nv[2], 1);
@@ -111,6 +115,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
+        !h->splat_ylo || !h->splat_yhi ||
         !h->moving || !h->same_rows || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
@@ -118,6 +123,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
                         p->resolution[0], p->resolution[1], p->resolution[2]);
     }
     const int threads = HBK_OMP_THREADS(h);
+    hbk_fluid_splat_rows(h, 1); /* the sum buffers hold garbage */
     hbk_fluid_reset_uvw(h, h->v.uvw[0], h->v.wrap[0], threads);
     memcpy(h->v.uvw[1], h->v.uvw[0], 3 * nv * sizeof(float));
     memcpy(h->v.wrap[1], h->v.wrap[0], h->n_vox);
@@ -290,6 +296,7 @@ static hbk_result_t build_fields(hbk_fluid_t *h, int threads)
     const size_t nv = h->n_vert;
     if (h->p.source == HBK_FLUID_VELOCITY_GRID) {
         const float vmax = hbk_fluid_vmax(h);
+        hbk_fluid_splat_rows(h, 1); /* put_motion writes every plane */
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (size_t i = 0; i < nv; ++i) {
             float v[3] = {0.0f, 0.0f, 0.0f};

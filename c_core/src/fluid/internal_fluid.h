@@ -66,6 +66,8 @@ struct hbk_fluid {
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
     float *g_mplanes;           /* 3 x nv, a plane per axis: the splat's velocity sums, then V_m */
+    int32_t *splat_ylo, *splat_yhi; /* per vertex layer: the rows of g_wsum and g_mplanes that
+                                 * may be non-zero (metaballs.c clears only those) */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
     uint8_t *zero_rows;         /* 3 x rows (features.c): density and V_m all +0 in the vertex
                                  * row now, last frame, and around; the advection skips the
@@ -182,6 +184,16 @@ static inline void hbk_fluid_put_motion(hbk_fluid_t *h, size_t i, float v[3], fl
     for (int a = 0; a < 3; ++a) {
         h->g_motion[3 * i + (size_t)a] = v[a];
         h->g_mplanes[(size_t)a * h->n_vert + i] = v[a];
+    }
+}
+
+/* Marks every row of g_wsum and g_mplanes as holding data (all = 1: after create, or after
+ * something else wrote them) or none (all = 0: they were just zeroed). */
+static inline void hbk_fluid_splat_rows(hbk_fluid_t *h, int all)
+{
+    for (int32_t k = 0; k < h->nv[2]; ++k) {
+        h->splat_ylo[k] = all ? 0 : INT32_MAX;
+        h->splat_yhi[k] = all ? h->nv[1] - 1 : -1;
     }
 }
 

@@ -14,6 +14,7 @@ typedef struct {
     float *wsum, *surf, *mot[3]; /* vertex sums; motion as three planes */
     float H2, R2, inv_R2;
     int own_surf;                /* the metaball sum is splatted (R != H), not derived */
+    int32_t *ylo, *yhi;          /* per vertex layer: the rows the sums may be non-zero in */
 } splat_t;
 
 /* Adds particle (x, v) to vertices [a0, a1] of one row (at `row`), whose offsets from the
@@ -56,6 +57,15 @@ static inline void reach(const hbk_fluid_t *h, const float *x, float S, int32_t 
     if (a1[2] > z1 - 1) a1[2] = z1 - 1;
 }
 
+/* Widens the layers' row ranges to the particle's reach (a0, a1). */
+static inline void mark_rows(const splat_t *s, const int32_t a0[3], const int32_t a1[3])
+{
+    for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
+        if (a0[1] < s->ylo[kz]) s->ylo[kz] = a0[1];
+        if (a1[1] > s->yhi[kz]) s->yhi[kz] = a1[1];
+    }
+}
+
 /* One chunk: vertex z-slab [z0, z1), from the particles (sorted) p0 .. p1 - 1. */
 static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
                             int32_t p0, int32_t p1, float S)
@@ -68,6 +78,7 @@ static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, 
         const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;
         int32_t a0[3], a1[3];
         reach(h, x, S, z0, z1, a0, a1);
+        mark_rows(s, a0, a1);
         for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
             const float dz = lo[2] + (float)kz * cl[2] - x[2];
             for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {
@@ -116,6 +127,7 @@ splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32
         int32_t a0[3], a1[3];
         reach(h, x, S, z0, z1, a0, a1);
         if (a0[0] > a1[0]) continue;
+        mark_rows(s, a0, a1);
         const int nb = (a1[0] - a0[0]) / 8 + 1;
         if (nb > 2) { /* reach over 16 vertices (coarse particles on a fine grid) */
             const int32_t q = k + 1;
@@ -181,12 +193,14 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     const float H = h->p.smoothing_length, R = h->p.metaball_radius;
     const int own_surf = R != H;
     const int32_t n = h->count;
-    memset(h->g_mplanes, 0, 3 * nv * sizeof(float));
-    memset(h->g_wsum, 0, nv * sizeof(float));
+    const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2];
     if (n == 0 || own_surf) memset(h->g_surface, 0, nv * sizeof(float));
     if (n == 0) {
+        memset(h->g_mplanes, 0, 3 * nv * sizeof(float));
+        memset(h->g_wsum, 0, nv * sizeof(float));
         memset(h->g_density, 0, nv * sizeof(float));
         memset(h->g_motion, 0, 3 * nv * sizeof(float));
+        hbk_fluid_splat_rows(h, 0);
         return HBK_OK;
     }
     const float S = H > R ? H : R;
@@ -195,10 +209,10 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     if (r) return r;
     const splat_t s = {h->g_wsum, h->g_surface,
                        {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv},
-                       H * H, R * R, 1.0f / (R * R), own_surf};
+                       H * H, R * R, 1.0f / (R * R), own_surf,
+                       h->splat_ylo, h->splat_yhi};
     const float dens_k = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
     const float surf_k = (float)(1.0 / pow(R, 6));
-    const int32_t nz = h->nv[2];
     const float *lo = h->p.box_min, *cl = h->cell;
     const int32_t slab = 8, chunks = (nz + slab - 1) / slab;
     const size_t layer = (size_t)c->dims[0] * (size_t)c->dims[1];
@@ -209,6 +223,18 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
         const float wz0 = lo[2] + (float)z0 * cl[2] - S, wz1 = lo[2] + (float)(z1 - 1) * cl[2] + S;
         const int32_t c0 = hbk_fluid_cell_coord(c, wz0, 2), c1 = hbk_fluid_cell_coord(c, wz1, 2);
         const int32_t p0 = c->start[(size_t)c0 * layer], p1 = c->start[(size_t)(c1 + 1) * layer];
+        /* Zero the sums where last frame's splat left them (not the whole grid, most of which
+         * no particle reaches), then forget the rows. */
+        for (int32_t kz = z0; kz < z1; ++kz) {
+            const int32_t y0 = s.ylo[kz], y1 = s.yhi[kz];
+            if (y0 > y1) continue;
+            const size_t at = (size_t)nx * ((size_t)y0 + (size_t)ny * (size_t)kz);
+            const size_t len = (size_t)nx * (size_t)(y1 - y0 + 1) * sizeof(float);
+            memset(s.wsum + at, 0, len);
+            for (int a = 0; a < 3; ++a) memset(s.mot[a] + at, 0, len);
+            s.ylo[kz] = INT32_MAX;
+            s.yhi[kz] = -1;
+        }
         (avx2 ? splat_chunk_avx2 : splat_chunk_sse)(h, &s, z0, z1, p0, p1, S);
     }
     /* Shepard-normalised velocity, clamped (hbk_fluid_put_motion's operations, four vertices
