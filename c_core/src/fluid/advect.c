@@ -111,7 +111,7 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
     hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
     int32_t at[257], nmov = 0;                                                               \
     const size_t jk = (size_t)j + (size_t)ny * (size_t)k;                                    \
-    if (h->zero_rows && h->zero_rows[jk]) { /* V_m all +0 */                                 \
+    if (h->g_fz[jk]) { /* V_m all +0 */                                                      \
         memset(h->moving + row, 0, (size_t)nx);                                              \
         if (!h->same_rows[jk]) copy_still(h, in, out, row, paint);                           \
         else if (paint) /* the life fades in both buffers: not part of "same" */             \

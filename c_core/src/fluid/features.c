@@ -239,42 +239,44 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
     /* Rows whose density and velocity are all +0 (bit for bit), now (zc, which the advection
      * then reads) and (zp) last frame: far from the fluid, a vertex's features are then
-     * constants (below), computed without it. */
+     * constants (below), computed without it. A row written blank is zero without a look. */
     const size_t rows = (size_t)ny * (size_t)nz;
-    uint8_t *zc = h->zero_rows, *zp = zc ? zc + rows : NULL, *qr = zc ? zc + 2 * rows : NULL;
-    if (zc) {
+    uint8_t *zc = h->g_fz, *qr = h->quiet;
+    const uint8_t *zp = h->fz;
 #pragma omp parallel for num_threads(threads) schedule(static)
-        for (size_t r = 0; r < rows; ++r) {
-            const size_t v0 = r * (size_t)nx;
-            zc[r] = all_zero(h->g_density + v0, (size_t)nx) &&
-                    all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx);
-            zp[r] = all_zero(h->density + v0, (size_t)nx) &&
-                    all_zero(h->motion + 3 * v0, 3 * (size_t)nx);
-        }
+    for (size_t r = 0; r < rows; ++r) {
+        const size_t v0 = r * (size_t)nx;
+        zc[r] = h->g_blank[r] || (all_zero(h->g_density + v0, (size_t)nx) &&
+                                  all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx));
     }
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j) {
             const size_t r = (size_t)j + (size_t)ny * (size_t)k;
-            if (zc) qr[r] = quiet(zc, zp, f.prev, j, k, ny, nz);
-            if (zc && qr[r]) {
+            qr[r] = (uint8_t)quiet(zc, zp, f.prev, j, k, ny, nz);
+            if (qr[r]) {
                 /* What vertex_features gives for zero fields: a rate and acceleration of +0,
                  * the gradient -0 (so a -0 normal), no flow angle (pi / 2); and then what
-                 * vertex_curvature gives for a -0 normal, +0. */
+                 * vertex_curvature gives for a -0 normal, +0. Rows that hold them already
+                 * (from the frame before last) are not written again. */
                 const size_t v0 = (size_t)nx * r;
-                for (int32_t i = 0; i < nx; ++i) {
-                    float *o = h->g_features + (size_t)F * (v0 + (size_t)i);
-                    o[HBK_FLUID_FEATURE_DENSITY] = 0.0f;
-                    o[HBK_FLUID_FEATURE_DENSITY_RATE] = 0.0f;
-                    o[HBK_FLUID_FEATURE_FLOW_ANGLE] = (float)(0.5 * M_PI);
-                    o[HBK_FLUID_FEATURE_ACCELERATION] = 0.0f;
-                    o[HBK_FLUID_FEATURE_DIVERGENCE] = 0.0f;
-                    o[HBK_FLUID_FEATURE_CURVATURE] = 0.0f;
+                if (!h->g_fq[r])
+                    for (int32_t i = 0; i < nx; ++i) {
+                        float *o = h->g_features + (size_t)F * (v0 + (size_t)i);
+                        o[HBK_FLUID_FEATURE_DENSITY] = 0.0f;
+                        o[HBK_FLUID_FEATURE_DENSITY_RATE] = 0.0f;
+                        o[HBK_FLUID_FEATURE_FLOW_ANGLE] = (float)(0.5 * M_PI);
+                        o[HBK_FLUID_FEATURE_ACCELERATION] = 0.0f;
+                        o[HBK_FLUID_FEATURE_DIVERGENCE] = 0.0f;
+                        o[HBK_FLUID_FEATURE_CURVATURE] = 0.0f;
+                    }
+                for (int32_t i = 0; i < nx; ++i) /* g_normal is the advection's scratch too */
                     for (int a = 0; a < 3; ++a) f.np[a][v0 + (size_t)i] = -0.0f;
-                }
+                h->g_fq[r] = 1;
                 continue;
             }
+            h->g_fq[r] = 0;
             ROW(vertex_features, features8);
         }
     /* Mean curvature: half the divergence of that normal field, where it is defined around. */
@@ -282,5 +284,5 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j)
-            if (!zc || !qr[(size_t)j + (size_t)ny * (size_t)k]) ROW(vertex_curvature, curvature8);
+            if (!qr[(size_t)j + (size_t)ny * (size_t)k]) ROW(vertex_curvature, curvature8);
 }

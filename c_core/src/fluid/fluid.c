@@ -52,7 +52,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->splat_ylo);
     free(h->splat_yhi);
     free(h->moving);
-    free(h->zero_rows);
+    free(h->row_flags);
     free(h->same_rows);
     free(h->same_vox);
     free(h->sorted);
@@ -108,14 +108,26 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->splat_ylo = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->splat_yhi = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->moving = malloc(nv);
-    h->zero_rows = malloc(3 * (size_t)h->nv[1] * (size_t)h->nv[2]); /* optional */
+    const size_t rows = (size_t)h->nv[1] * (size_t)h->nv[2];
+    h->row_flags = calloc(7, rows);
+    if (h->row_flags) {
+        h->blank = h->row_flags;
+        h->g_blank = h->row_flags + rows;
+        h->fz = h->row_flags + 2 * rows;
+        h->g_fz = h->row_flags + 3 * rows;
+        h->fq = h->row_flags + 4 * rows;
+        h->g_fq = h->row_flags + 5 * rows;
+        h->quiet = h->row_flags + 6 * rows;
+        memset(h->blank, 1, rows); /* h->density, motion and surface start zeroed */
+        memset(h->fz, 1, rows);
+    }
     h->same_rows = calloc((size_t)h->nv[1] * (size_t)h->nv[2], 1);
     h->same_vox = calloc((size_t)p->resolution[1] * (size_t)p->resolution[2], 1);
     h->disp = h->g_normal; /* the features are done with it before the advection */
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
-        !h->splat_ylo || !h->splat_yhi ||
+        !h->splat_ylo || !h->splat_yhi || !h->row_flags ||
         !h->moving || !h->same_rows || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
@@ -297,6 +309,7 @@ static hbk_result_t build_fields(hbk_fluid_t *h, int threads)
     if (h->p.source == HBK_FLUID_VELOCITY_GRID) {
         const float vmax = hbk_fluid_vmax(h);
         hbk_fluid_splat_rows(h, 1); /* put_motion writes every plane */
+        memset(h->g_blank, 0, (size_t)h->nv[1] * (size_t)h->nv[2]);
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (size_t i = 0; i < nv; ++i) {
             float v[3] = {0.0f, 0.0f, 0.0f};
@@ -319,6 +332,7 @@ static hbk_result_t build_fields(hbk_fluid_t *h, int threads)
 }
 
 static void swap_f(float **a, float **b) { float *t = *a; *a = *b; *b = t; }
+static void swap_u8(uint8_t **a, uint8_t **b) { uint8_t *t = *a; *a = *b; *b = t; }
 
 static void commit_fields(hbk_fluid_t *h)
 {
@@ -326,6 +340,9 @@ static void commit_fields(hbk_fluid_t *h)
     swap_f(&h->density, &h->g_density);
     swap_f(&h->surface, &h->g_surface);
     swap_f(&h->features, &h->g_features);
+    swap_u8(&h->blank, &h->g_blank);
+    swap_u8(&h->fz, &h->g_fz);
+    swap_u8(&h->fq, &h->g_fq);
     h->have_fields = 1;
 }
 

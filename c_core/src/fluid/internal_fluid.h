@@ -69,9 +69,15 @@ struct hbk_fluid {
     int32_t *splat_ylo, *splat_yhi; /* per vertex layer: the rows of g_wsum and g_mplanes that
                                  * may be non-zero (metaballs.c clears only those) */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
-    uint8_t *zero_rows;         /* 3 x rows (features.c): density and V_m all +0 in the vertex
-                                 * row now, last frame, and around; the advection skips the
-                                 * first kind (or NULL: no skipping) */
+    /* Per vertex row, for the fields of the handle (h->density ...) and those under
+     * construction (g_density ...), swapped with them: */
+    uint8_t *blank, *g_blank;   /* density, V_m and surface all written +0 as a row no particle
+                                 * reaches (metaballs.c: such a row is not written again) */
+    uint8_t *fz, *g_fz;         /* density and V_m all +0, bit for bit (features.c; the advection
+                                 * copies such rows whole) */
+    uint8_t *fq, *g_fq;         /* the features hold the constants of a quiet row */
+    uint8_t *quiet;             /* rows (features.c): all zero now, last frame and around */
+    uint8_t *row_flags;         /* the block the flags above live in */
     float *disp;                /* nv x 3: a moving vertex's back-trace, source - vertex, in
                                  * voxels (advection, for V_r); g_normal's buffer */
     uint8_t *same_rows;         /* ny x nz: the vertex row of v and scratch holds the same uvw,

@@ -201,6 +201,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
         memset(h->g_density, 0, nv * sizeof(float));
         memset(h->g_motion, 0, 3 * nv * sizeof(float));
         hbk_fluid_splat_rows(h, 0);
+        memset(h->g_blank, 1, (size_t)ny * (size_t)nz);
         return HBK_OK;
     }
     const float S = H > R ? H : R;
@@ -239,44 +240,59 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     }
     /* Shepard-normalised velocity, clamped (hbk_fluid_put_motion's operations, four vertices
      * at a time: a scalar loop with its divisions and the clamp's branch cost a fifth of the
-     * fields); the density and (R = H) the metaball sum. */
+     * fields); the density and (R = H) the metaball sum. By rows: a row no particle reached
+     * is all +0, and is not written again where these buffers hold it so already. */
     const float vmax = hbk_fluid_vmax(h);
-    const size_t n4 = nv / 4 * 4;
+    const int32_t rows = ny * nz;
 #pragma omp parallel for num_threads(threads) schedule(static)
-    for (size_t i = 0; i < n4; i += 4) {
-        hbk_v4f w, v[3];
-        memcpy(&w, h->g_wsum + i, sizeof w);
-        const hbk_v4f zero = {0}, dens = dens_k * w, surf = surf_k * w;
-        memcpy(h->g_density + i, &dens, sizeof dens);
-        if (!own_surf) memcpy(h->g_surface + i, &surf, sizeof surf);
-        const hbk_v4i pos = w > zero;
-        for (int a = 0; a < 3; ++a) {
-            hbk_v4f sum;
-            memcpy(&sum, h->g_mplanes + (size_t)a * nv + i, sizeof sum);
-            v[a] = (hbk_v4f)(((hbk_v4i)(sum / w) & pos) | ((hbk_v4i)sum & ~pos));
+    for (int32_t r = 0; r < rows; ++r) {
+        const int32_t j = r % ny, k = r / ny;
+        const size_t i0 = (size_t)r * (size_t)nx, i1 = i0 + (size_t)nx;
+        if (j < s.ylo[k] || j > s.yhi[k]) {
+            if (h->g_blank[r]) continue;
+            memset(h->g_density + i0, 0, (size_t)nx * sizeof(float));
+            if (!own_surf) memset(h->g_surface + i0, 0, (size_t)nx * sizeof(float));
+            memset(h->g_motion + 3 * i0, 0, 3 * (size_t)nx * sizeof(float));
+            h->g_blank[r] = 1;
+            continue;
         }
-        const hbk_v4f s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-        const hbk_v4i over = s2 > vmax * vmax;
-        if (__builtin_ia32_movmskps((hbk_v4f)over)) {
-            const hbk_v4f f = vmax / __builtin_ia32_sqrtps(s2);
-            for (int a = 0; a < 3; ++a)
-                v[a] = (hbk_v4f)(((hbk_v4i)(v[a] * f) & over) | ((hbk_v4i)v[a] & ~over));
+        h->g_blank[r] = 0;
+        size_t i = i0;
+        for (; i + 4 <= i1; i += 4) {
+            hbk_v4f w, v[3];
+            memcpy(&w, h->g_wsum + i, sizeof w);
+            const hbk_v4f zero = {0}, dens = dens_k * w, surf = surf_k * w;
+            memcpy(h->g_density + i, &dens, sizeof dens);
+            if (!own_surf) memcpy(h->g_surface + i, &surf, sizeof surf);
+            const hbk_v4i pos = w > zero;
+            for (int a = 0; a < 3; ++a) {
+                hbk_v4f sum;
+                memcpy(&sum, h->g_mplanes + (size_t)a * nv + i, sizeof sum);
+                v[a] = (hbk_v4f)(((hbk_v4i)(sum / w) & pos) | ((hbk_v4i)sum & ~pos));
+            }
+            const hbk_v4f s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+            const hbk_v4i over = s2 > vmax * vmax;
+            if (__builtin_ia32_movmskps((hbk_v4f)over)) {
+                const hbk_v4f f = vmax / __builtin_ia32_sqrtps(s2);
+                for (int a = 0; a < 3; ++a)
+                    v[a] = (hbk_v4f)(((hbk_v4i)(v[a] * f) & over) | ((hbk_v4i)v[a] & ~over));
+            }
+            for (int a = 0; a < 3; ++a) {
+                memcpy(h->g_mplanes + (size_t)a * nv + i, &v[a], sizeof v[a]);
+                for (int l = 0; l < 4; ++l) h->g_motion[3 * (i + (size_t)l) + (size_t)a] = v[a][l];
+            }
         }
-        for (int a = 0; a < 3; ++a) {
-            memcpy(h->g_mplanes + (size_t)a * nv + i, &v[a], sizeof v[a]);
-            for (int l = 0; l < 4; ++l) h->g_motion[3 * (i + (size_t)l) + (size_t)a] = v[a][l];
+        for (; i < i1; ++i) {
+            const float w = h->g_wsum[i];
+            h->g_density[i] = dens_k * w;
+            if (!own_surf) h->g_surface[i] = surf_k * w;
+            float v[3];
+            for (int a = 0; a < 3; ++a) {
+                const float sum = h->g_mplanes[(size_t)a * nv + i];
+                v[a] = w > 0.0f ? sum / w : sum;
+            }
+            hbk_fluid_put_motion(h, i, v, vmax);
         }
-    }
-    for (size_t i = n4; i < nv; ++i) {
-        const float w = h->g_wsum[i];
-        h->g_density[i] = dens_k * w;
-        if (!own_surf) h->g_surface[i] = surf_k * w;
-        float v[3];
-        for (int a = 0; a < 3; ++a) {
-            const float sum = h->g_mplanes[(size_t)a * nv + i];
-            v[a] = w > 0.0f ? sum / w : sum;
-        }
-        hbk_fluid_put_motion(h, i, v, vmax);
     }
     return HBK_OK;
 }
