@@ -240,7 +240,7 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     /* Rows whose density and velocity are all +0 (bit for bit), now (zc, which the advection
      * then reads) and (zp) last frame: far from the fluid, a vertex's features are then
      * constants (below), computed without it. A row written blank is zero without a look. */
-    const size_t rows = (size_t)ny * (size_t)nz;
+    const size_t rows = h->n_rows;
     uint8_t *zc = h->g_fz, *qr = h->quiet;
     const uint8_t *zp = h->fz;
 #pragma omp parallel for num_threads(threads) schedule(static)

@@ -53,7 +53,6 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->splat_yhi);
     free(h->moving);
     free(h->row_flags);
-    free(h->same_rows);
     free(h->same_vox);
     free(h->sorted);
     free(h->soa);
@@ -108,8 +107,8 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->splat_ylo = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->splat_yhi = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->moving = malloc(nv);
-    const size_t rows = (size_t)h->nv[1] * (size_t)h->nv[2];
-    h->row_flags = calloc(7, rows);
+    const size_t rows = h->n_rows = (size_t)h->nv[1] * (size_t)h->nv[2];
+    h->row_flags = calloc(8, rows);
     if (h->row_flags) {
         h->blank = h->row_flags;
         h->g_blank = h->row_flags + rows;
@@ -118,17 +117,17 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
         h->fq = h->row_flags + 4 * rows;
         h->g_fq = h->row_flags + 5 * rows;
         h->quiet = h->row_flags + 6 * rows;
+        h->same_rows = h->row_flags + 7 * rows;
         memset(h->blank, 1, rows); /* h->density, motion and surface start zeroed */
         memset(h->fz, 1, rows);
     }
-    h->same_rows = calloc((size_t)h->nv[1] * (size_t)h->nv[2], 1);
     h->same_vox = calloc((size_t)p->resolution[1] * (size_t)p->resolution[2], 1);
     h->disp = h->g_normal; /* the features are done with it before the advection */
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
         !h->splat_ylo || !h->splat_yhi || !h->row_flags ||
-        !h->moving || !h->same_rows || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !h->moving || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",
@@ -309,7 +308,7 @@ static hbk_result_t build_fields(hbk_fluid_t *h, int threads)
     if (h->p.source == HBK_FLUID_VELOCITY_GRID) {
         const float vmax = hbk_fluid_vmax(h);
         hbk_fluid_splat_rows(h, 1); /* put_motion writes every plane */
-        memset(h->g_blank, 0, (size_t)h->nv[1] * (size_t)h->nv[2]);
+        memset(h->g_blank, 0, h->n_rows);
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (size_t i = 0; i < nv; ++i) {
             float v[3] = {0.0f, 0.0f, 0.0f};

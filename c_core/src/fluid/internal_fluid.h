@@ -77,13 +77,14 @@ struct hbk_fluid {
                                  * copies such rows whole) */
     uint8_t *fq, *g_fq;         /* the features hold the constants of a quiet row */
     uint8_t *quiet;             /* rows (features.c): all zero now, last frame and around */
-    uint8_t *row_flags;         /* the block the flags above live in */
+    uint8_t *same_rows;         /* the vertex row of v and scratch holds the same uvw, base and
+                                 * (if the paint was active since) paint: a still row need not
+                                 * be copied again (advection) */
+    uint8_t *row_flags;         /* the block the flags above live in, n_rows each */
+    size_t n_rows;              /* vertex rows, ny x nz */
+    uint8_t *same_vox;          /* ry x rz: same_rows for a voxel row of the flags */
     float *disp;                /* nv x 3: a moving vertex's back-trace, source - vertex, in
                                  * voxels (advection, for V_r); g_normal's buffer */
-    uint8_t *same_rows;         /* ny x nz: the vertex row of v and scratch holds the same uvw,
-                                 * base and (if the paint was active since) paint: a still row
-                                 * need not be copied again (advection) */
-    uint8_t *same_vox;          /* ry x rz: the same for a voxel row of the flags */
     int32_t wrap_checked;       /* the flags were repaired from the uvw as they are (advection
                                  * then repairs only where something moved); 0 after create or
                                  * load_state, so the first frame checks every voxel */
@@ -401,7 +402,7 @@ void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap
 /* Anything but the advection that writes h->v or h->scratch makes them differ. */
 static inline void hbk_fluid_vols_differ(hbk_fluid_t *h)
 {
-    memset(h->same_rows, 0, (size_t)h->nv[1] * (size_t)h->nv[2]);
+    memset(h->same_rows, 0, h->n_rows);
     memset(h->same_vox, 0, (size_t)h->p.resolution[1] * (size_t)h->p.resolution[2]);
 }
 

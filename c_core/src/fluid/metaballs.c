@@ -201,7 +201,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
         memset(h->g_density, 0, nv * sizeof(float));
         memset(h->g_motion, 0, 3 * nv * sizeof(float));
         hbk_fluid_splat_rows(h, 0);
-        memset(h->g_blank, 1, (size_t)ny * (size_t)nz);
+        memset(h->g_blank, 1, h->n_rows);
         return HBK_OK;
     }
     const float S = H > R ? H : R;

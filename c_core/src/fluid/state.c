@@ -167,10 +167,9 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     h->frame = hd.frame;
     h->wrap_checked = 0; /* the next advection repairs every voxel's flags */
     hbk_fluid_vols_differ(h);
-    const size_t rows = (size_t)h->nv[1] * (size_t)h->nv[2]; /* the fields are new */
-    memset(h->blank, 0, rows);
-    memset(h->fz, 0, rows);
-    memset(h->fq, 0, rows);
+    memset(h->blank, 0, h->n_rows); /* the fields are new */
+    memset(h->fz, 0, h->n_rows);
+    memset(h->fq, 0, h->n_rows);
     if (!h->paint_active) hbk_fluid_paint_off(h);
     return HBK_OK;
 }
