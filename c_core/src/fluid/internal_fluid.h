@@ -62,6 +62,8 @@ struct hbk_fluid {
     float *pos0, *vel0;         /* particles at the start of a step (cancellation) */
     float *sorted;              /* SPH scratch: 8 floats per particle */
     float *soa;                 /* the same as 8 arrays of max_particles + 8 (sph_lanes.c) */
+    int32_t *nbr, *nbr_n;       /* SPH scratch: each particle's neighbours in reach, from the
+                                 * density for the forces (HBK_FLUID_NBR_CAP each; -1: more) */
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
@@ -151,8 +153,11 @@ static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, 
     return i < 0 ? 0 : i >= c->dims[a] ? c->dims[a] - 1 : i;
 }
 
+/* The forces' neighbour list a particle keeps (more are found again). */
+#define HBK_FLUID_NBR_CAP 64
 /* SPH sums in eight lanes (sph.c and sph_lanes.c alike): candidate j of a row of cells that
- * starts at sorted index a adds to lane (j - a) mod 8, and the lanes are added in this tree. */
+ * starts at sorted index a adds to lane (j - a) mod 8 (but the forces away from the walls put
+ * the k-th neighbour in reach in lane k mod 8), and the lanes are added in this tree. */
 static inline int hbk_fluid_lane_of(int32_t j, int32_t a) { return (int)((j - a) & 7); }
 static inline float hbk_fluid_lane_sum(const float p[8])
 {
@@ -164,10 +169,13 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
 /* sph_lanes.c: the gathers of a particle (with its nim wall images) in AVX2 lanes, with the
  * scalar code's bytes (when hbk_fluid_sph_lanes() says the CPU has AVX2). */
 int hbk_fluid_sph_lanes(void);
-float hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
-                              int32_t cx, int32_t cy, int32_t cz, const float xi[3], float H,
-                              int nim, const float (*sgn)[3], const float (*off)[3]);
-void hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, size_t stride,
+float hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
+                              size_t stride,
+                              int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[3],
+                              float H, int nim, const float (*sgn)[3], const float (*off)[3],
+                              int32_t *list, int32_t *nlist);
+void hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
+                            const int32_t *list, int32_t nlist, size_t stride,
                             int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[8],
                             float H, float m, float spiky, float visc, int nim,
                             const float (*sgn)[3], const float (*off)[3], float ap[3],

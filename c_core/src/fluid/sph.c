@@ -138,8 +138,10 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_near(h, xi, H, &mi);
         float sum = 0.0f, part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
         if (lanes)
-            sum = hbk_fluid_density_lanes(c, soa, st, cx, cy, cz, xi, H, mi.n,
-                                          (const float (*)[3])mi.sgn, (const float (*)[3])mi.off);
+            sum = hbk_fluid_density_lanes(c, soa, s, st, cx, cy, cz, i, xi, H, mi.n,
+                                          (const float (*)[3])mi.sgn, (const float (*)[3])mi.off,
+                                          h->nbr + (size_t)HBK_FLUID_NBR_CAP * (size_t)i,
+                                          h->nbr_n + i);
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             for (int im = -1; im < mi.n; ++im) {
@@ -173,14 +175,15 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_near(h, xi, H, &mi);
         float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0}, part[6][8];
         memset(part, 0, sizeof part);
+        int32_t nk = 0; /* neighbours so far (their lanes, away from the walls) */
         if (lanes)
-            hbk_fluid_forces_lanes(c, soa, st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
+            hbk_fluid_forces_lanes(c, soa, s, h->nbr + (size_t)HBK_FLUID_NBR_CAP * (size_t)i, h->nbr_n[i], st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
                                    (const float (*)[3])mi.sgn, (const float (*)[3])mi.off, ap,
                                    fv);
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             /* im = -1: j itself (not i); im >= 0: j's images (i's own included). */
-            float *pa = part[0] + hbk_fluid_lane_of(j, a_);
+            float *pa = NULL;
             for (int im = j == i ? 0 : -1; im < mi.n; ++im) {
                 float d3[3], vj[3];
                 for (int a = 0; a < 3; ++a) {
@@ -190,6 +193,9 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
                 }
                 const float r2 = d3[0] * d3[0] + d3[1] * d3[1] + d3[2] * d3[2];
                 if (r2 >= H2) continue;
+                /* Lanes: with walls by candidate (hbk_fluid_lane_of), without by neighbour
+                 * (the k-th in lane k mod 8, as sph_lanes.c packs them). */
+                if (!pa) pa = part[0] + (mi.n ? hbk_fluid_lane_of(j, a_) : (nk++ & 7));
                 const float rr = sqrtf(r2), q = H - rr;
                 if (rr > 1e-9f * H) {
                     /* -m (P_i + P_j) grad_i W, grad_i W = -spiky q^2 (x_i - x_j) / r: apart. */
