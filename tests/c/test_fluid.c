@@ -564,6 +564,45 @@ void test_fluid_mc_closed(void)
     hbk_fluid_destroy(h);
 }
 
+/* White noise, inside or outside at random per vertex: every cube configuration, and many
+ * faces that plain marching cubes finds ambiguous, and still a closed, consistently wound
+ * surface. */
+void test_fluid_mc_closed_noise(void)
+{
+    hbk_fluid_params_t p = params(12, HBK_FLUID_VELOCITY_GRID);
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const size_t nvg = hbk_fluid_grid_vertices(h, NULL);
+    float *vel = calloc(3 * nvg, sizeof *vel), *surf = malloc(nvg * sizeof *surf);
+    int ambiguous = 0;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
+        for (size_t i = 0; i < nvg; ++i) {
+            float r;
+            hbk_rng_fill_uniform(seed, 2, (uint64_t)i, &r, 1);
+            surf[i] = r < 0.5f ? 0.1f : 0.9f;
+        }
+        /* faces (z planes) whose two inside corners are diagonally opposite */
+        for (size_t i = 0; i + 13 + 1 < nvg; ++i)
+            ambiguous += (surf[i] > 0.5f) == (surf[i + 14] > 0.5f) &&
+                         (surf[i + 1] > 0.5f) == (surf[i + 13] > 0.5f) &&
+                         (surf[i] > 0.5f) != (surf[i + 1] > 0.5f);
+        CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
+        CHECK_OK(hbk_fluid_update_fields(h));
+        CHECK_OK(hbk_fluid_update_surface(h, NULL));
+        int32_t nv = 0, nt = 0;
+        CHECK_OK(hbk_fluid_mesh_counts(h, &nv, &nt));
+        CHECK(nt > 1000);
+        int32_t *tri = malloc(3 * (size_t)nt * sizeof *tri);
+        CHECK_OK(hbk_fluid_get_mesh(h, NULL, NULL, tri, NULL, NULL, NULL, NULL));
+        CHECK(watertight(tri, nt, nv));
+        free(tri);
+    }
+    CHECK(ambiguous > 1000);
+    free(vel);
+    free(surf);
+    hbk_fluid_destroy(h);
+}
+
 /* A sphere of radius R from a smooth field: area, volume and normals near analytic. */
 void test_fluid_mc_sphere(void)
 {
