@@ -57,7 +57,6 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->sorted);
     free(h->soa);
     free(h->nbr);
-    free(h->nbr_n);
     hbk_fluid_cells_free(&h->cells);
     free(h->mesh_pos); free(h->mesh_nrm); free(h->mesh_tri);
     free(h->next_pos); free(h->next_nrm); free(h->next_tri);
@@ -95,8 +94,6 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->vel0 = malloc(3 * np * sizeof(float));
     h->sorted = malloc(8 * np * sizeof(float));
     h->soa = calloc(8 * (np + 8), sizeof(float)); /* padded: lanes read 8 at a time */
-    h->nbr = malloc(HBK_FLUID_NBR_CAP * np * sizeof(int32_t));
-    h->nbr_n = malloc(np * sizeof(int32_t));
     h->motion = calloc(3 * nv + 4, sizeof(float)); /* padded as uvw */
     h->density = calloc(nv, sizeof(float));
     h->surface = calloc(nv, sizeof(float));
@@ -127,7 +124,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     }
     h->same_vox = calloc((size_t)p->resolution[1] * (size_t)p->resolution[2], 1);
     h->disp = h->g_normal; /* the features are done with it before the advection */
-    if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->nbr || !h->nbr_n || !h->motion ||
+    if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
         !h->splat_ylo || !h->splat_yhi || !h->row_flags ||

@@ -62,8 +62,9 @@ struct hbk_fluid {
     float *pos0, *vel0;         /* particles at the start of a step (cancellation) */
     float *sorted;              /* SPH scratch: 8 floats per particle */
     float *soa;                 /* the same as 8 arrays of max_particles + 8 (sph_lanes.c) */
-    int32_t *nbr, *nbr_n;       /* SPH scratch: each particle's neighbours in reach, from the
-                                 * density for the forces (HBK_FLUID_NBR_CAP each; -1: more) */
+    int32_t *nbr, *nbr_n;       /* SPH scratch, one block made by the first AVX2 step: each
+                                 * particle's neighbours in reach, from the density for the
+                                 * forces (HBK_FLUID_NBR_CAP each), and their count (-1: more) */
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
@@ -170,8 +171,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
  * scalar code's bytes (when hbk_fluid_sph_lanes() says the CPU has AVX2). */
 int hbk_fluid_sph_lanes(void);
 float hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
-                              size_t stride,
-                              int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[3],
+                              size_t stride, int32_t cx, int32_t cy, int32_t cz, int32_t i,
+                              const float xi[3],
                               float H, int nim, const float (*sgn)[3], const float (*off)[3],
                               int32_t *list, int32_t *nlist);
 void hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,

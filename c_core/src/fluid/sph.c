@@ -118,6 +118,12 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
     float *s = h->sorted, *soa = h->soa;
     const size_t st = (size_t)(h->p.max_particles > 0 ? h->p.max_particles : 1) + 8;
     const int lanes = hbk_fluid_sph_lanes();
+    if (lanes && !h->nbr) { /* only the AVX2 path keeps neighbour lists */
+        const size_t np = (size_t)(h->p.max_particles > 0 ? h->p.max_particles : 1);
+        if (!(h->nbr = malloc((HBK_FLUID_NBR_CAP + 1) * np * sizeof *h->nbr)))
+            return HBK_ERR_OUT_OF_MEMORY;
+        h->nbr_n = h->nbr + HBK_FLUID_NBR_CAP * np;
+    }
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t k = 0; k < n; ++k) {
         const int32_t id = c->order[k];
@@ -140,8 +146,7 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         if (lanes)
             sum = hbk_fluid_density_lanes(c, soa, s, st, cx, cy, cz, i, xi, H, mi.n,
                                           (const float (*)[3])mi.sgn, (const float (*)[3])mi.off,
-                                          h->nbr + (size_t)HBK_FLUID_NBR_CAP * (size_t)i,
-                                          h->nbr_n + i);
+                                          h->nbr + HBK_FLUID_NBR_CAP * (size_t)i, h->nbr_n + i);
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
             const float *xj = s + 8 * (size_t)j;
             for (int im = -1; im < mi.n; ++im) {
@@ -177,7 +182,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         memset(part, 0, sizeof part);
         int32_t nk = 0; /* neighbours so far (their lanes, away from the walls) */
         if (lanes)
-            hbk_fluid_forces_lanes(c, soa, s, h->nbr + (size_t)HBK_FLUID_NBR_CAP * (size_t)i, h->nbr_n[i], st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
+            hbk_fluid_forces_lanes(c, soa, s, h->nbr + HBK_FLUID_NBR_CAP * (size_t)i,
+                                   h->nbr_n[i], st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
                                    (const float (*)[3])mi.sgn, (const float (*)[3])mi.off, ap,
                                    fv);
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {

@@ -121,8 +121,8 @@ static const hbk_v4i pack4[16] = {
 
 __attribute__((target("avx2"))) float
 hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
-                        size_t stride,
-                        int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[3], float H,
+                        size_t stride, int32_t cx, int32_t cy, int32_t cz, int32_t i,
+                        const float xi[3], float H,
                         int nim, const float (*sgn)[3], const float (*off)[3], int32_t *list,
                         int32_t *nlist)
 {
