@@ -154,6 +154,23 @@ static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, 
     return i < 0 ? 0 : i >= c->dims[a] ? c->dims[a] - 1 : i;
 }
 
+/* The rows of cells around (cx, cy, cz) (sph.c and sph_lanes.c): each a contiguous range of
+ * sorted particles, [a_, e_). */
+#define HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a_, e_, ...)                                       \
+    for (int32_t nz_ = (cz) - 1; nz_ <= (cz) + 1; ++nz_) {                                   \
+        if (nz_ < 0 || nz_ >= (c)->dims[2]) continue;                                        \
+        for (int32_t ny_ = (cy) - 1; ny_ <= (cy) + 1; ++ny_) {                               \
+            if (ny_ < 0 || ny_ >= (c)->dims[1]) continue;                                    \
+            const size_t row_ = (size_t)(c)->dims[0] * ((size_t)ny_ + (size_t)(c)->dims[1] * \
+                                                        (size_t)nz_);                        \
+            const int32_t x0_ = (cx) > 0 ? (cx) - 1 : 0;                                     \
+            const int32_t x1_ = (cx) + 1 < (c)->dims[0] ? (cx) + 1 : (c)->dims[0] - 1;       \
+            const int32_t a_ = (c)->start[row_ + (size_t)x0_];                               \
+            const int32_t e_ = (c)->start[row_ + (size_t)x1_ + 1];                           \
+            __VA_ARGS__                                                                      \
+        }                                                                                    \
+    }
+
 /* The forces' neighbour list a particle keeps (more are found again). */
 #define HBK_FLUID_NBR_CAP 64
 /* SPH sums in eight lanes (sph.c and sph_lanes.c alike): candidate j of a row of cells that

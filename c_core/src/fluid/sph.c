@@ -91,20 +91,8 @@ static void mirrors_near(const hbk_fluid_t *h, const float *x, float H, mirrors_
 
 /* Calls body(j) for every particle j (sorted index) in the 27 cells around cell (cx, cy, cz);
  * the three cells of a row are one contiguous range of the sorted arrays, from a_. */
-#define FOR_NEIGHBOURS(c, cx, cy, cz, j, ...)                                             \
-    for (int32_t nz_ = (cz) - 1; nz_ <= (cz) + 1; ++nz_) {                                   \
-        if (nz_ < 0 || nz_ >= (c)->dims[2]) continue;                                        \
-        for (int32_t ny_ = (cy) - 1; ny_ <= (cy) + 1; ++ny_) {                               \
-            if (ny_ < 0 || ny_ >= (c)->dims[1]) continue;                                    \
-            const size_t row_ = (size_t)(c)->dims[0] * ((size_t)ny_ + (size_t)(c)->dims[1] * \
-                                                        (size_t)nz_);                        \
-            const int32_t x0_ = (cx) > 0 ? (cx) - 1 : 0;                                     \
-            const int32_t x1_ = (cx) + 1 < (c)->dims[0] ? (cx) + 1 : (c)->dims[0] - 1;       \
-            const int32_t a_ = (c)->start[row_ + (size_t)x0_];                               \
-            const int32_t e_ = (c)->start[row_ + (size_t)x1_ + 1];                           \
-            for (int32_t j = a_; j < e_; ++j) { __VA_ARGS__ }                                \
-        }                                                                                    \
-    }
+#define FOR_NEIGHBOURS(c, cx, cy, cz, j, ...)                                                \
+    HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a_, e_, for (int32_t j = a_; j < e_; ++j) { __VA_ARGS__ })
 
 hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
 {

@@ -27,21 +27,6 @@ int hbk_fluid_sph_lanes(void) { return hbk_paths() >= HBK_PATHS_AVX2; }
         v_;                                                                                  \
     })
 
-/* The rows of cells around (cx, cy, cz): each a contiguous range of sorted particles. */
-#define FOR_ROWS(c, cx, cy, cz, a_, e_, ...)                                                 \
-    for (int32_t nz_ = (cz) - 1; nz_ <= (cz) + 1; ++nz_) {                                   \
-        if (nz_ < 0 || nz_ >= (c)->dims[2]) continue;                                        \
-        for (int32_t ny_ = (cy) - 1; ny_ <= (cy) + 1; ++ny_) {                               \
-            if (ny_ < 0 || ny_ >= (c)->dims[1]) continue;                                    \
-            const size_t row_ = (size_t)(c)->dims[0] * ((size_t)ny_ + (size_t)(c)->dims[1] * \
-                                                        (size_t)nz_);                        \
-            const int32_t x0_ = (cx) > 0 ? (cx) - 1 : 0;                                     \
-            const int32_t x1_ = (cx) + 1 < (c)->dims[0] ? (cx) + 1 : (c)->dims[0] - 1;       \
-            const int32_t a_ = (c)->start[row_ + (size_t)x0_];                               \
-            const int32_t e_ = (c)->start[row_ + (size_t)x1_ + 1];                           \
-            __VA_ARGS__                                                                      \
-        }                                                                                    \
-    }
 
 typedef int32_t hbk_v4i __attribute__((vector_size(16)));
 /* Left-packing of 4 lanes: the set lanes of a 4-bit mask first, in order. */
@@ -73,7 +58,7 @@ static const hbk_v4i pack4[16] = {
             for (int32_t k_ = 0; k_ < (nlist); k_ += 8) BODY((list) + k_, (nlist) - k_);     \
         else {                                                                               \
             int32_t buf_[16], n_ = 0;                                                        \
-            FOR_ROWS(c, cx, cy, cz, a, e, {                                                  \
+            HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {                                        \
                 for (int32_t j = a; j < e; j += 8) {                                         \
                     const v8f dx_ = x - load8(X + j), dy_ = y - load8(Y + j),                \
                               dz_ = z - load8(Z + j);                                        \
@@ -134,7 +119,7 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const floa
     int32_t n = 0;
     if (!nim) { /* away from the walls: no branch on empty groups (a mispredicted one cost more
                  * than the square roots); the neighbours packed for the forces */
-        FOR_ROWS(c, cx, cy, cz, a, e, {
+        HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
             for (int32_t j = a; j < e; j += 8) {
                 const v8f dx = x - load8(X + j), dy = y - load8(Y + j), dz = z - load8(Z + j);
                 const v8f r2 = dx * dx + dy * dy + dz * dz;
@@ -147,7 +132,7 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const floa
         })
         *nlist = n < HBK_FLUID_NBR_CAP ? n : -1;
     } else
-    FOR_ROWS(c, cx, cy, cz, a, e, {
+    HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
             const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
             const v8i in = lane + j < e;
@@ -216,7 +201,7 @@ hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, const float
     if (!nim) { /* away from the walls: the density's list, the k-th in lane k mod 8 */
         FOR_PACKED(list, nlist, TERMS8);
     } else
-    FOR_ROWS(c, cx, cy, cz, a, e, {
+    HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
         for (int32_t j = a; j < e; j += 8) {
             const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
             const v8i in = lane + j < e;
