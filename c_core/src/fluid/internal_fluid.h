@@ -103,7 +103,7 @@ struct hbk_fluid {
     float *next_pos, *next_nrm;
     int32_t *next_tri;
     size_t next_cap_v, next_cap_t;
-    uint8_t *mc_mask, *mc_in, *mc_row_in;
+    uint8_t *mc_mask, *mc_in, *mc_row_in, *mc_cfg;
     int32_t *mc_first;
     int64_t *mc_row_v, *mc_row_t;
     float *mc_raw;              /* the edge vertices' crossings before the clamp to the box */

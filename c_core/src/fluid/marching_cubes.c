@@ -101,6 +101,7 @@ typedef struct mc_tri {
 } mc_tri_t;
 typedef struct mc_table {
     int16_t first[257];     /* triangles of cube config b: tri[first[b] .. first[b + 1]) */
+    uint8_t rank[256][8];   /* edges of mask m before direction d: pop8(m & (bit d-1 - 1)) */
     mc_tri_t tri[256 * 12];
     float dirv[256][6][3];
 } mc_table_t;
@@ -156,6 +157,8 @@ static void build_table(const hbk_fluid_t *h, mc_table_t *tb)
         }
     }
     tb->first[256] = (int16_t)n;
+    for (int m = 0; m < 256; ++m)
+        for (int d = 1; d < 8; ++d) tb->rank[m][d] = (uint8_t)pop8((unsigned)m & ((1u << (d - 1)) - 1u));
 }
 
 hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
@@ -173,14 +176,15 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     if (!h->mc_row_v) h->mc_row_v = malloc((rows + 1) * sizeof *h->mc_row_v);
     if (!h->mc_row_t) h->mc_row_t = malloc((rows + 1) * sizeof *h->mc_row_t);
     if (!h->mc_in) h->mc_in = malloc(npad);
+    if (!h->mc_cfg) h->mc_cfg = malloc(npad);
     if (!h->mc_row_in) h->mc_row_in = malloc(rows);
-    uint8_t *mask = h->mc_mask, *in_at = h->mc_in, *row_in = h->mc_row_in;
+    uint8_t *mask = h->mc_mask, *in_at = h->mc_in, *row_in = h->mc_row_in, *cfg = h->mc_cfg;
     int32_t *first = h->mc_first;
     int64_t *row_v = h->mc_row_v, *row_t = h->mc_row_t;
     float *pos = NULL, *nrm = NULL, *raw = NULL;
     int32_t *tri = NULL;
     hbk_result_t r = HBK_OK;
-    if (!mask || !in_at || !row_in || !first || !row_v || !row_t) {
+    if (!mask || !in_at || !row_in || !cfg || !first || !row_v || !row_t) {
         r = HBK_ERR_OUT_OF_MEMORY;
         goto done;
     }
@@ -251,6 +255,8 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                         b |= (c[q] ^ c[0]) << (q - 1);
                     }
                     memcpy(mask + p, &b, sizeof b);
+                    const v16u cf = bits & ~(v16u)(bits == 255); /* all inside: none */
+                    memcpy(cfg + p, &cf, sizeof cf);
                     for (int l = 0; l < 16; ++l) {
                         nvr += pop8(b[l]);
                         ntr += tb->first[bits[l] + 1] - tb->first[bits[l]];
@@ -268,6 +274,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                         bits |= q << c;
                     }
                     ntr += tb->first[bits + 1] - tb->first[bits];
+                    cfg[p] = (uint8_t)(bits == 255 ? 0 : bits);
                 } else {
                     for (int d = 1; d < 8; ++d) {
                         const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
@@ -370,25 +377,34 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
             }
         }
     if (hbk_cancelled(progress)) { r = HBK_ERR_CANCELLED; goto done; }
-    /* (3) Triangles, wound so that the normal points from inside to outside. */
+    /* (3) Triangles, wound so that the normal points from inside to outside. The cube
+     * configurations are pass (1)'s (0: none), set in every row that has triangles. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int32_t k = 0; k < ez - 1; ++k)
         for (int32_t j = 0; j < ey - 1; ++j) {
             const size_t q = (size_t)j + (size_t)ey * (size_t)k;
             if (row_t[q + 1] == row_t[q]) continue; /* no triangle in this row */
             size_t out = (size_t)row_t[q];
+            const size_t p0 = pidx(&m, 0, j, k);
             for (int32_t i = 0; i < ex - 1; ++i) {
-                const size_t p = pidx(&m, i, j, k);
-                int bits = 0;
-                for (int c = 0; c < 8; ++c) bits |= in_at[p + step[c]] << c;
-                if (!bits || bits == 255) continue;
+                const size_t p = p0 + (size_t)i;
+                if (i + 8 <= ex - 1) { /* eight empty cubes at once */
+                    uint64_t eight;
+                    memcpy(&eight, cfg + p, sizeof eight);
+                    if (!eight) {
+                        i += 7;
+                        continue;
+                    }
+                }
+                const int bits = cfg[p];
+                if (!bits) continue;
                 for (int n = tb->first[bits]; n < tb->first[bits + 1]; ++n) {
                     const mc_tri_t *tr = &tb->tri[n];
                     int32_t tv[3];
                     const float *tp[3];
                     for (int v = 0; v < 3; ++v) {
                         const size_t pc = p + step[tr->corner[v]];
-                        tv[v] = first[pc] + pop8(mask[pc] & ((1u << (tr->dir[v] - 1)) - 1u));
+                        tv[v] = first[pc] + tb->rank[mask[pc]][tr->dir[v]];
                         tp[v] = raw + 3 * (size_t)tv[v];
                     }
                     const float *dirv = tb->dirv[bits][tr->tet];
