@@ -121,15 +121,23 @@ splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32
     const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
     const v8f iR2 = zero + s->inv_R2;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    /* Locals: the sums are floats, so through pointers the compiler would reload every
+     * particle value and pointer per row. */
+    float *const ws = s->wsum, *const m0 = s->mot[0], *const m1 = s->mot[1];
+    float *const m2 = s->mot[2], *const sf = s->surf;
+    const float H2s = s->H2, R2s = s->R2, lo1 = lo[1], lo2 = lo[2], cl1 = cl[1], cl2 = cl[2];
     for (int32_t k = p0; k < p1; ++k) {
         const int32_t id = c->order[k];
-        const float *x = h->pos + 3 * (size_t)id, *v = h->vel + 3 * (size_t)id;
+        const float *x = h->pos + 3 * (size_t)id, *vp = h->vel + 3 * (size_t)id;
+        const float x1 = x[1], x2 = x[2];
+        const v8f v0 = zero + vp[0], v1 = zero + vp[1], v2 = zero + vp[2];
         int32_t a0[3], a1[3];
         reach(h, x, S, z0, z1, a0, a1);
         if (a0[0] > a1[0]) continue;
         mark_rows(s, a0, a1);
         const int nb = (a1[0] - a0[0]) / 8 + 1;
-        if (nb > 2) { /* reach over 16 vertices (coarse particles on a fine grid) */
+        if (nb > 2 || a1[1] - a0[1] >= 16) { /* reach over 16 vertices (coarse particles on
+                                                * a fine grid) */
             const int32_t q = k + 1;
             splat_chunk_sse(h, s, z0, z1, k, q, S);
             continue;
@@ -145,26 +153,30 @@ splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32
             inx[b] = lane + kx <= a1[0];
             full[b] = kx + 8 <= nx;
         }
+        float dy2[16]; /* the rows' dy^2, once */
+        for (int32_t q = 0; q <= a1[1] - a0[1]; ++q) {
+            const float dy = lo1 + (float)(a0[1] + q) * cl1 - x1;
+            dy2[q] = dy * dy;
+        }
         for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
-            const float dz = lo[2] + (float)kz * cl[2] - x[2];
+            const float dz = lo2 + (float)kz * cl2 - x2, dz2 = dz * dz;
             for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {
-                const float dy = lo[1] + (float)ky * cl[1] - x[1];
-                const float ryz = dy * dy + dz * dz;
-                if (ryz >= s->H2 && (!OWN || ryz >= s->R2)) continue;
+                const float ryz = dy2[ky - a0[1]] + dz2;
+                if (ryz >= H2s && (!OWN || ryz >= R2s)) continue;
                 const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz) + (size_t)a0[0];
                 for (int b = 0; b < nb; ++b) {
                     const size_t at = row + 8 * (size_t)b;
                     const v8f r2 = dx2[b] + ryz;
                     const v8i mh = inx[b] & (r2 < H2);
                     const v8f d = H2 - r2, w = d * d * d;
-                    SPLAT_ADD(s->wsum + at, w, mh);
-                    SPLAT_ADD(s->mot[0] + at, w * v[0], mh);
-                    SPLAT_ADD(s->mot[1] + at, w * v[1], mh);
-                    SPLAT_ADD(s->mot[2] + at, w * v[2], mh);
+                    SPLAT_ADD(ws + at, w, mh);
+                    SPLAT_ADD(m0 + at, w * v0, mh);
+                    SPLAT_ADD(m1 + at, w * v1, mh);
+                    SPLAT_ADD(m2 + at, w * v2, mh);
                     if (OWN) {
                         const v8i mr = inx[b] & (r2 < R2);
                         const v8f t = one - r2 * iR2;
-                        SPLAT_ADD(s->surf + at, t * t * t, mr);
+                        SPLAT_ADD(sf + at, t * t * t, mr);
                     }
                 }
             }
