@@ -72,10 +72,10 @@ sample_wrapped_pair(const float *ua, const float *ub, uint8_t fa, uint8_t fb,
     r = (v8f)(((v8i)(r - one) & over) | ((v8i)r & ~over));
     const v8i bad = m & ~((r >= zero) & (r < one));
     r = (v8f)((v8i)r & ~bad);
-    const hbk_v4f ra = __builtin_shufflevector(r, r, 0, 1, 2, 3);
-    const hbk_v4f rb = __builtin_shufflevector(r, r, 4, 5, 6, 7);
-    memcpy(oa, &ra, 3 * sizeof(float));
-    memcpy(ob, &rb, 3 * sizeof(float));
+    for (int q = 0; q < 3; ++q) {
+        oa[q] = r[q];
+        ob[q] = r[4 + q];
+    }
 }
 
 /* hbk_fluid_repair_voxel of both fields. */
@@ -106,7 +106,7 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
  * back-trace, then each field's samples, runs over the whole row before the next (see
  * trace_mid): short loops keep more vertices' loads in flight. The moving vertices'
  * displacements (source - vertex, voxel units) go to h->disp for V_r. */
-#define ADVECT_ROW(UVW, BP, BP_NORMALISES)                                                                \
+#define ADVECT_ROW(UVW, BP)                                                                  \
     const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
     hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
     int32_t at[257], nmov = 0;                                                               \
@@ -137,13 +137,6 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
                 if (paint) __builtin_prefetch(in->life + p);                                 \
             }                                                                                \
         }                                                                                    \
-        if ((i & 63) == 0 && k + 1 < h->p.resolution[2]) { /* the next layer's flags */      \
-            const size_t v = (size_t)i + (size_t)h->p.resolution[0] *                        \
-                             ((size_t)(j < h->p.resolution[1] ? j : j - 1) +                 \
-                              (size_t)h->p.resolution[1] * (size_t)(k + 1));                 \
-            __builtin_prefetch(in->wrap[0] + v);                                             \
-            __builtin_prefetch(in->wrap[1] + v);                                             \
-        }                                                                                    \
         const int still = v0[0] == 0.0f && v0[1] == 0.0f && v0[2] == 0.0f;                  \
         h->moving[vi] = (uint8_t)!still;                                                     \
         if (still) continue; /* copied with its run, below */                                \
@@ -168,22 +161,19 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
         float *b = out->base + (size_t)K * vi;                                               \
         BP;                                                                                  \
     }                                                                                        \
-    for (int32_t q = 0; !(BP_NORMALISES) && q < nmov; ++q)                                   \
-        normalise(out->base + (size_t)K * (row + (size_t)at[q]), K, h->p.default_texture);   \
+    for (int32_t q = 0; q < nmov; ++q) {                                                     \
+        float *b = out->base + (size_t)K * (row + (size_t)at[q]);                            \
+        /* Interpolation is a convex combination; renormalise only the rounding. */          \
+        float s = 0.0f;                                                                      \
+        for (int t = 0; t < K; ++t) s += b[t];                                               \
+        if (s > 0.0f) for (int t = 0; t < K; ++t) b[t] /= s;                                 \
+        else { for (int t = 0; t < K; ++t) b[t] = 0.0f; b[h->p.default_texture] = 1.0f; }    \
+    }                                                                                        \
     for (int32_t q = 0; paint && q < nmov; ++q) {                                            \
         const size_t vi = row + (size_t)at[q];                                               \
         hbk_fluid_sample_n_o(in->life, 1, off, &ls[q], out->life + vi);                      \
     }                                                                                        \
     copy_still(h, in, out, row, paint);
-
-/* Interpolation is a convex combination; renormalise only the rounding. */
-static inline void normalise(float *b, int K, int fallback)
-{
-    float s = 0.0f;
-    for (int t = 0; t < K; ++t) s += b[t];
-    if (s > 0.0f) for (int t = 0; t < K; ++t) b[t] /= s;
-    else { for (int t = 0; t < K; ++t) b[t] = 0.0f; b[fallback] = 1.0f; }
-}
 
 /* Still vertices: a plain copy, so zero flow changes nothing bit for bit; a run at a time. */
 static void copy_still(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out,
@@ -224,36 +214,26 @@ static void advect_row(ROW_ARGS)
                 hbk_fluid_sample_wrapped3_o(in->uvw[1], in->wrap[1], off, &l, out->uvw[1] + 3 * vi)),
                (hbk_fluid_sample_n_o(in->base, K, off, &l, b),
                 paint ? hbk_fluid_sample_n_o(in->paint, K, off, &l, out->paint + (size_t)K * vi)
-                      : (void)0), 0)
+                      : (void)0))
 }
 
 /* The base blend and the paint side by side when K <= 4 (one vector each). */
 __attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
-sample_bp(const hbk_fluid_vols_t *in, int K, int paint, int fallback, const size_t off[8],
+sample_bp(const hbk_fluid_vols_t *in, int K, int paint, const size_t off[8],
           const hbk_fluid_lerp_t *l, float *b, float *p)
 {
     if (!paint || K > 4) {
         hbk_fluid_sample_n_o(in->base, K, off, l, b);
-        normalise(b, K, fallback);
         if (paint) hbk_fluid_sample_n_o(in->paint, K, off, l, p);
         return;
     }
     v8f c[8], r;
     corners_pair(in->base, in->paint, (size_t)K, off, l, c);
     tri_pair(c, l->t, &r);
-    /* normalise()'s operations on the base, in lanes (a division per lane is a division) */
-    float s = 0.0f;
-    for (int q = 0; q < K; ++q) s += r[q];
-    const hbk_v4f rb = __builtin_shufflevector(r, r, 0, 1, 2, 3);
-    const hbk_v4f rp = __builtin_shufflevector(r, r, 4, 5, 6, 7);
-    if (s > 0.0f) {
-        const hbk_v4f nb = rb / s;
-        memcpy(b, &nb, (size_t)K * sizeof(float));
-    } else {
-        for (int q = 0; q < K; ++q) b[q] = 0.0f;
-        b[fallback] = 1.0f;
+    for (int q = 0; q < K; ++q) {
+        b[q] = r[q];
+        p[q] = r[4 + q];
     }
-    memcpy(p, &rp, (size_t)K * sizeof(float));
 }
 
 __attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
@@ -263,8 +243,7 @@ advect_row_avx2_body(ROW_ARGS)
     ADVECT_ROW(sample_wrapped_pair(in->uvw[0], in->uvw[1], in->wrap[0][l.voxel],
                                    in->wrap[1][l.voxel], off, &l, out->uvw[0] + 3 * vi,
                                    out->uvw[1] + 3 * vi),
-               sample_bp(in, K, paint, h->p.default_texture, off, &l, b,
-                         out->paint + (size_t)K * vi), 1)
+               sample_bp(in, K, paint, off, &l, b, out->paint + (size_t)K * vi))
 }
 
 __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
