@@ -509,7 +509,7 @@ hbk_result_t hbk_fluid_sample_uvw(hbk_fluid_t *h, int32_t which, const float pos
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "which = %d: must be 0 (A) or 1 (B)", which);
     if (!pos || !uvw) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos, uvw: must not be NULL");
     float x[3];
-    for (int a = 0; a < 3; ++a) x[a] = (pos[a] - h->p.box_min[a]) * h->inv_cell[a];
+    hbk_fluid_grid_coords(h, pos, x);
     hbk_fluid_sample_wrapped(h, h->v.uvw[which], h->v.wrap[which], x, uvw);
     return HBK_OK;
 }

@@ -268,6 +268,12 @@ static inline void hbk_fluid_lerp_at(const hbk_fluid_t *h, const float x[3],
                                   ((size_t)i[1] + (size_t)h->p.resolution[1] * (size_t)i[2]);
 }
 
+/* Voxel coordinates (vertex (i, j, k) at integers) of the world point pos. */
+static inline void hbk_fluid_grid_coords(const hbk_fluid_t *h, const float pos[3], float x[3])
+{
+    for (int a = 0; a < 3; ++a) x[a] = (pos[a] - h->p.box_min[a]) * h->inv_cell[a];
+}
+
 /* Offsets of the 8 corners of a voxel, in the order of the trilinear weights below. */
 static inline void hbk_fluid_corners(const hbk_fluid_t *h, size_t off[8])
 {

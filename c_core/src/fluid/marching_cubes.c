@@ -466,9 +466,8 @@ hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32
     const int threads = HBK_OMP_THREADS(h);
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t v = 0; v < nv; ++v) {
-        const float *x = h->mesh_pos + 3 * (size_t)v;
         float g[3];
-        for (int a = 0; a < 3; ++a) g[a] = (x[a] - h->p.box_min[a]) * h->inv_cell[a];
+        hbk_fluid_grid_coords(h, h->mesh_pos + 3 * (size_t)v, g);
         hbk_fluid_lerp_t l;
         hbk_fluid_lerp_at(h, g, &l);
         if (uvw_a) hbk_fluid_sample_wrapped3(h, h->v.uvw[0], h->v.wrap[0], &l, uvw_a + 3 * (size_t)v);
