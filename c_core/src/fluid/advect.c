@@ -78,10 +78,10 @@ sample_wrapped_pair(const float *ua, const float *ub, uint8_t fa, uint8_t fb,
     }
 }
 
-/* hbk_fluid_repair_voxel of both fields. */
+/* hbk_fluid_repair_masks of both fields: A's in bits 0-2, B's in bits 4-6. */
 __attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
-repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uint8_t *fa,
-            uint8_t *fb)
+masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsigned *d,
+           unsigned *x)
 {
     const v8f half = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f}, one = half + half;
     const hbk_fluid_lerp_t l = {b, 0, {0, 0, 0}};
@@ -94,11 +94,8 @@ repair_pair(const float *ua, const float *ub, const size_t off[8], size_t b, uin
         wlo = __builtin_ia32_minps256(w, wlo);
         whi = __builtin_ia32_maxps256(w, whi);
     }
-    /* per component: direct clears the flag, else across sets it, else it stays */
-    const unsigned d = (unsigned)__builtin_ia32_movmskps256((v8f)(hi - lo <= half));
-    const unsigned x = (unsigned)__builtin_ia32_movmskps256((v8f)(whi - wlo < half)) & ~d;
-    *fa = (uint8_t)((*fa & ~d & 7u) | (x & 7u));
-    *fb = (uint8_t)((*fb & ~(d >> 4) & 7u) | (x >> 4 & 7u));
+    *d = (unsigned)__builtin_ia32_movmskps256((v8f)(hi - lo <= half)) & 0x77u;
+    *x = (unsigned)__builtin_ia32_movmskps256((v8f)(whi - wlo < half)) & 0x77u & ~*d;
 }
 
 /* The per-vertex samples of the moving vertices of row (j, k), and the plain copies of the
@@ -252,11 +249,33 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
 
-/* V_r of the voxels of row (j, k) of voxels; REPAIR re-derives f0, f1 from the corners of
- * vertex b. A voxel with a moving corner takes the flags of the voxel its centre came from: the
- * centre plus the mean of its corners' displacements (the back-trace map, trilinear, at the
- * centre: exact for uniform and for linear flow). */
-#define FLAGS_ROW(REPAIR)                                                                    \
+/* The voxel a moving voxel's centre came from: the centre plus the mean of its corners'
+ * displacements (the back-trace map, trilinear, at the centre: exact for uniform and for
+ * linear flow). b is its corner 0, (i, j, k) its voxel. */
+static size_t traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, int32_t i,
+                          int32_t j, int32_t k)
+{
+    float d[3] = {0.0f, 0.0f, 0.0f};
+    for (int c = 0; c < 8; ++c) {
+        if (!h->moving[b + off[c]]) continue; /* displacement 0 */
+        const float *dc = h->disp + 3 * (b + off[c]);
+        d[0] += dc[0];
+        d[1] += dc[1];
+        d[2] += dc[2];
+    }
+    const float x[3] = {(float)i + 0.5f + 0.125f * d[0], (float)j + 0.5f + 0.125f * d[1],
+                        (float)k + 0.5f + 0.125f * d[2]};
+    hbk_fluid_lerp_t l;
+    hbk_fluid_lerp_at(h, x, &l);
+    return l.voxel;
+}
+
+/* V_r of the voxels of row (j, k) of voxels. A voxel with a moving corner is repaired from
+ * its new corners (MASKS sets d0, x0
+ * and d1, x1 of the two fields);
+ * only components left undecided by both ways take the flag of the voxel its centre came
+ * from (traced_from), which is seldom, so the trace is made only then. */
+#define FLAGS_ROW(MASKS)                                                                     \
     const int32_t nx = h->nv[0], ny = h->nv[1];                                              \
     const int32_t rx = h->p.resolution[0], ry = h->p.resolution[1];                          \
     /* Which vertices of the row's four vertex rows move, per column: a voxel moves if its  \
@@ -279,44 +298,34 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
         return;                                                                              \
     }                                                                                        \
     h->same_vox[vjk] = 0;                                                                    \
-    size_t from[257];                                                                        \
     for (int32_t i = 0; i < rx; ++i) {                                                       \
         const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \
-        from[i] = vox;                                                                       \
-        if (!(col[i] | col[i + 1])) continue;                                                \
-        float d[3] = {0.0f, 0.0f, 0.0f};                                                     \
-        HBK_UNROLL8 for (int c = 0; c < 8; ++c) {                                            \
-            if (!h->moving[b + off[c]]) continue; /* displacement 0 */                       \
-            const float *dc = h->disp + 3 * (b + off[c]);                                    \
-            d[0] += dc[0];                                                                   \
-            d[1] += dc[1];                                                                   \
-            d[2] += dc[2];                                                                   \
+        const int mv = col[i] | col[i + 1];                                                  \
+        if (!mv && checked) {                                                                \
+            out->wrap[0][vox] = in->wrap[0][vox];                                            \
+            out->wrap[1][vox] = in->wrap[1][vox];                                            \
+            continue;                                                                        \
         }                                                                                    \
-        const float x[3] = {(float)i + 0.5f + 0.125f * d[0], (float)j + 0.5f + 0.125f * d[1], \
-                            (float)k + 0.5f + 0.125f * d[2]};                                \
-        hbk_fluid_lerp_t l;                                                                  \
-        hbk_fluid_lerp_at(h, x, &l);                                                         \
-        from[i] = l.voxel;                                                                   \
-    }                                                                                        \
-    for (int32_t i = 0; i < rx; ++i) {                                                       \
-        const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \
-        uint8_t f0 = in->wrap[0][from[i]], f1 = in->wrap[1][from[i]];                        \
-        if ((col[i] | col[i + 1]) || !checked) REPAIR;                                       \
-        out->wrap[0][vox] = f0;                                                              \
-        out->wrap[1][vox] = f1;                                                              \
+        unsigned d0, x0, d1, x1;                                                             \
+        MASKS;                                                                               \
+        size_t from = vox;                                                                   \
+        if (mv && ((d0 | x0) & (d1 | x1) & 7u) != 7u) from = traced_from(h, off, b, i, j, k); \
+        out->wrap[0][vox] = hbk_fluid_repair_apply(in->wrap[0][from], d0, x0);               \
+        out->wrap[1][vox] = hbk_fluid_repair_apply(in->wrap[1][from], d1, x1);               \
     }
 
 #define FLAGS_ARGS ROW_ARGS, int checked
 
 static void flags_row(FLAGS_ARGS)
 {
-    FLAGS_ROW((f0 = hbk_fluid_repair_voxel(out->uvw[0], off, b, f0),
-               f1 = hbk_fluid_repair_voxel(out->uvw[1], off, b, f1)))
+    FLAGS_ROW((hbk_fluid_repair_masks(out->uvw[0], off, b, &d0, &x0),
+               hbk_fluid_repair_masks(out->uvw[1], off, b, &d1, &x1)))
 }
 
 __attribute__((target("avx2"))) static void flags_row_avx2_body(FLAGS_ARGS)
 {
-    FLAGS_ROW(repair_pair(out->uvw[0], out->uvw[1], off, b, &f0, &f1))
+    FLAGS_ROW((masks_pair(out->uvw[0], out->uvw[1], off, b, &d0, &x0),
+               d1 = d0 >> 4, x1 = x0 >> 4, d0 &= 7u, x0 &= 7u))
 }
 
 __attribute__((target("avx2"))) static void flags_row_avx2(FLAGS_ARGS)

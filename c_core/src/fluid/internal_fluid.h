@@ -381,12 +381,15 @@ static inline void hbk_fluid_sample_field(const hbk_fluid_t *h, const float *f, 
     }
 }
 
-/* The flags f of the voxel whose corner 0 is vertex b, re-derived from its corners' uvw
- * where the short way is unambiguous: per component (the three lanes of a 4-float vector:
- * uvw is padded), the range of the corners' values read directly and read across the wrap. */
+/* Where the short way is unambiguous for the voxel whose corner 0 is vertex b, from its
+ * corners' uvw: per component (the three lanes of a 4-float vector: uvw is padded), the range
+ * of the corners' values read directly and read across the wrap. Bit a of *d: component a is
+ * short directly (its flag clears); of *x: not directly but across (its flag sets). Where
+ * both ways are long (a texture already torn apart) the advected flag decides, as in the
+ * paper: hbk_fluid_repair_apply. */
 #define HBK_VSEL(m, a, b) ((hbk_v4f)(((hbk_v4i)(a) & (m)) | ((hbk_v4i)(b) & ~(m))))
-static inline uint8_t hbk_fluid_repair_voxel(const float *uvw, const size_t off[8], size_t b,
-                                             uint8_t f)
+static inline void hbk_fluid_repair_masks(const float *uvw, const size_t off[8], size_t b,
+                                          unsigned *d, unsigned *x)
 {
     const hbk_v4f half = {0.5f, 0.5f, 0.5f, 0.5f}, one = half + half;
     hbk_v4f lo = one + one, hi = -one, wlo = lo, whi = hi;
@@ -408,20 +411,30 @@ static inline uint8_t hbk_fluid_repair_voxel(const float *uvw, const size_t off[
 #endif
     }
     const hbk_v4i direct = hi - lo <= half, across = whi - wlo < half;
-    /* The short way where it is clear (direct clears the flag, else across sets it); where
-     * both ways are long (a texture already torn apart) the advected flag decides, as in the
-     * paper. */
 #ifdef __SSE__
-    const unsigned d = (unsigned)__builtin_ia32_movmskps((hbk_v4f)direct) & 7u;
-    const unsigned x = (unsigned)__builtin_ia32_movmskps((hbk_v4f)across) & 7u & ~d;
-    return (uint8_t)((f & ~d) | x);
+    *d = (unsigned)__builtin_ia32_movmskps((hbk_v4f)direct) & 7u;
+    *x = (unsigned)__builtin_ia32_movmskps((hbk_v4f)across) & 7u & ~*d;
 #else
+    *d = *x = 0;
     for (int a = 0; a < 3; ++a) {
-        if (direct[a]) f &= (uint8_t)~(1u << a);
-        else if (across[a]) f |= (uint8_t)(1u << a);
+        if (direct[a]) *d |= 1u << a;
+        else if (across[a]) *x |= 1u << a;
     }
-    return f;
 #endif
+}
+
+/* The advected flags f repaired by the masks of hbk_fluid_repair_masks. */
+static inline uint8_t hbk_fluid_repair_apply(uint8_t f, unsigned d, unsigned x)
+{
+    return (uint8_t)((f & ~d) | x);
+}
+
+static inline uint8_t hbk_fluid_repair_voxel(const float *uvw, const size_t off[8], size_t b,
+                                             uint8_t f)
+{
+    unsigned d, x;
+    hbk_fluid_repair_masks(uvw, off, b, &d, &x);
+    return hbk_fluid_repair_apply(f, d, x);
 }
 
 /* Rest uvw mapping and its wrap flags. */
