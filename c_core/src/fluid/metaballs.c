@@ -227,7 +227,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     const float dens_k = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
     const float surf_k = (float)(1.0 / pow(R, 6));
     const float *lo = h->p.box_min, *cl = h->cell;
-    const int32_t slab = 8, chunks = (nz + slab - 1) / slab;
+    const int32_t slab = 4, chunks = (nz + slab - 1) / slab;
     const size_t layer = (size_t)c->dims[0] * (size_t)c->dims[1];
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
