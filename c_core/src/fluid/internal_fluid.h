@@ -274,6 +274,14 @@ static inline void hbk_fluid_grid_coords(const hbk_fluid_t *h, const float pos[3
     for (int a = 0; a < 3; ++a) x[a] = (pos[a] - h->p.box_min[a]) * h->inv_cell[a];
 }
 
+/* The trilinear sample of mesh vertex v's position. */
+static inline void hbk_fluid_lerp_at_mesh(const hbk_fluid_t *h, int32_t v, hbk_fluid_lerp_t *l)
+{
+    float g[3];
+    hbk_fluid_grid_coords(h, h->mesh_pos + 3 * (size_t)v, g);
+    hbk_fluid_lerp_at(h, g, l);
+}
+
 /* Offsets of the 8 corners of a voxel, in the order of the trilinear weights below. */
 static inline void hbk_fluid_corners(const hbk_fluid_t *h, size_t off[8])
 {

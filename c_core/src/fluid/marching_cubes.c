@@ -464,26 +464,21 @@ hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32
     if (tris) memcpy(tris, h->mesh_tri, 3 * (size_t)h->mesh_nt * sizeof(int32_t));
     if (!uvw_a && !uvw_b && !blend && !features) return HBK_OK;
     const int threads = HBK_OMP_THREADS(h);
+    size_t off[8];
+    hbk_fluid_corners(h, off);
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t v = 0; v < nv; ++v) {
-        float g[3];
-        hbk_fluid_grid_coords(h, h->mesh_pos + 3 * (size_t)v, g);
         hbk_fluid_lerp_t l;
-        hbk_fluid_lerp_at(h, g, &l);
+        hbk_fluid_lerp_at_mesh(h, v, &l);
         if (uvw_a) hbk_fluid_sample_wrapped3(h, h->v.uvw[0], h->v.wrap[0], &l, uvw_a + 3 * (size_t)v);
         if (uvw_b) hbk_fluid_sample_wrapped3(h, h->v.uvw[1], h->v.wrap[1], &l, uvw_b + 3 * (size_t)v);
         if (blend) {
             /* Blend of the 8 corners, each already normalised, then trilinear. */
             float c[8][HBK_FLUID_MAX_TEXTURES], *o = blend + (size_t)K * (size_t)v, s = 0.0f;
-            const size_t sx = 1, sy = (size_t)h->nv[0], sz = sy * (size_t)h->nv[1];
-            const size_t off[8] = {0, sx, sy, sx + sy, sz, sz + sx, sz + sy, sz + sx + sy};
             for (int q = 0; q < 8; ++q) hbk_fluid_blend_at(h, h->v.base, h->v.paint, h->v.life, l.base + off[q], c[q]);
-            const float *t = l.t;
             for (int k = 0; k < K; ++k) {
-                const float a = c[0][k] + t[0] * (c[1][k] - c[0][k]), b = c[2][k] + t[0] * (c[3][k] - c[2][k]);
-                const float d = c[4][k] + t[0] * (c[5][k] - c[4][k]), e = c[6][k] + t[0] * (c[7][k] - c[6][k]);
-                const float f = a + t[1] * (b - a), gg = d + t[1] * (e - d);
-                o[k] = f + t[2] * (gg - f);
+                const float ck[8] = {c[0][k], c[1][k], c[2][k], c[3][k], c[4][k], c[5][k], c[6][k], c[7][k]};
+                o[k] = hbk_fluid_tri(ck, l.t);
                 s += o[k];
             }
             if (s > 0.0f) for (int k = 0; k < K; ++k) o[k] /= s;

@@ -79,10 +79,8 @@ hbk_result_t hbk_fluid_get_mesh_weight(hbk_fluid_t *h, float *weight)
     hbk_fluid_weights(h, field, threads);
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t v = 0; v < nv; ++v) {
-        float g[3];
-        hbk_fluid_grid_coords(h, h->mesh_pos + 3 * (size_t)v, g);
         hbk_fluid_lerp_t l;
-        hbk_fluid_lerp_at(h, g, &l);
+        hbk_fluid_lerp_at_mesh(h, v, &l);
         hbk_fluid_sample_field(h, field, 1, &l, weight + v);
     }
     free(field);
