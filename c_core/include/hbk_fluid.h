@@ -66,8 +66,8 @@ typedef struct hbk_fluid_params {
     float box_min[3];           /* m, the simulation box; particles never leave it */
     float box_max[3];           /* m */
     float dt;                   /* s advanced by one hbk_fluid_step (one frame), e.g. 1/24 */
-    int32_t substeps;           /* SPH steps per frame, 1..1000; keep dt/substeps below
-                                 * 0.4 h / sqrt(stiffness) */
+    int32_t substeps;           /* least SPH steps per frame, 1..1000; a frame takes more
+                                 * when stability needs them (hbk_fluid_step) */
     int32_t max_particles;      /* particle capacity, 0..4,000,000 */
     float particle_spacing;     /* m, rest lattice spacing; the mass is set so that a lattice
                                  * of this spacing has exactly rest_density */
@@ -162,7 +162,10 @@ HBK_EXPORT size_t hbk_fluid_grid_vertices(const hbk_fluid_t *h, int32_t vertices
 /* Advances one frame: SPH substeps (SIMULATE), then density, V_m (clamped to max_flow), the
  * features, then advects V_c A/B, V_r, the base blend and the paint by V_m (semi-Lagrangian,
  * interpolation honouring V_r), resets a uvw field when its period comes round, ages the paint
- * and applies the feature rules. Polls progress->cancel between substeps and phases; on
+ * and applies the feature rules. The SPH takes at least `substeps` equal steps, and shorter ones
+ * while the fastest particle needs them (each at most 0.4 h / (sqrt(stiffness) + v_max),
+ * 0.125 h^2 rest_density / viscosity and 0.25 sqrt(h / |gravity|); at most 10,000 a frame), so
+ * a frame is stable whatever `substeps` says. Polls progress->cancel between substeps and phases; on
  * HBK_ERR_CANCELLED the handle is exactly as before. HBK_ERR_INVALID_ARGUMENT (NULL),
  * HBK_ERR_OUT_OF_MEMORY, HBK_ERR_CANCELLED. */
 HBK_EXPORT hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress);
@@ -249,6 +252,8 @@ HBK_EXPORT hbk_result_t hbk_fluid_get_mesh_weight(hbk_fluid_t *h, float *weight)
 /* Milliseconds the last step / surface update spent in: [0] SPH, [1] density, V_m and
  * features, [2] advection and paint, [3] surface. For benchmarks; not deterministic, not state. */
 HBK_EXPORT void hbk_fluid_timings(const hbk_fluid_t *h, double ms[4]);
+/* SPH steps the last hbk_fluid_step took (0 before the first step, and without SIMULATE). */
+HBK_EXPORT int32_t hbk_fluid_substeps_taken(const hbk_fluid_t *h);
 
 /* Checkpoints: everything but the params and the mesh (particles, obstacles, the external
  * grid inputs, every volume, the paint, the rules, the frame counter). Loading into a handle

@@ -136,6 +136,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, blend_normalised)           \
     X(fluid, density_lattice)            \
     X(fluid, sph_rest)                   \
+    X(fluid, sph_stable_steps)           \
     X(fluid, mc_closed)                  \
     X(fluid, mc_closed_noise)            \
     X(fluid, mc_sphere)                  \

@@ -48,6 +48,7 @@ Handle.declare("fluid", [
 ])
 _lib.declare([
     ("hbk_fluid_particle_count", ctypes.c_int32, [ctypes.c_void_p]),
+    ("hbk_fluid_substeps_taken", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_grid_vertices", ctypes.c_size_t, [ctypes.c_void_p, P(ctypes.c_int32 * 3)]),
     ("hbk_fluid_volume_size", ctypes.c_size_t, [ctypes.c_void_p, ctypes.c_int32]),
     ("hbk_fluid_uvw_weight", ctypes.c_float, [ctypes.c_void_p]),
@@ -99,6 +100,11 @@ class Fluid(Handle):
 
     def step(self, progress=None):
         self.call("step", progress)
+
+    @property
+    def substeps_taken(self):
+        """SPH steps the last step took: at least `substeps`, more where stability needs."""
+        return _lib.lib.hbk_fluid_substeps_taken(self.h)
 
     def update_fields(self):
         self.call("update_fields")

@@ -373,21 +373,33 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     const int sim = h->p.source == HBK_FLUID_SIMULATE;
     double t0 = omp_get_wtime();
     hbk_report(progress, 0.0f);
+    int32_t taken = 0;
     if (sim) {
         memcpy(h->pos0, h->pos, 3 * (size_t)h->count * sizeof(float));
         memcpy(h->vel0, h->vel, 3 * (size_t)h->count * sizeof(float));
-        const float dt = h->p.dt / (float)h->p.substeps;
-        for (int32_t s = 0; s < h->p.substeps; ++s) {
+        /* The rest of the frame is cut into equal steps, each no longer than the stable step
+         * for the particles' speeds now; at least `substeps` of them. */
+        const double frame_dt = h->p.dt, longest = frame_dt / h->p.substeps;
+        double left = frame_dt;
+        while (left > 0.0) {
             if (hbk_cancelled(progress)) {
                 restore_particles(h, sim);
                 return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
             }
-            hbk_result_t r = hbk_fluid_sph_substep(h, dt, threads);
+            double step = hbk_fluid_sph_stable_dt(h, threads);
+            step = step < longest ? step : longest;
+            double parts = ceil(left / step * (1.0 - 1e-9)); /* no extra step for rounding */
+            const double room = (double)(HBK_FLUID_MAX_SUBSTEPS - taken);
+            parts = parts < 1.0 ? 1.0 : parts > room ? room : parts;
+            step = parts == 1.0 ? left : left / parts;
+            hbk_result_t r = hbk_fluid_sph_substep(h, (float)step, threads);
             if (r) {
                 restore_particles(h, sim);
                 return hbk_fail(&h->msg, r, "SPH: out of memory");
             }
-            hbk_report(progress, 0.7f * (float)(s + 1) / (float)h->p.substeps);
+            left = parts == 1.0 ? 0.0 : left - step;
+            ++taken;
+            hbk_report(progress, 0.7f * (float)(1.0 - left / frame_dt));
         }
     }
     double t1 = omp_get_wtime();
@@ -436,12 +448,15 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     if (h->paint_active && !paint_active) hbk_fluid_paint_off(h); /* the last paint faded */
     h->paint_active = paint_active;
     h->frame = frame;
+    h->substeps_taken = taken;
     h->ms[0] = (t1 - t0) * 1e3;
     h->ms[1] = (t2 - t1) * 1e3;
     h->ms[2] = (t3 - t2) * 1e3;
     hbk_report(progress, 1.0f);
     return HBK_OK;
 }
+
+int32_t hbk_fluid_substeps_taken(const hbk_fluid_t *h) { return h ? h->substeps_taken : 0; }
 
 void hbk_fluid_timings(const hbk_fluid_t *h, double ms[4])
 {

@@ -53,7 +53,7 @@ static const hbk_param_info_t k_info[] = {
     F(box_min, 3, -1e4, 1e4, "m", "Lower corner of the simulation box."),
     F(box_max, 3, -1e4, 1e4, "m", "Upper corner of the simulation box."),
     F(dt, 1, 1e-5, 10, "s", "Time advanced by one step (one frame), e.g. 1/24."),
-    I(substeps, 1, 1, 1000, "1", "SPH steps per frame; dt/substeps < 0.4 h / sqrt(stiffness)."),
+    I(substeps, 1, 1, 1000, "1", "Least SPH steps per frame; more are taken when stability needs them."),
     I(max_particles, 1, 0, 4000000, "1", "Particle capacity; 10k..100k."),
     F(particle_spacing, 1, 1e-4, 10, "m", "Rest spacing of the particles; sets their mass."),
     F(smoothing_length, 1, 1e-4, 40, "m", "SPH kernel radius h, 1.5..3 particle spacings."),

@@ -110,6 +110,7 @@ struct hbk_fluid {
     struct mc_table *mc_table;  /* triangles per cube configuration (marching_cubes.c) */
     size_t mc_cap_raw;
     double ms[4];
+    int32_t substeps_taken;     /* by the last step */
 };
 
 #define HBK_OMP_THREADS(h) ((h)->p.threads > 0 ? (h)->p.threads : omp_get_max_threads())
@@ -183,7 +184,10 @@ static inline float hbk_fluid_lane_sum(const float p[8])
 }
 
 /* sph.c: one substep on h->pos / h->vel. */
+#define HBK_FLUID_MAX_SUBSTEPS 10000 /* per frame, however fast the fluid */
 hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
+/* The longest stable SPH step for the particles' current speeds (s). */
+double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads);
 /* sph_lanes.c: the gathers of a particle (with its nim wall images) in AVX2 lanes, with the
  * scalar code's bytes (when hbk_fluid_sph_lanes() says the CPU has AVX2). */
 int hbk_fluid_sph_lanes(void);

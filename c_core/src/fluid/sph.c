@@ -94,6 +94,36 @@ static void mirrors_near(const hbk_fluid_t *h, const float *x, float H, mirrors_
 #define FOR_NEIGHBOURS(c, cx, cy, cz, j, ...)                                                \
     HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a_, e_, for (int32_t j = a_; j < e_; ++j) { __VA_ARGS__ })
 
+/* Weakly compressible SPH is stable while sound and flow cross under 0.4 h per step (CFL),
+ * viscosity diffuses under 0.125 h^2 per step, and gravity alone moves a particle under h / 32.
+ * Past these the pressure overshoots and the fluid gains energy, then sprays. */
+double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads)
+{
+    const hbk_fluid_params_t *p = &h->p;
+    const double H = p->smoothing_length;
+    const float *v = h->vel;
+    const int32_t n = h->count;
+    float v2 = 0.0f;
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(max : v2)
+    for (int32_t i = 0; i < n; ++i) {
+        const float *vi = v + 3 * (size_t)i, s2 = vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2];
+        v2 = s2 > v2 ? s2 : v2;
+    }
+    double dt = 0.4 * H / (sqrt((double)p->stiffness) + sqrt((double)v2));
+    if (p->viscosity > 0.0f) {
+        const double dv = 0.125 * H * H * p->rest_density / p->viscosity;
+        dt = dv < dt ? dv : dt;
+    }
+    const double g = sqrt((double)p->gravity[0] * p->gravity[0] +
+                          (double)p->gravity[1] * p->gravity[1] +
+                          (double)p->gravity[2] * p->gravity[2]);
+    if (g > 0.0) {
+        const double dg = 0.25 * sqrt(H / g);
+        dt = dg < dt ? dg : dt;
+    }
+    return dt;
+}
+
 hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
 {
     const int32_t n = h->count;
