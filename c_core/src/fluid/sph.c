@@ -106,7 +106,8 @@ double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads)
     float v2 = 0.0f;
 #pragma omp parallel for num_threads(threads) schedule(static) reduction(max : v2)
     for (int32_t i = 0; i < n; ++i) {
-        const float *vi = v + 3 * (size_t)i, s2 = vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2];
+        const float *vi = v + 3 * (size_t)i;
+        const float s2 = vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2];
         v2 = s2 > v2 ? s2 : v2;
     }
     double dt = 0.4 * H / (sqrt((double)p->stiffness) + sqrt((double)v2));
