@@ -232,8 +232,8 @@ HBK_EXPORT hbk_result_t hbk_fluid_capture_feature_rule(hbk_fluid_t *h, int32_t t
                                                        const float *mask);
 HBK_EXPORT hbk_result_t hbk_fluid_clear_feature_rule(hbk_fluid_t *h, int32_t texture);
 
-/* Surface: marching cubes (on the Kuhn tetrahedra of each cube, so no ambiguous faces) over the
- * surface field at the grid vertices; outside the box counts as empty, so every blob gives
+/* Surface: marching cubes (a table that cuts an ambiguous face alike from both of its cubes)
+ * over the surface field at the grid vertices; outside the box counts as empty, so every blob gives
  * closed surfaces, capped flat where the fluid meets the box walls. Normals are the normalised
  * negative gradient of the field. Triangles wind counter-clockwise seen from outside.
  * HBK_ERR_OUT_OF_MEMORY, HBK_ERR_CANCELLED (the previous mesh is kept). */
@@ -243,7 +243,10 @@ HBK_EXPORT hbk_result_t hbk_fluid_mesh_counts(hbk_fluid_t *h, int32_t *vertices,
                                               int32_t *triangles);
 /* Copies the mesh into caller buffers sized by hbk_fluid_mesh_counts; any pointer may be NULL.
  * pos, normal, uvw_a, uvw_b: vertices x 3; blend: vertices x textures; features: vertices x
- * HBK_FLUID_FEATURE_COUNT (the flow angle uses the mesh normal); tris: triangles x 3 indices. */
+ * HBK_FLUID_FEATURE_COUNT (the flow angle uses the mesh normal); tris: triangles x 3 indices.
+ * The mesh's uvw are not wrapped into [0, 1): each is the volume's value plus the whole tiles
+ * that bring it within half a tile of the rest mapping at the vertex, so they are continuous
+ * wherever the fluid has moved less than half a tile since its field's reset. */
 HBK_EXPORT hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal,
                                            int32_t *tris, float *uvw_a, float *uvw_b,
                                            float *blend, float *features);

@@ -140,6 +140,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, mc_closed)                  \
     X(fluid, mc_closed_noise)            \
     X(fluid, mc_sphere)                  \
+    X(fluid, mesh_uvw_unwrapped)         \
     X(fluid, crossfade)                  \
     X(fluid, stretch_fade)               \
     X(fluid, threads_identical)          \

@@ -726,6 +726,49 @@ void test_fluid_mc_sphere(void)
     hbk_fluid_destroy(h);
 }
 
+/* The mesh's uvw are unwrapped near the rest mapping: after a uniform shift of less than half a
+ * tile they are the shifted rest mapping itself, whole tiles and all, so a triangle never
+ * interpolates across a 1 -> 0 wrap. */
+void test_fluid_mesh_uvw_unwrapped(void)
+{
+    hbk_fluid_params_t p = params(32, HBK_FLUID_VELOCITY_GRID);
+    p.reset_period = 0.0f;
+    p.uvw_tile = 0.25f;
+    p.dt = 0.1f;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const size_t nvg = hbk_fluid_grid_vertices(h, NULL);
+    float *vel = malloc(3 * nvg * sizeof *vel), *surf = malloc(nvg * sizeof *surf);
+    const double shift = 3 * 0.5 / 32.0; /* 3 frames of half a voxel: 0.047 m < tile / 2 */
+    for (size_t i = 0; i < nvg; ++i) {
+        const double x = (double)(i % 33) / 32 - 0.5, y = (double)(i / 33 % 33) / 32 - 0.5,
+                     z = (double)(i / (33 * 33)) / 32 - 0.5;
+        surf[i] = (float)(0.5 + 0.5 * (0.3 - sqrt(x * x + y * y + z * z)) / 0.3);
+        vel[3 * i] = (float)(0.5 / 32.0 / 0.1);
+        vel[3 * i + 1] = vel[3 * i + 2] = 0.0f;
+    }
+    CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
+    for (int f = 0; f < 3; ++f) CHECK_OK(hbk_fluid_step(h, NULL));
+    CHECK_OK(hbk_fluid_update_surface(h, NULL));
+    int32_t nv = 0, nt = 0;
+    CHECK_OK(hbk_fluid_mesh_counts(h, &nv, &nt));
+    CHECK(nv > 1000);
+    float *mp = malloc(3 * (size_t)nv * sizeof *mp), *mu = malloc(3 * (size_t)nv * sizeof *mu);
+    CHECK_OK(hbk_fluid_get_mesh(h, mp, NULL, NULL, mu, NULL, NULL, NULL));
+    double worst = 0.0, top = 0.0;
+    for (int32_t v = 0; v < nv; ++v)
+        for (int c = 0; c < 3; ++c) {
+            const double want = (mp[3 * v + c] - (c == 0 ? shift : 0.0)) / 0.25;
+            worst = fmax(worst, fabs(mu[3 * v + c] - want));
+            top = fmax(top, mu[3 * v + c]);
+        }
+    fprintf(stderr, "mesh_uvw_unwrapped: worst %.2e tiles, largest uvw %.2f\n", worst, top);
+    CHECK(worst < 1e-4);
+    CHECK(top > 3.0); /* the sphere spans 0.2 .. 0.8 m: 0.8 .. 3.2 tiles, not wrapped */
+    free(mp); free(mu); free(vel); free(surf);
+    hbk_fluid_destroy(h);
+}
+
 /* The two uvw fields' weights sum to one; each is invisible when reset; a reset restores the
  * rest mapping. */
 void test_fluid_crossfade(void)

@@ -61,7 +61,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->mesh_pos); free(h->mesh_nrm); free(h->mesh_tri);
     free(h->next_pos); free(h->next_nrm); free(h->next_tri);
     free(h->mc_mask); free(h->mc_in); free(h->mc_row_in); free(h->mc_cfg);
-    free(h->mc_first); free(h->mc_row_v); free(h->mc_row_t); free(h->mc_raw); free(h->mc_table);
+    free(h->mc_first); free(h->mc_row_v); free(h->mc_row_t); free(h->mc_table);
     free(h);
 }
 

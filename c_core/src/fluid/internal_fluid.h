@@ -106,9 +106,8 @@ struct hbk_fluid {
     uint8_t *mc_mask, *mc_in, *mc_row_in, *mc_cfg;
     int32_t *mc_first;
     int64_t *mc_row_v, *mc_row_t;
-    float *mc_raw;              /* the edge vertices' crossings before the clamp to the box */
     struct mc_table *mc_table;  /* triangles per cube configuration (marching_cubes.c) */
-    size_t mc_cap_raw;
+    int mc_table_built;
     double ms[4];
     int32_t substeps_taken;     /* by the last step */
 };

@@ -1,18 +1,17 @@
-/* Surface extraction: marching cubes on the six Kuhn tetrahedra of every cube (all sharing the
- * cube's main diagonal). The split is the same in neighbouring cubes, so the tetrahedra tile
- * space and there are no ambiguous faces: the mesh is closed by construction. The grid is
- * padded with one layer of empty vertices all round, so blobs touching the box are capped.
+/* Surface extraction: marching cubes, with a table built from the cube faces so that an
+ * ambiguous face is cut alike from both of its cubes and the mesh is closed. The grid is padded
+ * with one layer of empty vertices all round, so blobs touching the box are capped.
  *
  * Three passes, each parallel over z layers and each writing only its own slots, so the mesh
- * is the same bytes for any thread count: (1) mark crossing edges per padded vertex (7 edge
- * directions: 3 axes, 3 face diagonals, 1 body diagonal), (2) number and place the edge
- * vertices, (3) count, number and write the triangles. */
+ * is the same bytes for any thread count: (1) mark crossing axis edges per padded vertex and
+ * keep each cube's configuration, (2) number and place the edge vertices, (3) count, number
+ * and write the triangles. */
 #include "internal_fluid.h"
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* Edge direction d (1..7) is the offset (d & 1, d >> 1 & 1, d >> 2 & 1); bit d-1 of a mask. */
+/* Edge direction d (1, 2, 4) is the offset (d & 1, d >> 1 & 1, d >> 2 & 1); bit d-1 of a mask. */
 typedef struct mc {
     const hbk_fluid_t *h;
     int32_t e[3];      /* padded vertices per axis */
@@ -74,84 +73,81 @@ static void crossing_f(const mc_t *m, int32_t i, int32_t j, int32_t k, int d, fl
     *t_out = t;
 }
 
-/* The six tetrahedra: path 0 -> e_a -> e_a + e_b -> (1,1,1) for each permutation (a, b, c). */
-static const int k_perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-
-/* Corner offsets (as bit masks) of tetrahedron t. */
-static inline void tet(int t, int c[4])
-{
-    c[0] = 0;
-    c[1] = 1 << k_perm[t][0];
-    c[2] = c[1] | 1 << k_perm[t][1];
-    c[3] = 7;
-}
-
-static inline int tet_tris(int in)
-{
-    const int n = (in & 1) + (in >> 1 & 1) + (in >> 2 & 1) + (in >> 3 & 1);
-    return n == 1 || n == 3 ? 1 : n == 2 ? 2 : 0;
-}
-
-/* Every cube's triangles by its corners' inside bits, in the order of its tetrahedra: each
- * vertex is the edge from corner `corner` (bits) in direction `dir` (1..7), and `dirv` is the
- * tetrahedron's reference direction (from its inside corners' mean to its outside ones', in
- * metres), which decides the winding. */
+/* Every cube's triangles by its corners' inside bits: each vertex is the axis edge from corner
+ * `corner` (bits) in direction `dir` (1, 2 or 4), wound so that the normal points outwards. */
 typedef struct mc_tri {
-    uint8_t corner[3], dir[3], tet;
+    uint8_t corner[3], dir[3];
 } mc_tri_t;
 typedef struct mc_table {
     int16_t first[257];     /* triangles of cube config b: tri[first[b] .. first[b + 1]) */
     uint8_t rank[256][8];   /* edges of mask m before direction d: pop8(m & (bit d-1 - 1)) */
-    mc_tri_t tri[256 * 12];
-    float dirv[256][6][3];
+    mc_tri_t tri[256 * 10]; /* at most 12 crossings: 10 triangles a cube */
 } mc_table_t;
 
-static void build_table(const hbk_fluid_t *h, mc_table_t *tb)
+/* The table is built from the cube's faces, not typed in. Each face, walked anticlockwise as
+ * seen from outside the cube, is cut by segments from an edge where the walk enters the inside
+ * to the next edge where it leaves. On a face whose inside corners are diagonally opposite,
+ * the inside corners are joined (a thin sheet keeps no holes). The decision depends on the
+ * face's four corners only, so the two cubes sharing a face cut it alike and the surface is
+ * closed. Each crossing edge ends a segment on one face and starts one on the other: the
+ * segments chain into loops, fanned into triangles. */
+/* Whether edges e and f (keys corner | dir << 3) lie in a common face of the cube. */
+static int same_face(int e, int f)
+{
+    for (int a = 0; a < 3; ++a)
+        if (!(e >> 3 >> a & 1) && !(f >> 3 >> a & 1) && (e >> a & 1) == (f >> a & 1)) return 1;
+    return 0;
+}
+
+static void build_table(mc_table_t *tb)
 {
     int n = 0;
     for (int bits = 0; bits < 256; ++bits) {
         tb->first[bits] = (int16_t)n;
-        for (int t = 0; t < 6; ++t) {
-            int c[4], in = 0;
-            tet(t, c);
-            for (int q = 0; q < 4; ++q) in |= (bits >> c[q] & 1) << q;
-            const int nt = tet_tris(in);
-            if (!nt) continue;
-            /* Inside corners first, then outside ones (tetrahedron-local numbers). */
-            int ins[4], outs[4], ni = 0, no = 0;
-            for (int q = 0; q < 4; ++q) {
-                if (in >> q & 1) ins[ni++] = q;
-                else outs[no++] = q;
-            }
-            /* Edge between corners qa and qb: from the lower corner (qa < qb along the path)
-             * in direction c[qb] - c[qa] (always a 0/1 vector). */
-            uint8_t ec[4][4], ed[4][4];
-            for (int a = 0; a < ni; ++a)
-                for (int b = 0; b < no; ++b) {
-                    int qa = ins[a], qb = outs[b];
-                    if (qa > qb) { int sw = qa; qa = qb; qb = sw; }
-                    ec[a][b] = (uint8_t)c[qa];
-                    ed[a][b] = (uint8_t)(c[qb] & ~c[qa]);
+        int succ[64]; /* edge key (corner | dir << 3) -> next edge of its loop, or -1 */
+        for (int e = 0; e < 64; ++e) succ[e] = -1;
+        for (int a = 0; a < 3; ++a)
+            for (int side = 0; side < 2; ++side) {
+                const int u = (a + 1) % 3, v = (a + 2) % 3, c0 = side << a;
+                int c[4] = {c0, c0 | 1 << u, c0 | 1 << u | 1 << v, c0 | 1 << v};
+                if (!side) { const int sw = c[1]; c[1] = c[3]; c[3] = sw; } /* seen from -a */
+                int in[4], key[4];
+                for (int q = 0; q < 4; ++q) in[q] = bits >> c[q] & 1;
+                for (int q = 0; q < 4; ++q) {
+                    const int x = c[q], y = c[(q + 1) & 3];
+                    key[q] = (x & y) | (x ^ y) << 3;
                 }
-            float *dv = tb->dirv[bits][t];
-            dv[0] = dv[1] = dv[2] = 0.0f;
-            for (int q = 0; q < 4; ++q) {
-                const float sgn = (in >> q & 1) ? -1.0f / (float)ni : 1.0f / (float)no;
-                dv[0] += sgn * (float)(c[q] & 1) * h->cell[0];
-                dv[1] += sgn * (float)(c[q] >> 1 & 1) * h->cell[1];
-                dv[2] += sgn * (float)(c[q] >> 2 & 1) * h->cell[2];
+                for (int q = 0; q < 4; ++q) {
+                    if (in[q] || !in[(q + 1) & 3]) continue; /* edge q enters the inside */
+                    int exit = (q + 1) & 3;
+                    while (!(in[exit] && !in[(exit + 1) & 3])) exit = (exit + 1) & 3;
+                    if (!in[(q + 2) & 3] && in[(q + 3) & 3]) exit = (q + 3) & 3; /* ambiguous: join */
+                    succ[key[q]] = key[exit];
+                }
             }
-            /* one triangle (ni 1 or 3), or the quad a0b0, a0b1, a1b1, a1b0 as two */
-            static const int qa4[4] = {0, 0, 1, 1}, qb4[4] = {0, 1, 1, 0};
-            static const int use[2][3] = {{0, 1, 2}, {0, 2, 3}};
-            for (int sidx = 0; sidx < nt; ++sidx, ++n) {
-                mc_tri_t *tr = &tb->tri[n];
-                tr->tet = (uint8_t)t;
-                for (int v = 0; v < 3; ++v) {
-                    const int a = ni == 1 ? 0 : ni == 3 ? v : qa4[use[sidx][v]];
-                    const int b = ni == 1 ? v : ni == 3 ? 0 : qb4[use[sidx][v]];
-                    tr->corner[v] = ec[a][b];
-                    tr->dir[v] = ed[a][b];
+        for (int e0 = 0; e0 < 64; ++e0) {
+            if (succ[e0] < 0) continue;
+            int loop[12], len = 0;
+            for (int e = e0; succ[e] >= 0;) {
+                const int next = succ[e];
+                loop[len++] = e;
+                succ[e] = -1;
+                e = next;
+            }
+            /* Fan from a vertex none of whose chords lies in a face: a chord in a face could
+             * meet the neighbouring cube's, and an edge would then have three triangles. */
+            int s0 = -1; /* every loop of the 256 configurations has one */
+            for (int s = 0; s < len && s0 < 0; ++s) {
+                int ok = 1;
+                for (int j = 2; j + 1 < len && ok; ++j) ok = !same_face(loop[s], loop[(s + j) % len]);
+                if (ok) s0 = s;
+            }
+            if (s0 < 0) s0 = 0;
+            for (int t = 1; t + 1 < len; ++t, ++n) {
+                const int vtx[3] = {loop[s0], loop[(s0 + t) % len], loop[(s0 + t + 1) % len]};
+                for (int k = 0; k < 3; ++k) {
+                    tb->tri[n].corner[k] = (uint8_t)(vtx[k] & 7);
+                    tb->tri[n].dir[k] = (uint8_t)(vtx[k] >> 3);
                 }
             }
         }
@@ -181,7 +177,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     uint8_t *mask = h->mc_mask, *in_at = h->mc_in, *row_in = h->mc_row_in, *cfg = h->mc_cfg;
     int32_t *first = h->mc_first;
     int64_t *row_v = h->mc_row_v, *row_t = h->mc_row_t;
-    float *pos = NULL, *nrm = NULL, *raw = NULL;
+    float *pos = NULL, *nrm = NULL;
     int32_t *tri = NULL;
     hbk_result_t r = HBK_OK;
     if (!mask || !in_at || !row_in || !cfg || !first || !row_v || !row_t) {
@@ -219,7 +215,10 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
         r = HBK_ERR_OUT_OF_MEMORY;
         goto done;
     }
-    build_table(h, tb); /* cheap; the cell size could change with a load_state */
+    if (!h->mc_table_built) {
+        build_table(tb);
+        h->mc_table_built = 1;
+    }
     /* Offset of padded vertex (i, j, k) + corner/direction bits c. */
     size_t step[8];
     for (int c = 0; c < 8; ++c) step[c] = pidx(&m, c & 1, c >> 1 & 1, c >> 2 & 1);
@@ -249,11 +248,9 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                     const size_t p = pidx(&m, i, j, k);
                     v16u c[8];
                     for (int q = 0; q < 8; ++q) memcpy(&c[q], in_at + p + step[q], sizeof c[q]);
-                    v16u bits = c[0], b = {0};
-                    for (int q = 1; q < 8; ++q) {
-                        bits |= c[q] << q;
-                        b |= (c[q] ^ c[0]) << (q - 1);
-                    }
+                    v16u bits = c[0];
+                    for (int q = 1; q < 8; ++q) bits |= c[q] << q;
+                    const v16u b = (c[1] ^ c[0]) | (c[2] ^ c[0]) << 1 | (c[4] ^ c[0]) << 3;
                     memcpy(mask + p, &b, sizeof b);
                     const v16u cf = bits & ~(v16u)(bits == 255); /* all inside: none */
                     memcpy(cfg + p, &cf, sizeof cf);
@@ -270,13 +267,13 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                     int bits = a;
                     for (int c = 1; c < 8; ++c) {
                         const int q = in_at[p + step[c]];
-                        b |= (uint8_t)((q != a) << (c - 1));
+                        if (!(c & (c - 1))) b |= (uint8_t)((q != a) << (c - 1)); /* axis edges */
                         bits |= q << c;
                     }
                     ntr += tb->first[bits + 1] - tb->first[bits];
                     cfg[p] = (uint8_t)(bits == 255 ? 0 : bits);
                 } else {
-                    for (int d = 1; d < 8; ++d) {
+                    for (int d = 1; d < 8; d <<= 1) {
                         const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
                         if (i1 >= ex || j1 >= ey || k1 >= ez) continue;
                         if (in_at[p + step[d]] != a) b |= (uint8_t)(1u << (d - 1));
@@ -313,14 +310,6 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
         h->next_tri = t2;
         h->next_cap_t = cap;
     }
-    if ((size_t)NV + 1 > h->mc_cap_raw) {
-        const size_t cap = (size_t)NV + 1 + ((size_t)NV + 1) / 4;
-        float *r2 = realloc(h->mc_raw, 3 * cap * sizeof *r2);
-        if (!r2) { r = HBK_ERR_OUT_OF_MEMORY; goto done; }
-        h->mc_raw = r2;
-        h->mc_cap_raw = cap;
-    }
-    raw = h->mc_raw;
     pos = h->next_pos;
     nrm = h->next_nrm;
     tri = h->next_tri;
@@ -346,7 +335,7 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                 const float *f = in ? h->surface + ((size_t)(i - 1) + fs[1] * (size_t)(j - 1) +
                                                      fs[2] * (size_t)(k - 1))
                                     : NULL;
-                for (int d = 1; d < 8; ++d) {
+                for (int d = 1; d < 8; d <<= 1) {
                     if (!(mask[pi] >> (d - 1) & 1)) continue;
                     float x[3], t, g0[3], g1[3];
                     if (in) {
@@ -359,7 +348,6 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                         grad(&m, i, j, k, g0);
                         grad(&m, i1, j1, k1, g1);
                     }
-                    memcpy(raw + 3 * (size_t)id, x, sizeof x); /* unclamped, for pass (3) */
                     float n[3], nn = 0.0f;
                     for (int c = 0; c < 3; ++c) {
                         const float lo = h->p.box_min[c], hi = h->p.box_max[c];
@@ -400,26 +388,10 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                 if (!bits) continue;
                 for (int n = tb->first[bits]; n < tb->first[bits + 1]; ++n) {
                     const mc_tri_t *tr = &tb->tri[n];
-                    int32_t tv[3];
-                    const float *tp[3];
                     for (int v = 0; v < 3; ++v) {
                         const size_t pc = p + step[tr->corner[v]];
-                        tv[v] = first[pc] + tb->rank[mask[pc]][tr->dir[v]];
-                        tp[v] = raw + 3 * (size_t)tv[v];
+                        tri[3 * out + v] = first[pc] + tb->rank[mask[pc]][tr->dir[v]];
                     }
-                    const float *dirv = tb->dirv[bits][tr->tet];
-                    float e1[3], e2[3], cr[3];
-                    for (int c = 0; c < 3; ++c) {
-                        e1[c] = tp[1][c] - tp[0][c];
-                        e2[c] = tp[2][c] - tp[0][c];
-                    }
-                    cr[0] = e1[1] * e2[2] - e1[2] * e2[1];
-                    cr[1] = e1[2] * e2[0] - e1[0] * e2[2];
-                    cr[2] = e1[0] * e2[1] - e1[1] * e2[0];
-                    const int flip = cr[0] * dirv[0] + cr[1] * dirv[1] + cr[2] * dirv[2] < 0.0f;
-                    tri[3 * out] = tv[0];
-                    tri[3 * out + 1] = tv[flip ? 2 : 1];
-                    tri[3 * out + 2] = tv[flip ? 1 : 2];
                     ++out;
                 }
             }
@@ -470,8 +442,15 @@ hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32
     for (int32_t v = 0; v < nv; ++v) {
         hbk_fluid_lerp_t l;
         hbk_fluid_lerp_at_mesh(h, v, &l);
-        if (uvw_a) hbk_fluid_sample_wrapped3(h, h->v.uvw[0], h->v.wrap[0], &l, uvw_a + 3 * (size_t)v);
-        if (uvw_b) hbk_fluid_sample_wrapped3(h, h->v.uvw[1], h->v.wrap[1], &l, uvw_b + 3 * (size_t)v);
+        float *uvw[2] = {uvw_a ? uvw_a + 3 * (size_t)v : NULL, uvw_b ? uvw_b + 3 * (size_t)v : NULL};
+        for (int f = 0; f < 2; ++f) {
+            if (!uvw[f]) continue;
+            hbk_fluid_sample_wrapped3(h, h->v.uvw[f], h->v.wrap[f], &l, uvw[f]);
+            for (int c = 0; c < 3; ++c) { /* unwrapped near the rest mapping (see the header) */
+                const float rest = (h->mesh_pos[3 * (size_t)v + (size_t)c] - h->p.box_min[c]) / h->p.uvw_tile;
+                uvw[f][c] += floorf(rest - uvw[f][c] + 0.5f);
+            }
+        }
         if (blend) {
             /* Blend of the 8 corners, each already normalised, then trilinear. */
             float c[8][HBK_FLUID_MAX_TEXTURES], *o = blend + (size_t)K * (size_t)v, s = 0.0f;

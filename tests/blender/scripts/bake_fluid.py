@@ -75,23 +75,39 @@ assert pv.inputs["Density"].is_linked and pv.inputs["Color"].is_linked
 vattrs = {n.attribute_name for n in vnodes if n.type == "ATTRIBUTE"}
 assert {"density", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1"} <= vattrs, vattrs
 assert "sample_1" not in vattrs  # a voxel texture has no volume form: a built-in stands in
-assert sum(n.type == "GROUP" for n in vnodes) == 2
+# Texture 0 is the user's group (fields A and B); the built-ins stand in, made tileable.
+vgroups = [n.node_tree.name for n in vnodes if n.type == "GROUP"]
+assert vgroups.count(grp.name) == 2, vgroups
+assert sorted(g for g in vgroups if g != grp.name) == ["HBK Tileable Voronoi"] * 2 + \
+    ["HBK Tileable Wave"] * 2, vgroups
 surf = bpy.data.objects["HBK_Domain_surface"]
 assert len(surf.data.polygons) > 0 and "uvw_a" in surf.data.attributes
 assert "uvw_weight" in surf.data.attributes and "blend_1" in surf.data.attributes
+# uvw per face corner, each triangle's corners within half a tile of each other (the short way
+# across a wrap), and the field's gradient as the custom normals.
+for name in ("uvw_a", "uvw_b"):
+    at = surf.data.attributes[name]
+    assert at.domain == "CORNER", at.domain
+    c = np.empty(len(surf.data.loops) * 3, np.float32)
+    at.data.foreach_get("vector", c)
+    c = c.reshape(-1, 3, 3)
+    assert np.abs(c - c[:, :1]).max() <= 0.5, np.abs(c - c[:, :1]).max()
+assert surf.data.has_custom_normals
 n2 = len(surf.data.vertices)
 scene.frame_set(3)
 assert len(surf.data.vertices) > 0
 mat = surf.data.materials[0]
 assert mat.name == "HBK_Domain_textured"
 nodes = mat.node_tree.nodes
-groups = [n for n in nodes if n.type == "GROUP"]
-assert len(groups) == 2 and all(n.node_tree == grp for n in groups)  # fields A and B
+groups = [n for n in nodes if n.type == "GROUP" and n.node_tree == grp]  # fields A and B
+assert len(groups) == 2
+builtin = [n.node_tree.name for n in nodes if n.type == "GROUP" and n.node_tree != grp]
+assert builtin == ["HBK Tileable Voronoi"] * 2, builtin  # texture 2; 1 is the voxel texture
 for n in groups:  # fed uvw_a or uvw_b times texture 0's scale
     sc = n.inputs["UVW"].links[0].from_node
     assert sc.operation == "SCALE" and sc.inputs["Scale"].default_value == 2.0
     assert sc.inputs[0].links[0].from_node.attribute_name in ("uvw_a", "uvw_b")
-assert not any(n.type == "TEX_WAVE" for n in nodes)  # texture 1 is the voxel texture
+assert not any(n.type == "TEX_WAVE" for n in nodes)
 blends = {n.attribute_name for n in nodes if n.type == "ATTRIBUTE"}
 assert {"blend_0", "blend_1", "blend_2", "uvw_weight", "sample_1"} <= blends
 assert "blend_3" not in blends

@@ -25,6 +25,14 @@ def _surface(mesh, data):
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * n, 3, dtype=np.int32))
     mesh.polygons.foreach_set("loop_total", np.full(n, 3, np.int32))
     mesh.polygons.foreach_set("use_smooth", np.ones(n, bool))
+    if "normals" in data.files and len(pos):
+        # The field's gradient, not the faces' mean: marching-cubes triangles are uneven, and
+        # averaged face normals would shade them as creases.
+        mesh.update(calc_edges=True)  # custom normals walk the edges around each vertex
+        if hasattr(mesh, "use_auto_smooth"):  # Blender < 4.1 reads custom normals only so
+            mesh.use_auto_smooth = True
+        mesh.normals_split_custom_set_from_vertices(
+            np.ascontiguousarray(data["normals"], np.float32).reshape(-1, 3))
     # uvw_a, uvw_b, sample_k: vectors; uvw_weight: one value; blend, features: an attribute
     # per column (by name: three textures make a blend of three columns, still not a vector).
     for name in data.files:
@@ -32,7 +40,16 @@ def _surface(mesh, data):
             continue
         arr = np.ascontiguousarray(data[name], np.float32)
         vector = name in ("uvw_a", "uvw_b") or name.startswith("sample_")
-        if vector and arr.ndim == 2 and arr.shape[1] == 3:
+        if name in ("uvw_a", "uvw_b") and arr.ndim == 2 and n:
+            # uvw wraps at 1 -> 0 (a tile edge). Per vertex, a triangle across the wrap would
+            # interpolate the long way and squeeze a whole tile into itself (zigzag stripes);
+            # per face corner, each triangle's corners are taken within half a tile of its
+            # first, so it interpolates the short way, as the volume's wrap flags do.
+            c = arr[np.asarray(tris, np.int64).reshape(-1, 3)]
+            c -= np.round(c - c[:, :1, :])
+            mesh.attributes.new(name, "FLOAT_VECTOR", "CORNER").data.foreach_set(
+                "vector", np.ascontiguousarray(c, np.float32).ravel())
+        elif vector and arr.ndim == 2 and arr.shape[1] == 3:
             mesh.attributes.new(name, "FLOAT_VECTOR", "POINT").data.foreach_set(
                 "vector", arr.ravel())
         elif arr.ndim == 1:

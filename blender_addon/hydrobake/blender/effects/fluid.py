@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 
 from ...core import mantaflow, solid_textures
-from ..bridge import animation, frame_meshes, meshes, volumes
+from ..bridge import animation, frame_meshes, meshes, tileable, volumes
 from . import register_effect
 from .base import BlenderEffect
 
@@ -436,13 +436,9 @@ class FluidBlender(BlenderEffect):
                 t.node_tree = group
                 tree.links.new(uvw, t.inputs[_group_socket(group, "INPUT")])
                 return t.outputs[_group_socket(group, "OUTPUT")]
-            kind = ("noise", "wave", "voronoi")[k % 3]
-            if kind == "noise":
-                t = node("ShaderNodeTexNoise", x, y, Scale=3.0, Detail=6.0)
-            elif kind == "voronoi":
-                t = node("ShaderNodeTexVoronoi", x, y, Scale=6.0)
-            else:
-                t = node("ShaderNodeTexWave", x, y, Scale=2.0, Distortion=4.0)
+            # Blender's own noise, waves and cells do not repeat: wrapped in a tileable group.
+            t = node("ShaderNodeGroup", x, y)
+            t.node_tree = tileable.group(("noise", "wave", "voronoi")[k % 3])
             tree.links.new(uvw, t.inputs["Vector"])
             return t.outputs["Color"]
 
