@@ -322,15 +322,24 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
     for (int32_t k = 0; k < ez; ++k)
         for (int32_t j = 0; j < ey; ++j) {
             const size_t q = (size_t)j + (size_t)ey * (size_t)k;
-            if (row_v[q + 1] == row_v[q]) continue; /* no vertex: nothing reads its `first` */
+            if (row_v[q + 1] == row_v[q]) continue; /* no vertex */
             int32_t id = (int32_t)row_v[q];
             /* Edges whose ends and their neighbours lie in the grid (padded 2 .. e - 4) read
              * the field directly. */
             const int yz_in = j >= 2 && j <= ey - 4 && k >= 2 && k <= ez - 4;
+            const size_t p0 = pidx(&m, 0, j, k);
             for (int32_t i = 0; i < ex; ++i) {
-                const size_t pi = pidx(&m, i, j, k);
+                const size_t pi = p0 + (size_t)i;
+                if (i + 8 <= ex) { /* eight vertices without crossings at once */
+                    uint64_t eight;
+                    memcpy(&eight, mask + pi, sizeof eight);
+                    if (!eight) {
+                        i += 7;
+                        continue;
+                    }
+                }
+                if (!mask[pi]) continue; /* pass (3) reads `first` only where there are edges */
                 first[pi] = id;
-                if (!mask[pi]) continue;
                 const int in = yz_in && i >= 2 && i <= ex - 4;
                 const float *f = in ? h->surface + ((size_t)(i - 1) + fs[1] * (size_t)(j - 1) +
                                                      fs[2] * (size_t)(k - 1))
