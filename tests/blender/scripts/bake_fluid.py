@@ -75,11 +75,10 @@ assert pv.inputs["Density"].is_linked and pv.inputs["Color"].is_linked
 vattrs = {n.attribute_name for n in vnodes if n.type == "ATTRIBUTE"}
 assert {"density", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1"} <= vattrs, vattrs
 assert "sample_1" not in vattrs  # a voxel texture has no volume form: a built-in stands in
-# Texture 0 is the user's group (fields A and B); the built-ins stand in, made tileable.
+# Texture 0 is the user's group (fields A and B); plain built-ins stand in for the others.
 vgroups = [n.node_tree.name for n in vnodes if n.type == "GROUP"]
-assert vgroups.count(grp.name) == 2, vgroups
-assert sorted(g for g in vgroups if g != grp.name) == ["HBK Tileable Voronoi"] * 2 + \
-    ["HBK Tileable Wave"] * 2, vgroups
+assert vgroups == [grp.name] * 2, vgroups
+assert sum(n.type in ("TEX_WAVE", "TEX_VORONOI") for n in vnodes) == 4
 surf = bpy.data.objects["HBK_Domain_surface"]
 assert len(surf.data.polygons) > 0 and "uvw_a" in surf.data.attributes
 assert "uvw_weight" in surf.data.attributes and "blend_1" in surf.data.attributes

@@ -436,9 +436,13 @@ class FluidBlender(BlenderEffect):
                 t.node_tree = group
                 tree.links.new(uvw, t.inputs[_group_socket(group, "INPUT")])
                 return t.outputs[_group_socket(group, "OUTPUT")]
-            # Blender's own noise, waves and cells do not repeat: wrapped in a tileable group.
-            t = node("ShaderNodeGroup", x, y)
-            t.node_tree = tileable.group(("noise", "wave", "voronoi")[k % 3])
+            kind = ("noise", "wave", "voronoi")[k % 3]
+            if volume:  # the plain texture: eight copies per step of a volume ray cost minutes
+                idname, settings = tileable.KINDS[kind]
+                t = node(idname, x, y, **settings)
+            else:  # Blender's own textures do not repeat: wrapped in a tileable group
+                t = node("ShaderNodeGroup", x, y)
+                t.node_tree = tileable.group(kind)
             tree.links.new(uvw, t.inputs["Vector"])
             return t.outputs["Color"]
 
