@@ -665,6 +665,18 @@ void test_fluid_mc_closed_noise(void)
     hbk_fluid_destroy(h);
 }
 
+/* A surface field on a res^3 grid over the unit box: 0.5 on the sphere of radius R about the
+ * centre, linear in the distance. */
+static void sphere_field(float *surf, int res, double R)
+{
+    const size_t n = (size_t)res + 1;
+    for (size_t i = 0; i < n * n * n; ++i) {
+        const double x = (double)(i % n) / res - 0.5, y = (double)(i / n % n) / res - 0.5,
+                     z = (double)(i / (n * n)) / res - 0.5;
+        surf[i] = (float)(0.5 + 0.5 * (R - sqrt(x * x + y * y + z * z)) / R);
+    }
+}
+
 /* A sphere of radius R from a smooth field: area, volume and normals near analytic. */
 void test_fluid_mc_sphere(void)
 {
@@ -674,11 +686,7 @@ void test_fluid_mc_sphere(void)
     const double R = 0.3;
     size_t nvg = hbk_fluid_grid_vertices(h, NULL);
     float *vel = calloc(3 * nvg, sizeof *vel), *surf = malloc(nvg * sizeof *surf);
-    for (size_t i = 0; i < nvg; ++i) {
-        const double x = (double)(i % 49) / 48 - 0.5, y = (double)(i / 49 % 49) / 48 - 0.5,
-                     z = (double)(i / (49 * 49)) / 48 - 0.5;
-        surf[i] = (float)(0.5 + 0.5 * (R - sqrt(x * x + y * y + z * z)) / R);
-    }
+    sphere_field(surf, 48, R);
     CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
     CHECK_OK(hbk_fluid_update_fields(h));
     CHECK_OK(hbk_fluid_update_surface(h, NULL));
@@ -740,10 +748,8 @@ void test_fluid_mesh_uvw_unwrapped(void)
     const size_t nvg = hbk_fluid_grid_vertices(h, NULL);
     float *vel = malloc(3 * nvg * sizeof *vel), *surf = malloc(nvg * sizeof *surf);
     const double shift = 3 * 0.5 / 32.0; /* 3 frames of half a voxel: 0.047 m < tile / 2 */
+    sphere_field(surf, 32, 0.3);
     for (size_t i = 0; i < nvg; ++i) {
-        const double x = (double)(i % 33) / 32 - 0.5, y = (double)(i / 33 % 33) / 32 - 0.5,
-                     z = (double)(i / (33 * 33)) / 32 - 0.5;
-        surf[i] = (float)(0.5 + 0.5 * (0.3 - sqrt(x * x + y * y + z * z)) / 0.3);
         vel[3 * i] = (float)(0.5 / 32.0 / 0.1);
         vel[3 * i + 1] = vel[3 * i + 2] = 0.0f;
     }
