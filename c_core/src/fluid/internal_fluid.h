@@ -60,7 +60,8 @@ struct hbk_fluid {
     /* Scratch, not state. */
     hbk_fluid_vols_t scratch;   /* advection targets */
     float *pos0, *vel0;         /* particles at the start of a step (cancellation) */
-    float *sorted;              /* SPH scratch: 8 floats per particle */
+    float *sorted;              /* SPH and splat scratch: particles in cell order, 8 floats
+                                 * each (x, v, then the SPH's density and pressure) */
     float *soa;                 /* the same as 8 arrays of max_particles + 8 (sph_lanes.c) */
     int32_t *nbr, *nbr_n;       /* SPH scratch, one block made by the first AVX2 step: each
                                  * particle's neighbours in reach, from the density for the

@@ -15,6 +15,7 @@ typedef struct {
     float H2, R2, inv_R2;
     int own_surf;                /* the metaball sum is splatted (R != H), not derived */
     int32_t *ylo, *yhi;          /* per vertex layer: the rows the sums may be non-zero in */
+    const float *xv;             /* particles in cell order: x, y, z, vx, vy, vz (8 floats) */
 } splat_t;
 
 /* Adds particle (x, v) to vertices [a0, a1] of one row (at `row`), whose offsets from the
@@ -115,7 +116,6 @@ __attribute__((target("avx2"))) static inline __attribute__((always_inline)) voi
 splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32_t p0,
            int32_t p1, float S, const int OWN)
 {
-    const hbk_fluid_cells_t *c = &h->cells;
     const int32_t nx = h->nv[0], ny = h->nv[1];
     const float *lo = h->p.box_min, *cl = h->cell;
     const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
@@ -127,8 +127,7 @@ splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32
     float *const m2 = s->mot[2], *const sf = s->surf;
     const float H2s = s->H2, R2s = s->R2, lo1 = lo[1], lo2 = lo[2], cl1 = cl[1], cl2 = cl[2];
     for (int32_t k = p0; k < p1; ++k) {
-        const int32_t id = c->order[k];
-        const float *x = h->pos + 3 * (size_t)id, *vp = h->vel + 3 * (size_t)id;
+        const float *x = s->xv + 8 * (size_t)k, *vp = x + 3; /* read in order, not by id */
         const float x1 = x[1], x2 = x[2];
         const v8f v0 = zero + vp[0], v1 = zero + vp[1], v2 = zero + vp[2];
         int32_t a0[3], a1[3];
@@ -220,10 +219,20 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     hbk_fluid_cells_t *c = &h->cells;
     hbk_result_t r = hbk_fluid_cells_build(c, h->pos, n, h->p.box_min, h->p.box_max, S, threads);
     if (r) return r;
+    /* The particles in cell order, for the splat to read them in turn: through the order a
+     * particle's position was a cache miss, a tenth of the splat, and each is read by about
+     * three slabs. */
+    float *const xv = h->sorted;
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < n; ++k) {
+        const int32_t id = c->order[k];
+        memcpy(xv + 8 * (size_t)k, h->pos + 3 * (size_t)id, 3 * sizeof(float));
+        memcpy(xv + 8 * (size_t)k + 3, h->vel + 3 * (size_t)id, 3 * sizeof(float));
+    }
     const splat_t s = {h->g_wsum, h->g_surface,
                        {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv},
                        H * H, R * R, 1.0f / (R * R), own_surf,
-                       h->splat_ylo, h->splat_yhi};
+                       h->splat_ylo, h->splat_yhi, xv};
     const float dens_k = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
     const float surf_k = (float)(1.0 / pow(R, 6));
     const float *lo = h->p.box_min, *cl = h->cell;
