@@ -19,3 +19,8 @@ def test_mantaflow_liquid_cache_drives_the_textures(blender, tmp_path):
 def test_mantaflow_time_scale_slows_the_textures_as_it_slows_the_liquid(blender, tmp_path):
     r = blender.run("fluid_mantaflow.py", tmp_path, "0.5")
     assert "FLUID MANTAFLOW TIME SCALE OK" in r.stdout
+
+
+def test_builtin_samples_repeat_every_uvw_unit(blender, tmp_path):
+    r = blender.run("tileable_period.py", tmp_path)
+    assert "TILEABLE OK" in r.stdout, r.stdout
