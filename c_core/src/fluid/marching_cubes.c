@@ -84,13 +84,6 @@ typedef struct mc_table {
     mc_tri_t tri[256 * 10]; /* at most 12 crossings: 10 triangles a cube */
 } mc_table_t;
 
-/* The table is built from the cube's faces, not typed in. Each face, walked anticlockwise as
- * seen from outside the cube, is cut by segments from an edge where the walk enters the inside
- * to the next edge where it leaves. On a face whose inside corners are diagonally opposite,
- * the inside corners are joined (a thin sheet keeps no holes). The decision depends on the
- * face's four corners only, so the two cubes sharing a face cut it alike and the surface is
- * closed. Each crossing edge ends a segment on one face and starts one on the other: the
- * segments chain into loops, fanned into triangles. */
 /* Whether edges e and f (keys corner | dir << 3) lie in a common face of the cube. */
 static int same_face(int e, int f)
 {
@@ -99,6 +92,13 @@ static int same_face(int e, int f)
     return 0;
 }
 
+/* The table is built from the cube's faces, not typed in. Each face, walked anticlockwise as
+ * seen from outside the cube, is cut by segments from an edge where the walk enters the inside
+ * to the next edge where it leaves. On a face whose inside corners are diagonally opposite,
+ * the inside corners are joined (a thin sheet keeps no holes). The decision depends on the
+ * face's four corners only, so the two cubes sharing a face cut it alike and the surface is
+ * closed. Each crossing edge ends a segment on one face and starts one on the other: the
+ * segments chain into loops, fanned into triangles. */
 static void build_table(mc_table_t *tb)
 {
     int n = 0;
