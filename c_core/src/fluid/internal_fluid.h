@@ -108,7 +108,6 @@ struct hbk_fluid {
     int32_t *mc_first;
     int64_t *mc_row_v, *mc_row_t;
     struct mc_table *mc_table;  /* triangles per cube configuration (marching_cubes.c) */
-    int mc_table_built;
     double ms[4];
     int32_t substeps_taken;     /* by the last step */
 };

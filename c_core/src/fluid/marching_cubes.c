@@ -211,13 +211,12 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
             row_in[(size_t)j + (size_t)ey * (size_t)k] = any == all ? any : 2;
         }
     mc_table_t *tb = h->mc_table;
-    if (!tb && !(tb = h->mc_table = malloc(sizeof *tb))) {
-        r = HBK_ERR_OUT_OF_MEMORY;
-        goto done;
-    }
-    if (!h->mc_table_built) {
+    if (!tb) { /* the table depends on nothing: built once, with its memory */
+        if (!(tb = h->mc_table = malloc(sizeof *tb))) {
+            r = HBK_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
         build_table(tb);
-        h->mc_table_built = 1;
     }
     /* Offset of padded vertex (i, j, k) + corner/direction bits c. */
     size_t step[8];
