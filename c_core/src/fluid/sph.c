@@ -199,37 +199,43 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_near(h, xi, H, &mi);
         float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0}, part[6][8];
         memset(part, 0, sizeof part);
-        int32_t nk = 0; /* neighbours so far (their lanes, away from the walls) */
+        int32_t nk = 0; /* pairs in reach so far: the k-th adds to lane k mod 8 */
         if (lanes)
             hbk_fluid_forces_lanes(c, soa, s, h->nbr + HBK_FLUID_NBR_CAP * (size_t)i,
                                    h->nbr_n[i], st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
                                    (const float (*)[3])mi.sgn, (const float (*)[3])mi.off, ap,
                                    fv);
-        else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
-            const float *xj = s + 8 * (size_t)j;
-            /* im = -1: j itself (not i); im >= 0: j's images (i's own included). */
-            float *pa = NULL;
-            for (int im = j == i ? 0 : -1; im < mi.n; ++im) {
-                float d3[3], vj[3];
-                for (int a = 0; a < 3; ++a) {
-                    const float sg = im < 0 ? 1.0f : mi.sgn[im][a], of = im < 0 ? 0.0f : mi.off[im][a];
-                    d3[a] = xi[a] - (sg * xj[a] + of);
-                    vj[a] = sg * xj[3 + a];
-                }
-                const float r2 = d3[0] * d3[0] + d3[1] * d3[1] + d3[2] * d3[2];
-                if (r2 >= H2) continue;
-                /* Lanes: with walls by candidate (hbk_fluid_lane_of), without by neighbour
-                 * (the k-th in lane k mod 8, as sph_lanes.c packs them). */
-                if (!pa) pa = part[0] + (mi.n ? hbk_fluid_lane_of(j, a_) : (nk++ & 7));
-                const float rr = sqrtf(r2), q = H - rr;
-                if (rr > 1e-9f * H) {
-                    /* -m (P_i + P_j) grad_i W, grad_i W = -spiky q^2 (x_i - x_j) / r: apart. */
-                    const float f = m * (xi[7] + xj[7]) * spiky * q * q / rr;
-                    for (int a = 0; a < 3; ++a) pa[8 * a] += f * d3[a];
-                }
-                const float w = m / xj[6] * visc * q;
-                for (int a = 0; a < 3; ++a) pa[8 * (3 + a)] += w * (vj[a] - xi[3 + a]);
-            }
+        /* The pairs (neighbour j, image im) in reach in sph_lanes.c's order: eight candidates
+         * of a row at a time; per image (-1: j itself, which i is not, but its images are);
+         * per candidate. */
+        else HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a_, e_, {
+            for (int32_t b = a_; b < e_; b += 8)
+                for (int im = -1; im < mi.n; ++im)
+                    for (int32_t j = b; j < e_ && j < b + 8; ++j) {
+                        if (im < 0 && j == i) continue;
+                        const float *xj = s + 8 * (size_t)j;
+                        const float sg3[3] = {im < 0 ? 1.0f : mi.sgn[im][0],
+                                              im < 0 ? 1.0f : mi.sgn[im][1],
+                                              im < 0 ? 1.0f : mi.sgn[im][2]};
+                        float d3[3], vj[3];
+                        for (int a = 0; a < 3; ++a) {
+                            const float of = im < 0 ? 0.0f : mi.off[im][a];
+                            d3[a] = xi[a] - (sg3[a] * xj[a] + of);
+                            vj[a] = sg3[a] * xj[3 + a];
+                        }
+                        const float r2 = d3[0] * d3[0] + d3[1] * d3[1] + d3[2] * d3[2];
+                        if (r2 >= H2) continue;
+                        float *pa = part[0] + (nk++ & 7);
+                        const float rr = sqrtf(r2), q = H - rr;
+                        if (rr > 1e-9f * H) {
+                            /* -m (P_i + P_j) grad_i W, grad_i W = -spiky q^2 (x_i - x_j) / r:
+                             * apart. */
+                            const float f = m * (xi[7] + xj[7]) * spiky * q * q / rr;
+                            for (int a = 0; a < 3; ++a) pa[8 * a] += f * d3[a];
+                        }
+                        const float w = m / xj[6] * visc * q;
+                        for (int a = 0; a < 3; ++a) pa[8 * (3 + a)] += w * (vj[a] - xi[3 + a]);
+                    }
         })
         if (!lanes)
             for (int a = 0; a < 3; ++a) {

@@ -5,12 +5,14 @@
  * as before, cost a mispredicted branch or two per eight candidates.)
  * - Density: eight candidates of a row of cells at a time (lane hbk_fluid_lane_of), read from
  *   the structure-of-arrays copy of the sorted particles (h->soa: x, y, z, vx, vy, vz,
- *   density, p / density^2, each padded by 8). It also packs the candidates in reach into a
- *   list for the forces.
- * - Forces: away from the walls, eight of that list at a time (the k-th in lane k mod 8), each
- *   one's record of h->sorted loaded whole. A sixth of the candidates are in reach, so this
- *   takes a sixth of the square roots and divisions. Near walls, with the mirror images, by
- *   candidate as the density. */
+ *   density, p / density^2, each padded by 8), each candidate as itself and, near walls, as
+ *   its mirror images. It also packs the (candidate, image) pairs in reach into a list for the
+ *   forces.
+ * - Forces: eight of that list at a time (the k-th in lane k mod 8), each one's record of
+ *   h->sorted loaded whole and mirrored by its lane's image. A sixth of the candidates are in
+ *   reach, so this takes a sixth of the square roots and divisions. (Near walls the forces
+ *   used to go by candidate and image, as the density does: a quarter of a dam break's
+ *   particles, and a quarter of its SPH time.) */
 #include "internal_fluid.h"
 
 typedef float v8f __attribute__((vector_size(32)));
@@ -49,9 +51,47 @@ static const hbk_v4i pack4[16] = {
         (n) += __builtin_popcount(mk_ >> 4);                                                 \
     } while (0)
 
-/* Runs BODY(idx, n) over the neighbours of i away from the walls (candidates within reach,
- * i excluded) eight at a time in order, idx[0 .. n - 1] real (n <= 8): from `list` when the
- * density kept them (nlist >= 0), else found again from the cells. */
+/* A list entry: the sorted index of the neighbour, and in the top bits which of its images
+ * (0: itself, 1 .. nim: the mirror images) is in reach. max_particles <= 4M < 2^24. */
+#define IMG_SHIFT 24
+#define IDX_MASK ((1 << IMG_SHIFT) - 1)
+
+/* Packs the (candidate, image) pairs in reach of candidates j .. j + 7 of a row ending at e
+ * into list[n ..], n += their count: images in order, each one's candidates in order. i is
+ * not its own neighbour, but its images are. CAPPED: packing stops at the cap and n becomes
+ * HBK_FLUID_NBR_CAP; else FLUSH runs whenever n reaches 8. PART (or NULL): the density's
+ * q^3 added in the candidates' lanes. */
+#define SCAN8(j, e, list, n, CAPPED, FLUSH, PART)                                                     \
+    do {                                                                                     \
+        const v8f xj_ = load8(X + (j)), yj_ = load8(Y + (j)), zj_ = load8(Z + (j));          \
+        const v8i in_ = lane + (j) < (e);                                                    \
+        for (int im_ = 0; im_ <= nim; ++im_) {                                               \
+            v8f dx_, dy_, dz_;                                                               \
+            if (im_ == 0) {                                                                  \
+                dx_ = x - xj_, dy_ = y - yj_, dz_ = z - zj_;                                 \
+            } else {                                                                         \
+                const float *sg_ = sgn[im_ - 1], *of_ = off[im_ - 1];                        \
+                dx_ = x - (sg_[0] * xj_ + of_[0]);                                           \
+                dy_ = y - (sg_[1] * yj_ + of_[1]);                                           \
+                dz_ = z - (sg_[2] * zj_ + of_[2]);                                           \
+            }                                                                                \
+            const v8f r2_ = dx_ * dx_ + dy_ * dy_ + dz_ * dz_;                               \
+            const v8i near_ = in_ & (r2_ < h2);                                              \
+            if (!__builtin_ia32_movmskps256((v8f)near_)) continue;                           \
+            if (PART) {                                                                      \
+                const v8f q_ = h - __builtin_ia32_sqrtps256(r2_), q3_ = q_ * q_ * q_;        \
+                *(PART) += (v8f)((v8i)q3_ & near_); /* + 0 out of reach: the same bits */    \
+            }                                                                                \
+            if (!(CAPPED) || (n) <= HBK_FLUID_NBR_CAP - 8) {                                 \
+                PACK(list, n, (j) + (im_ << IMG_SHIFT), near_ & (im_ ? in_ : lane + (j) != i)); \
+                if (!(CAPPED) && (n) >= 8) FLUSH;                                            \
+            } else (n) = HBK_FLUID_NBR_CAP;                                                  \
+        }                                                                                    \
+    } while (0)
+
+/* Runs BODY(idx, n) over the pairs in reach of i (see SCAN8) eight at a time in order,
+ * idx[0 .. n - 1] real (n <= 8): from `list` when the density kept them (nlist >= 0), else
+ * found again from the cells. */
 #define FOR_PACKED(list, nlist, BODY)                                                        \
     do {                                                                                     \
         if ((nlist) >= 0)                                                                    \
@@ -59,17 +99,10 @@ static const hbk_v4i pack4[16] = {
         else {                                                                               \
             int32_t buf_[16], n_ = 0;                                                        \
             HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {                                        \
-                for (int32_t j = a; j < e; j += 8) {                                         \
-                    const v8f dx_ = x - load8(X + j), dy_ = y - load8(Y + j),                \
-                              dz_ = z - load8(Z + j);                                        \
-                    const v8f r2_ = dx_ * dx_ + dy_ * dy_ + dz_ * dz_;                       \
-                    PACK(buf_, n_, j, (lane + j < e) & (r2_ < h2) & (lane + j != i));        \
-                    if (n_ >= 8) {                                                           \
-                        BODY(buf_, 8);                                                       \
+                for (int32_t j = a; j < e; j += 8)                                           \
+                    SCAN8(j, e, buf_, n_, 0, { BODY(buf_, 8);                                \
                         __builtin_memcpy(buf_, buf_ + 8, 8 * sizeof *buf_);                  \
-                        n_ -= 8;                                                             \
-                    }                                                                        \
-                }                                                                            \
+                        n_ -= 8; }, (v8f *)0);                                               \
             })                                                                               \
             if (n_) BODY(buf_, n_);                                                          \
         }                                                                                    \
@@ -81,7 +114,7 @@ static const hbk_v4i pack4[16] = {
     do {                                                                                     \
         const float *rec_[8];                                                                \
         HBK_UNROLL8 for (int q_ = 0; q_ < 8; ++q_)                                           \
-            rec_[q_] = rec8 + 8 * (size_t)(q_ < (n) ? (idx)[q_] : i);                        \
+            rec_[q_] = rec8 + 8 * (size_t)(q_ < (n) ? (idx)[q_] & IDX_MASK : i);                        \
         for (int hb_ = 0; hb_ < 2; ++hb_) {                                                    \
             v8f S_[4], T_[4];                                                                \
             for (int q_ = 0; q_ < 4; ++q_) {                                                 \
@@ -115,10 +148,10 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const floa
     const v8f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
     const v8f h = zero + H, h2 = zero + H * H;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
-    v8f part = zero;
+    v8f part = zero, *const sum8 = &part;
     int32_t n = 0;
     if (!nim) { /* away from the walls: no branch on empty groups (a mispredicted one cost more
-                 * than the square roots); the neighbours packed for the forces */
+                 * than the square roots) */
         HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
             for (int32_t j = a; j < e; j += 8) {
                 const v8f dx = x - load8(X + j), dy = y - load8(Y + j), dz = z - load8(Z + j);
@@ -130,31 +163,11 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const floa
                 else n = HBK_FLUID_NBR_CAP; /* too many: the forces find them again */
             }
         })
-        *nlist = n < HBK_FLUID_NBR_CAP ? n : -1;
     } else
-    HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
-        for (int32_t j = a; j < e; j += 8) {
-            const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
-            const v8i in = lane + j < e;
-            for (int im = 0; im <= nim; ++im) {
-                v8f dx, dy, dz;
-                if (im == 0) {
-                    dx = x - xj, dy = y - yj, dz = z - zj;
-                } else {
-                    const float *sg = sgn[im - 1], *of = off[im - 1];
-                    dx = x - (sg[0] * xj + of[0]);
-                    dy = y - (sg[1] * yj + of[1]);
-                    dz = z - (sg[2] * zj + of[2]);
-                }
-                const v8f r2 = dx * dx + dy * dy + dz * dz;
-                const v8i near = in & (r2 < h2);
-                if (!__builtin_ia32_movmskps256((v8f)near)) continue;
-                const v8f q = h - __builtin_ia32_sqrtps256(r2), q3 = q * q * q;
-                part += (v8f)((v8i)q3 & near); /* + 0 where out of reach: the same bits */
-            }
-        }
-    })
-    if (nim) *nlist = -1;
+        HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
+            for (int32_t j = a; j < e; j += 8) SCAN8(j, e, list, n, 1, (void)0, sum8);
+        })
+    *nlist = n < HBK_FLUID_NBR_CAP ? n : -1;
     float p[8];
     __builtin_memcpy(p, &part, sizeof p);
     const float sum = hbk_fluid_lane_sum(p);
@@ -162,25 +175,40 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const floa
     return sum;
 }
 
-/* The forces' terms of neighbours idx[0 .. n - 1], lane by lane, with the scalar code's
- * operations (1 * x + 0 included: signed zeros). */
-#define TERMS8(idx, n)                                                                       \
+/* Per lane, table T's entry for axis a of the lane's image: a permutation within one vector
+ * for up to 7 images (one or two walls near, or three), a gather for more (a box narrower
+ * than two smoothing lengths). */
+#define PICK(T, a, ID, W)                                                                    \
+    (!(W) ? (ID)                                                                             \
+     : nim < 8 ? __builtin_ia32_permvarsf256(load8(T[a]), im_)                               \
+               : __builtin_ia32_gathersiv8sf(zero, T[a], im_, (v8f)(lane == lane), 4))
+
+/* The forces' terms of pairs idx[0 .. n - 1], lane by lane, with the scalar code's
+ * operations: each record mirrored by its lane's image, sg * x + of (1 * x + 0 for the
+ * neighbour itself, signed zeros included). */
+#define TERMS8(idx, n, WALLS)                                                                \
     do {                                                                                     \
         v8f F[8];                                                                            \
-        RECORDS(F, idx, n);                                                               \
+        RECORDS(F, idx, n);                                                                  \
+        v8i im_;                                                                             \
+        HBK_UNROLL8 for (int q_ = 0; q_ < 8; ++q_) im_[q_] = q_ < (n) ? (idx)[q_] >> IMG_SHIFT : 0; \
+        const v8f sx = PICK(tsg, 0, one, WALLS), sy = PICK(tsg, 1, one, WALLS), sz = PICK(tsg, 2, one, WALLS);    \
         const v8i act = lane < (n);                                                          \
-        const v8f dx = x - (1.0f * F[0] + 0.0f), dy = y - (1.0f * F[1] + 0.0f),             \
-                  dz = z - (1.0f * F[2] + 0.0f);                                             \
+        const v8f dx = x - (sx * F[0] + PICK(tof, 0, zero, WALLS)),                                 \
+                  dy = y - (sy * F[1] + PICK(tof, 1, zero, WALLS)),                                 \
+                  dz = z - (sz * F[2] + PICK(tof, 2, zero, WALLS));                                 \
         const v8f r2 = dx * dx + dy * dy + dz * dz;                                          \
         const v8f rr = __builtin_ia32_sqrtps256(r2), q = h - rr;                             \
         const v8i push = act & (rr > tiny);                                                  \
         const v8f f = vm * (pi + F[7]) * vs * q * q / rr;                                    \
         const v8f w = vm / F[6] * vv * q;                                                    \
-        const v8f t6[6] = {f * dx, f * dy, f * dz, w * (1.0f * F[3] - vx),                   \
-                           w * (1.0f * F[4] - vy), w * (1.0f * F[5] - vz)};                  \
+        const v8f t6[6] = {f * dx, f * dy, f * dz, w * (sx * F[3] - vx),                     \
+                           w * (sy * F[4] - vy), w * (sz * F[5] - vz)};                      \
         HBK_UNROLL8 for (int q6 = 0; q6 < 6; ++q6)                                           \
             part[q6] += (v8f)((v8i)t6[q6] & (q6 < 3 ? push : act));                          \
     } while (0)
+#define TERMS8_FREE(idx, n) TERMS8(idx, n, 0)
+#define TERMS8_WALLS(idx, n) TERMS8(idx, n, 1)
 
 __attribute__((target("avx2"))) void
 hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
@@ -190,43 +218,24 @@ hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, const float
                        const float (*sgn)[3], const float (*off)[3], float ap[3], float fv[3])
 {
     const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
-    const float *VX = soa + 3 * stride, *VY = soa + 4 * stride, *VZ = soa + 5 * stride;
-    const float *R = soa + 6 * stride, *P = soa + 7 * stride;
     const v8f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
     const v8f vx = zero + xi[3], vy = zero + xi[4], vz = zero + xi[5], pi = zero + xi[7];
     const v8f h = zero + H, h2 = zero + H * H, tiny = zero + 1e-9f * H;
-    const v8f vm = zero + m, vs = zero + spiky, vv = zero + visc;
+    const v8f vm = zero + m, vs = zero + spiky, vv = zero + visc, one = zero + 1.0f;
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
     v8f part[6] = {zero, zero, zero, zero, zero, zero};
-    if (!nim) { /* away from the walls: the density's list, the k-th in lane k mod 8 */
-        FOR_PACKED(list, nlist, TERMS8);
-    } else
-    HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
-        for (int32_t j = a; j < e; j += 8) {
-            const v8f xj = load8(X + j), yj = load8(Y + j), zj = load8(Z + j);
-            const v8i in = lane + j < e;
-            for (int im = 0; im <= nim; ++im) {
-                /* the scalar code's sg * x + of, with sg = 1 and of = 0 for j itself */
-                const float one[3] = {1.0f, 1.0f, 1.0f}, nil[3] = {0.0f, 0.0f, 0.0f};
-                const float *sg = im ? sgn[im - 1] : one, *of = im ? off[im - 1] : nil;
-                const v8f dx = x - (sg[0] * xj + of[0]), dy = y - (sg[1] * yj + of[1]),
-                          dz = z - (sg[2] * zj + of[2]);
-                const v8f r2 = dx * dx + dy * dy + dz * dz;
-                /* j itself is not its own neighbour, but its images are */
-                const v8i near = in & (r2 < h2) & (im ? lane == lane : lane + j != i);
-                if (!__builtin_ia32_movmskps256((v8f)near)) continue;
-                const v8f rr = __builtin_ia32_sqrtps256(r2), q = h - rr;
-                const v8i push = near & (rr > tiny);
-                const v8f f = vm * (pi + load8(P + j)) * vs * q * q / rr;
-                const v8f w = vm / load8(R + j) * vv * q;
-                const v8f t[6] = {f * dx, f * dy, f * dz, w * (sg[0] * load8(VX + j) - vx),
-                                  w * (sg[1] * load8(VY + j) - vy),
-                                  w * (sg[2] * load8(VZ + j) - vz)};
-                HBK_UNROLL8 for (int q6 = 0; q6 < 6; ++q6) /* + 0 out of reach: the same bits */
-                    part[q6] += (v8f)((v8i)t[q6] & (q6 < 3 ? push : near));
+    float tsg[3][27], tof[3][27]; /* per axis, per image (0: the neighbour itself): sg, of */
+    if (!nim) {
+        FOR_PACKED(list, nlist, TERMS8_FREE);
+    } else {
+        const int nt = nim < 8 ? 8 : 27;
+        for (int a = 0; a < 3; ++a)
+            for (int im = 0; im < nt; ++im) {
+                tsg[a][im] = im == 0 ? 1.0f : im <= nim ? sgn[im - 1][a] : 0.0f;
+                tof[a][im] = im == 0 || im > nim ? 0.0f : off[im - 1][a];
             }
-        }
-    })
+        FOR_PACKED(list, nlist, TERMS8_WALLS);
+    }
     for (int q6 = 0; q6 < 6; ++q6) {
         float p[8];
         __builtin_memcpy(p, &part[q6], sizeof p);
