@@ -157,8 +157,10 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
 #pragma omp parallel for num_threads(threads) schedule(static, 256)
     for (int32_t i = 0; i < n; ++i) {
         const float *xi = s + 8 * (size_t)i;
-        const int32_t cell = c->cell_of[c->order[i]], cx = cell % c->dims[0],
-                      cy = (cell / c->dims[0]) % c->dims[1], cz = cell / (c->dims[0] * c->dims[1]);
+        /* the cell from the sorted copy of the position, as cells_build found it (integer
+         * divisions of cell_of cost more) */
+        const int32_t cx = hbk_fluid_cell_coord(c, xi[0], 0), cy = hbk_fluid_cell_coord(c, xi[1], 1),
+                      cz = hbk_fluid_cell_coord(c, xi[2], 2);
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float sum = 0.0f, part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
@@ -193,8 +195,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
 #pragma omp parallel for num_threads(threads) schedule(static, 256)
     for (int32_t i = 0; i < n; ++i) {
         const float *xi = s + 8 * (size_t)i;
-        const int32_t id = c->order[i], cell = c->cell_of[id], cx = cell % c->dims[0],
-                      cy = (cell / c->dims[0]) % c->dims[1], cz = cell / (c->dims[0] * c->dims[1]);
+        const int32_t id = c->order[i], cx = hbk_fluid_cell_coord(c, xi[0], 0),
+                      cy = hbk_fluid_cell_coord(c, xi[1], 1), cz = hbk_fluid_cell_coord(c, xi[2], 2);
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0}, part[6][8];
