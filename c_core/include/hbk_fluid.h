@@ -189,7 +189,13 @@ typedef enum hbk_fluid_volume {
     HBK_FLUID_VOL_WRAP_B = 8,   /* voxels x 3: V_r of field B */
     HBK_FLUID_VOL_UVW_WEIGHT = 9, /* vertices x 1: the cross-fade weight of field A there
                                    * (hbk_fluid_uvw_weight everywhere unless stretch_fade) */
-    HBK_FLUID_VOL_COUNT = 10
+    HBK_FLUID_VOL_UVW_A_UNWRAPPED = 10, /* vertices x 3: field A moved by whole tiles to within
+                                         * half a tile of the rest mapping (x - box_min) /
+                                         * uvw_tile at the vertex, as the mesh's uvw are: plain
+                                         * trilinear interpolation (a renderer's) then needs no
+                                         * wrap flags where the fluid moved under half a tile */
+    HBK_FLUID_VOL_UVW_B_UNWRAPPED = 11, /* vertices x 3: the same of field B */
+    HBK_FLUID_VOL_COUNT = 12
 } hbk_fluid_volume_t;
 /* Floats a volume needs (0 for NULL or an unknown volume). */
 HBK_EXPORT size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume);

@@ -734,9 +734,10 @@ void test_fluid_mc_sphere(void)
     hbk_fluid_destroy(h);
 }
 
-/* The mesh's uvw are unwrapped near the rest mapping: after a uniform shift of less than half a
- * tile they are the shifted rest mapping itself, whole tiles and all, so a triangle never
- * interpolates across a 1 -> 0 wrap. */
+/* The mesh's uvw, and the unwrapped volumes, are unwrapped near the rest mapping: after a
+ * uniform shift of less than half a tile they are the shifted rest mapping itself, whole tiles
+ * and all, so a triangle (or a renderer's trilinear) never interpolates across a 1 -> 0
+ * wrap. */
 void test_fluid_mesh_uvw_unwrapped(void)
 {
     hbk_fluid_params_t p = params(32, HBK_FLUID_VELOCITY_GRID);
@@ -771,6 +772,34 @@ void test_fluid_mesh_uvw_unwrapped(void)
     fprintf(stderr, "mesh_uvw_unwrapped: worst %.2e tiles, largest uvw %.2f\n", worst, top);
     CHECK(worst < 1e-4);
     CHECK(top > 3.0); /* the sphere spans 0.2 .. 0.8 m: 0.8 .. 3.2 tiles, not wrapped */
+    /* The unwrapped volumes (for renderers) likewise: the shifted rest mapping wherever no
+     * inflow reached (x >= 3 voxels: the border value repeats, half a voxel a frame), each
+     * value the wrapped one plus whole tiles; neighbours then differ by a voxel's worth, 1/8
+     * of a tile, where the wrapped field jumps by almost a whole tile. */
+    float *ua = volume(h, HBK_FLUID_VOL_UVW_A), *uu = volume(h, HBK_FLUID_VOL_UVW_A_UNWRAPPED);
+    CHECK(hbk_fluid_volume_size(h, HBK_FLUID_VOL_UVW_B_UNWRAPPED) == 3 * nvg);
+    double vworst = 0.0, frac_err = 0.0, jump_w = 0.0, jump_u = 0.0;
+    for (int k = 0; k < 33; ++k)
+        for (int j = 0; j < 33; ++j)
+            for (int i = 3; i < 33; ++i) {
+                const size_t v = 3 * ((size_t)i + 33 * ((size_t)j + 33 * (size_t)k));
+                const double want[3] = {(i / 32.0 - shift) / 0.25, j / 32.0 / 0.25,
+                                        k / 32.0 / 0.25};
+                for (int c = 0; c < 3; ++c) {
+                    vworst = fmax(vworst, fabs(uu[v + c] - want[c]));
+                    const double d = uu[v + c] - ua[v + c];
+                    frac_err = fmax(frac_err, fabs(d - floor(d + 0.5)));
+                }
+                if (i > 3) {
+                    jump_w = fmax(jump_w, fabs(ua[v] - ua[v - 3]));
+                    jump_u = fmax(jump_u, fabs(uu[v] - uu[v - 3]));
+                }
+            }
+    fprintf(stderr, "mesh_uvw_unwrapped: volume worst %.2e tiles, neighbours differ by up to "
+            "%.3f (wrapped %.3f)\n", vworst, jump_u, jump_w);
+    CHECK(vworst < 1e-4 && frac_err < 1e-5);
+    CHECK(jump_w > 0.8 && fabs(jump_u - 0.125) < 1e-4);
+    free(ua); free(uu);
     free(mp); free(mu); free(vel); free(surf);
     hbk_fluid_destroy(h);
 }

@@ -27,6 +27,35 @@ def test_uniform_flow_shifts_uvw_by_v_dt():
         np.testing.assert_array_equal(before[..., 1:], after[..., 1:])  # v, w untouched
 
 
+def test_unwrapped_uvw_is_the_field_plus_whole_tiles_near_the_rest_mapping():
+    # A shear flow, 1.5 s: the top and bottom layers travel 0.75 m, three tiles, so the
+    # unwrapping has to choose tiles there; in between the shift is under half a tile.
+    p = dict(GRID, resolution=(32, 32, 32), dt=1 / 24, reset_period=0.0, uvw_tile=0.25,
+             max_flow=8.0)
+    with fluid.Fluid(p) as f:
+        nx, ny, nz = f.vertices
+        z = np.linspace(0.0, 1.0, nz, dtype=np.float32)[:, None, None]
+        vel = np.zeros((nz, ny, nx, 3), np.float32)
+        vel[..., 0] = 1.0 * (z - 0.5)
+        f.set_velocity_grid(vel, np.ones((nz, ny, nx), np.float32))
+        for _ in range(36):
+            f.step()
+        for field in ("uvw_a", "uvw_b"):
+            wrapped, unwrapped = f.volume(field), f.volume(field + "_unwrapped")
+            tiles = unwrapped - wrapped
+            np.testing.assert_allclose(tiles, np.round(tiles), atol=1e-5)
+            idx = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz),
+                                       indexing="ij"), -1).transpose(2, 1, 0, 3)
+            rest = idx * (1.0 / 32) / 0.25
+            assert np.abs(unwrapped - rest).max() <= 0.5 + 1e-5
+            # Where the layers moved under half a tile, neighbours along the flow differ by a
+            # voxel's worth (1/8 tile), never by a wrap.
+            calm = np.abs(z[:, 0, 0] - 0.5) * 1.5 < 0.125 - 1e-3
+            step = np.diff(unwrapped[calm][..., 0], axis=-1)[..., 8:-8]  # past the inflows
+            np.testing.assert_allclose(step, 0.125, atol=1e-3)
+            assert np.abs(np.diff(wrapped[calm][..., 0], axis=-1)).max() > 0.8  # it wraps
+
+
 def test_blend_weights_stay_normalised_after_paint():
     with fluid.Fluid(dict(GRID, textures=3)) as f:
         nx, ny, nz = f.vertices

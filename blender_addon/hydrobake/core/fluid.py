@@ -14,7 +14,8 @@ FEATURES = ("density", "density_rate", "flow_angle", "acceleration", "divergence
             "curvature")
 VOLUMES = {"uvw_a": (0, 3), "uvw_b": (1, 3), "blend": (2, None), "motion": (3, 3),
            "density": (4, 1), "surface": (5, 1), "features": (6, len(FEATURES)),
-           "wrap_a": (7, 3), "wrap_b": (8, 3), "uvw_weight": (9, 1)}
+           "wrap_a": (7, 3), "wrap_b": (8, 3), "uvw_weight": (9, 1),
+           "uvw_a_unwrapped": (10, 3), "uvw_b_unwrapped": (11, 3)}
 
 
 class Obstacle(ctypes.Structure):

@@ -470,7 +470,8 @@ size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume)
 {
     if (!h) return 0;
     switch (volume) {
-    case HBK_FLUID_VOL_UVW_A: case HBK_FLUID_VOL_UVW_B: case HBK_FLUID_VOL_MOTION: return 3 * h->n_vert;
+    case HBK_FLUID_VOL_UVW_A: case HBK_FLUID_VOL_UVW_B: case HBK_FLUID_VOL_MOTION:
+    case HBK_FLUID_VOL_UVW_A_UNWRAPPED: case HBK_FLUID_VOL_UVW_B_UNWRAPPED: return 3 * h->n_vert;
     case HBK_FLUID_VOL_BLEND: return (size_t)h->K * h->n_vert;
     case HBK_FLUID_VOL_DENSITY: case HBK_FLUID_VOL_SURFACE: case HBK_FLUID_VOL_UVW_WEIGHT:
         return h->n_vert;
@@ -501,6 +502,10 @@ hbk_result_t hbk_fluid_get_volume(hbk_fluid_t *h, int32_t volume, float *out, si
     case HBK_FLUID_VOL_FEATURES: src = h->features; break;
     case HBK_FLUID_VOL_UVW_WEIGHT:
         hbk_fluid_weights(h, out, HBK_OMP_THREADS(h));
+        return HBK_OK;
+    case HBK_FLUID_VOL_UVW_A_UNWRAPPED: case HBK_FLUID_VOL_UVW_B_UNWRAPPED:
+        hbk_fluid_uvw_unwrapped(h, h->v.uvw[volume == HBK_FLUID_VOL_UVW_A_UNWRAPPED ? 0 : 1], out,
+                                HBK_OMP_THREADS(h));
         return HBK_OK;
     case HBK_FLUID_VOL_BLEND:
         for (size_t i = 0; i < h->n_vert; ++i)

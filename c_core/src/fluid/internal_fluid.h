@@ -455,6 +455,13 @@ void hbk_fluid_reset_uvw(const hbk_fluid_t *h, float *uvw, uint8_t *wrap, int th
 void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap,
                            const uint8_t *moving, int threads);
 
+/* uvw component u moved by whole tiles to within half a tile of `rest`, the rest mapping
+ * (x - box_min) / uvw_tile where it is sampled (the mesh's and the unwrapped volumes' uvw). */
+static inline float hbk_fluid_unwrap(float u, float rest) { return u + floorf(rest - u + 0.5f); }
+
+/* A uvw volume (vertices x 3) unwrapped at every vertex into out. */
+void hbk_fluid_uvw_unwrapped(const hbk_fluid_t *h, const float *uvw, float *out, int threads);
+
 /* Anything but the advection that writes h->v or h->scratch makes them differ. */
 static inline void hbk_fluid_vols_differ(hbk_fluid_t *h)
 {

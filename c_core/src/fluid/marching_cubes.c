@@ -459,7 +459,7 @@ hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32
             hbk_fluid_sample_wrapped3(h, h->v.uvw[f], h->v.wrap[f], &l, uvw[f]);
             for (int c = 0; c < 3; ++c) { /* unwrapped near the rest mapping (see the header) */
                 const float rest = (h->mesh_pos[3 * (size_t)v + (size_t)c] - h->p.box_min[c]) / h->p.uvw_tile;
-                uvw[f][c] += floorf(rest - uvw[f][c] + 0.5f);
+                uvw[f][c] = hbk_fluid_unwrap(uvw[f][c], rest);
             }
         }
         if (blend) {

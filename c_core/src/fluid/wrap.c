@@ -38,6 +38,21 @@ void hbk_fluid_reset_uvw(const hbk_fluid_t *h, float *uvw, uint8_t *wrap, int th
     hbk_fluid_repair_wrap(h, uvw, wrap, NULL, threads);
 }
 
+void hbk_fluid_uvw_unwrapped(const hbk_fluid_t *h, const float *uvw, float *out, int threads)
+{
+    const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2];
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int32_t k = 0; k < nz; ++k)
+        for (int32_t j = 0; j < ny; ++j)
+            for (int32_t i = 0; i < nx; ++i) {
+                const int32_t ijk[3] = {i, j, k};
+                const size_t v = 3 * ((size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k));
+                for (int c = 0; c < 3; ++c)
+                    out[v + (size_t)c] = hbk_fluid_unwrap(
+                        uvw[v + (size_t)c], (float)ijk[c] * h->cell[c] / h->p.uvw_tile);
+            }
+}
+
 void hbk_fluid_repair_wrap(const hbk_fluid_t *h, const float *uvw, uint8_t *wrap,
                            const uint8_t *moving, int threads)
 {

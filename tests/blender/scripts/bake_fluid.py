@@ -65,15 +65,18 @@ assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHE
 vol = bpy.data.objects["HBK_Domain_volume"]
 scene.frame_set(2)
 grids = volumes.grid_names(vol)
-assert {"density", "velocity", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1",
-        "blend_2"} <= set(grids), grids
-# The Volume's shader reads the same grids: density for the fog, textures at uvw.
+assert {"density", "velocity", "uvw", "uvw_b", "uvw_unwrapped", "uvw_b_unwrapped",
+        "uvw_weight", "blend_0", "blend_1", "blend_2"} <= set(grids), grids
+# The Volume's shader reads the same grids: density for the fog, textures at the unwrapped uvw
+# (Cycles interpolates without the wrap flags).
 vmat = vol.data.materials[0]
 vnodes = vmat.node_tree.nodes
 pv = next(n for n in vnodes if n.type == "PRINCIPLED_VOLUME")
 assert pv.inputs["Density"].is_linked and pv.inputs["Color"].is_linked
 vattrs = {n.attribute_name for n in vnodes if n.type == "ATTRIBUTE"}
-assert {"density", "uvw", "uvw_b", "uvw_weight", "blend_0", "blend_1"} <= vattrs, vattrs
+assert {"density", "uvw_unwrapped", "uvw_b_unwrapped", "uvw_weight", "blend_0",
+        "blend_1"} <= vattrs, vattrs
+assert not {"uvw", "uvw_b"} & vattrs, vattrs
 assert "sample_1" not in vattrs  # a voxel texture has no volume form: a built-in stands in
 # Texture 0 is the user's group (fields A and B); plain built-ins stand in for the others.
 vgroups = [n.node_tree.name for n in vnodes if n.type == "GROUP"]

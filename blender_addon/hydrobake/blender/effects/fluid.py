@@ -388,9 +388,9 @@ class FluidBlender(BlenderEffect):
         group, or a built-in noise, waves or cells) at the advected uvw times its scale, cross-
         faded between fields A and B by uvw_weight, tinted, and summed with the baked blend
         weights (they sum to one, so the sum is the blend). The surface reads the mesh's
-        attributes; ``volume``: the Volume's shader reads the same grids (uvw, uvw_b,
-        uvw_weight, blend_k; density for the fog), voxel textures falling back to built-ins
-        as Cycles cannot sample 3D images."""
+        attributes; ``volume``: the Volume's shader reads the same grids (uvw_unwrapped,
+        uvw_b_unwrapped, uvw_weight, blend_k; density for the fog), voxel textures falling back
+        to built-ins as Cycles cannot sample 3D images."""
         mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
         mat.use_nodes = True
         tree = mat.node_tree
@@ -437,7 +437,9 @@ class FluidBlender(BlenderEffect):
                 tree.links.new(uvw, t.inputs[_group_socket(group, "INPUT")])
                 return t.outputs[_group_socket(group, "OUTPUT")]
             kind = ("noise", "wave", "voronoi")[k % 3]
-            if volume:  # the plain texture: eight copies per step of a volume ray cost minutes
+            if volume:  # the plain texture (eight copies per step of a volume ray cost
+                # minutes), at uvw unwrapped near the rest mapping: no tile seams where the
+                # fluid moved less than half a tile
                 idname, settings = tileable.KINDS[kind]
                 t = node(idname, x, y, **settings)
             else:  # Blender's own textures do not repeat: wrapped in a tileable group
@@ -446,7 +448,9 @@ class FluidBlender(BlenderEffect):
             tree.links.new(uvw, t.inputs["Vector"])
             return t.outputs["Color"]
 
-        ua, ub = attr("uvw" if volume else "uvw_a", -1600, 200), attr("uvw_b", -1600, -100)
+        # The Volume reads the unwrapped grids: Cycles interpolates them without wrap flags.
+        fields = ("uvw_unwrapped", "uvw_b_unwrapped") if volume else ("uvw_a", "uvw_b")
+        ua, ub = attr(fields[0], -1600, 200), attr(fields[1], -1600, -100)
         w = attr("uvw_weight", -1600, 400, "Fac")
         tints = ((0.15, 0.45, 0.9, 1), (0.95, 0.97, 1.0, 1), (1.0, 0.45, 0.1, 1),
                  (0.3, 0.8, 0.35, 1), (0.8, 0.3, 0.75, 1), (0.9, 0.85, 0.3, 1),

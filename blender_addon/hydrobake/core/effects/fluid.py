@@ -17,7 +17,9 @@ Streams per frame:
                       uvw_b (vec3, invariant), blend_0..blend_{k-1} (float); the cross-fade
                       weight of uvw in the grid metadata "uvw_weight" (the frame's) and as a
                       grid "uvw_weight" (for volume shaders: constant, or per voxel with the
-                      setting stretch_fade)
+                      setting stretch_fade); uvw_unwrapped and uvw_b_unwrapped (vec3,
+                      invariant): the fields moved by whole tiles to near the rest mapping,
+                      for renderers (they interpolate without the wrap flags)
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
                       uvw_weight, and sample_k (RGB) for each voxel texture k
 """
@@ -89,6 +91,14 @@ class FluidEffect(Effect):
                       vector_type="INVARIANT", metadata={"uvw_weight": weight}, **common),
                  dict(name="uvw_b", array=xyz(self.fluid.volume("uvw_b")),
                       vector_type="INVARIANT", **common)]
+        # For renderers, which interpolate without the wrap flags: the same fields unwrapped
+        # near the rest mapping, so plain trilinear interpolation is right (no line at each
+        # 1 -> 0 wrap) and even a texture that does not repeat shows no tile seams where the
+        # fluid moved less than half a tile.
+        grids += [dict(name=f"{name}_unwrapped",
+                       array=xyz(self.fluid.volume(f"{field}_unwrapped")),
+                       vector_type="INVARIANT", **common)
+                  for name, field in (("uvw", "uvw_a"), ("uvw_b", "uvw_b"))]
         # The cross-fade weight of uvw A as a grid, for volume shaders: the frame's weight
         # everywhere (a constant grid, so tiny), or per voxel with stretch_fade.
         grids.append(dict(name="uvw_weight", array=xyz(self.fluid.volume("uvw_weight")),
