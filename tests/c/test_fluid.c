@@ -1075,18 +1075,36 @@ void test_fluid_noise_tileable(void)
     free(u);
 }
 
+/* A column in a box narrower than two smoothing lengths: particles see both walls of x and
+ * of y, up to 17 mirror images besides themselves. */
+static hbk_fluid_t *narrow_column(void)
+{
+    hbk_fluid_params_t p = params(8, HBK_FLUID_SIMULATE);
+    const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.05f, 0.05f, 0.4f};
+    memcpy(p.box_max, hi, sizeof hi);
+    p.particle_spacing = 0.0125f;
+    p.smoothing_length = p.metaball_radius = 0.03f;
+    p.max_particles = 1000;
+    p.threads = 2;
+    hbk_fluid_t *h = make(&p);
+    const float top[3] = {0.05f, 0.05f, 0.25f};
+    if (h && hbk_fluid_fill_box(h, lo, top, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
+    return h;
+}
+
 /* The SPH lanes, the vectorised splat and the paired advection (AVX2) give the bytes of the
  * plain code: HBK_PATHS switches them (see c_core/src/base/paths.c). Walls, obstacles, paint
  * and resets included; the metaball sum derived (radius = smoothing length, the default) and
- * splatted on its own. */
+ * splatted on its own; and a box so narrow that a particle has more mirror images than one
+ * vector holds. */
 void test_fluid_paths_same_bytes(void)
 {
-    for (int own = 0; own < 2; ++own) {
+    for (int own = 0; own < 3; ++own) {
         unsigned char *x[2] = {NULL, NULL};
         size_t s[2] = {0, 0};
         for (int k = 0; k < 2; ++k) {
             if (k == 0) setenv("HBK_PATHS", "scalar", 1);
-            hbk_fluid_t *h = scene_r(2, own ? 0.05f : 0.0f);
+            hbk_fluid_t *h = own == 2 ? narrow_column() : scene_r(2, own ? 0.05f : 0.0f);
             int ok = h != NULL;
             for (int f = 0; f < 4 && ok; ++f) ok = hbk_fluid_step(h, NULL) == HBK_OK;
             ok = ok && hbk_fluid_update_surface(h, NULL) == HBK_OK;

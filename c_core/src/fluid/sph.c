@@ -159,7 +159,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         const float *xi = s + 8 * (size_t)i;
         /* the cell from the sorted copy of the position, as cells_build found it (integer
          * divisions of cell_of cost more) */
-        const int32_t cx = hbk_fluid_cell_coord(c, xi[0], 0), cy = hbk_fluid_cell_coord(c, xi[1], 1),
+        const int32_t cx = hbk_fluid_cell_coord(c, xi[0], 0),
+                      cy = hbk_fluid_cell_coord(c, xi[1], 1),
                       cz = hbk_fluid_cell_coord(c, xi[2], 2);
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
@@ -196,7 +197,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
     for (int32_t i = 0; i < n; ++i) {
         const float *xi = s + 8 * (size_t)i;
         const int32_t id = c->order[i], cx = hbk_fluid_cell_coord(c, xi[0], 0),
-                      cy = hbk_fluid_cell_coord(c, xi[1], 1), cz = hbk_fluid_cell_coord(c, xi[2], 2);
+                      cy = hbk_fluid_cell_coord(c, xi[1], 1),
+                      cz = hbk_fluid_cell_coord(c, xi[2], 2);
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0}, part[6][8];

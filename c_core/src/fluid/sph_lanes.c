@@ -61,7 +61,7 @@ static const hbk_v4i pack4[16] = {
  * not its own neighbour, but its images are. CAPPED: packing stops at the cap and n becomes
  * HBK_FLUID_NBR_CAP; else FLUSH runs whenever n reaches 8. PART (or NULL): the density's
  * q^3 added in the candidates' lanes. */
-#define SCAN8(j, e, list, n, CAPPED, FLUSH, PART)                                                     \
+#define SCAN8(j, e, list, n, CAPPED, FLUSH, PART)                                            \
     do {                                                                                     \
         const v8f xj_ = load8(X + (j)), yj_ = load8(Y + (j)), zj_ = load8(Z + (j));          \
         const v8i in_ = lane + (j) < (e);                                                    \
@@ -83,7 +83,8 @@ static const hbk_v4i pack4[16] = {
                 *(PART) += (v8f)((v8i)q3_ & near_); /* + 0 out of reach: the same bits */    \
             }                                                                                \
             if (!(CAPPED) || (n) <= HBK_FLUID_NBR_CAP - 8) {                                 \
-                PACK(list, n, (j) + (im_ << IMG_SHIFT), near_ & (im_ ? in_ : lane + (j) != i)); \
+                PACK(list, n, (j) + (im_ << IMG_SHIFT),                                      \
+                     near_ & (im_ ? in_ : lane + (j) != i));                                 \
                 if (!(CAPPED) && (n) >= 8) FLUSH;                                            \
             } else (n) = HBK_FLUID_NBR_CAP;                                                  \
         }                                                                                    \
@@ -114,7 +115,7 @@ static const hbk_v4i pack4[16] = {
     do {                                                                                     \
         const float *rec_[8];                                                                \
         HBK_UNROLL8 for (int q_ = 0; q_ < 8; ++q_)                                           \
-            rec_[q_] = rec8 + 8 * (size_t)(q_ < (n) ? (idx)[q_] & IDX_MASK : i);                        \
+            rec_[q_] = rec8 + 8 * (size_t)(q_ < (n) ? (idx)[q_] & IDX_MASK : i);             \
         for (int hb_ = 0; hb_ < 2; ++hb_) {                                                    \
             v8f S_[4], T_[4];                                                                \
             for (int q_ = 0; q_ < 4; ++q_) {                                                 \
@@ -191,12 +192,14 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const floa
         v8f F[8];                                                                            \
         RECORDS(F, idx, n);                                                                  \
         v8i im_;                                                                             \
-        HBK_UNROLL8 for (int q_ = 0; q_ < 8; ++q_) im_[q_] = q_ < (n) ? (idx)[q_] >> IMG_SHIFT : 0; \
-        const v8f sx = PICK(tsg, 0, one, WALLS), sy = PICK(tsg, 1, one, WALLS), sz = PICK(tsg, 2, one, WALLS);    \
+        HBK_UNROLL8 for (int q_ = 0; q_ < 8; ++q_)                                           \
+            im_[q_] = q_ < (n) ? (idx)[q_] >> IMG_SHIFT : 0;                                 \
+        const v8f sx = PICK(tsg, 0, one, WALLS), sy = PICK(tsg, 1, one, WALLS),              \
+                  sz = PICK(tsg, 2, one, WALLS);                                             \
         const v8i act = lane < (n);                                                          \
-        const v8f dx = x - (sx * F[0] + PICK(tof, 0, zero, WALLS)),                                 \
-                  dy = y - (sy * F[1] + PICK(tof, 1, zero, WALLS)),                                 \
-                  dz = z - (sz * F[2] + PICK(tof, 2, zero, WALLS));                                 \
+        const v8f dx = x - (sx * F[0] + PICK(tof, 0, zero, WALLS)),                          \
+                  dy = y - (sy * F[1] + PICK(tof, 1, zero, WALLS)),                          \
+                  dz = z - (sz * F[2] + PICK(tof, 2, zero, WALLS));                          \
         const v8f r2 = dx * dx + dy * dy + dz * dz;                                          \
         const v8f rr = __builtin_ia32_sqrtps256(r2), q = h - rr;                             \
         const v8i push = act & (rr > tiny);                                                  \

@@ -46,7 +46,8 @@ void hbk_fluid_uvw_unwrapped(const hbk_fluid_t *h, const float *uvw, float *out,
         for (int32_t j = 0; j < ny; ++j)
             for (int32_t i = 0; i < nx; ++i) {
                 const int32_t ijk[3] = {i, j, k};
-                const size_t v = 3 * ((size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k));
+                const size_t v =
+                    3 * ((size_t)i + (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k));
                 for (int c = 0; c < 3; ++c)
                     out[v + (size_t)c] = hbk_fluid_unwrap(
                         uvw[v + (size_t)c], (float)ijk[c] * h->cell[c] / h->p.uvw_tile);
