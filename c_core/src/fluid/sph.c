@@ -202,7 +202,8 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_t mi;
         mirrors_near(h, xi, H, &mi);
         float ap[3] = {0, 0, 0}, fv[3] = {0, 0, 0}, part[6][8];
-        memset(part, 0, sizeof part);
+        if (!lanes) memset(part, 0, sizeof part); /* the lanes keep their own (a rep stos per
+                                                   * particle was a sixth of this loop) */
         int32_t nk = 0; /* pairs in reach so far: the k-th adds to lane k mod 8 */
         if (lanes)
             hbk_fluid_forces_lanes(c, soa, s, h->nbr + HBK_FLUID_NBR_CAP * (size_t)i,
