@@ -188,14 +188,17 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
 /* The longest stable SPH step for the particles' current speeds (s). */
 double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads);
 /* sph_lanes.c: the gathers of a particle (with its nim wall images) in AVX2 lanes, with the
- * scalar code's bytes (when hbk_fluid_sph_lanes() says the CPU has AVX2). */
+ * scalar code's bytes; away from walls 16 at a time with AVX-512. hbk_fluid_sph_lanes(): 0
+ * (plain code), 8 or 16, what the CPU and HBK_PATHS allow; `lanes` takes it. */
 int hbk_fluid_sph_lanes(void);
-float hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
+float hbk_fluid_density_lanes(int lanes, const hbk_fluid_cells_t *c, const float *soa,
+                              const float *rec8,
                               size_t stride, int32_t cx, int32_t cy, int32_t cz, int32_t i,
                               const float xi[3],
                               float H, int nim, const float (*sgn)[3], const float (*off)[3],
                               int32_t *list, int32_t *nlist);
-void hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
+void hbk_fluid_forces_lanes(int lanes, const hbk_fluid_cells_t *c, const float *soa,
+                            const float *rec8,
                             const int32_t *list, int32_t nlist, size_t stride,
                             int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[8],
                             float H, float m, float spiky, float visc, int nim,

@@ -166,7 +166,7 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
         mirrors_near(h, xi, H, &mi);
         float sum = 0.0f, part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
         if (lanes)
-            sum = hbk_fluid_density_lanes(c, soa, s, st, cx, cy, cz, i, xi, H, mi.n,
+            sum = hbk_fluid_density_lanes(lanes, c, soa, s, st, cx, cy, cz, i, xi, H, mi.n,
                                           (const float (*)[3])mi.sgn, (const float (*)[3])mi.off,
                                           h->nbr + HBK_FLUID_NBR_CAP * (size_t)i, h->nbr_n + i);
         else FOR_NEIGHBOURS(c, cx, cy, cz, j, {
@@ -206,7 +206,7 @@ hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads)
                                                    * particle was a sixth of this loop) */
         int32_t nk = 0; /* pairs in reach so far: the k-th adds to lane k mod 8 */
         if (lanes)
-            hbk_fluid_forces_lanes(c, soa, s, h->nbr + HBK_FLUID_NBR_CAP * (size_t)i,
+            hbk_fluid_forces_lanes(lanes, c, soa, s, h->nbr + HBK_FLUID_NBR_CAP * (size_t)i,
                                    h->nbr_n[i], st, cx, cy, cz, i, xi, H, m, spiky, visc, mi.n,
                                    (const float (*)[3])mi.sgn, (const float (*)[3])mi.off, ap,
                                    fv);

@@ -1,4 +1,5 @@
-/* The SPH gathers of a particle, eight at a time in AVX2 lanes. Each pair's terms are the
+/* The SPH gathers of a particle, eight at a time in AVX2 lanes (sixteen away from walls with
+ * AVX-512, see density_free16). Each pair's terms are the
  * scalar code's operations (no FMA, IEEE sqrt and division in every lane) and each lane keeps
  * its own partial sums, which hbk_fluid_lane_sum adds at the end; the scalar code sums in the
  * same lanes, so the bytes are the same. (Adding each neighbour's terms one by one in order,
@@ -18,7 +19,11 @@
 typedef float v8f __attribute__((vector_size(32)));
 typedef int32_t v8i __attribute__((vector_size(32)));
 
-int hbk_fluid_sph_lanes(void) { return hbk_paths() >= HBK_PATHS_AVX2; }
+int hbk_fluid_sph_lanes(void)
+{
+    const int paths = hbk_paths();
+    return paths >= HBK_PATHS_AVX512 ? 16 : paths >= HBK_PATHS_AVX2 ? 8 : 0;
+}
 
 /* Eight floats from p, unaligned (a macro: a function returning a vector would change the
  * ABI between AVX2 and default code). */
@@ -77,7 +82,8 @@ static const hbk_v4i pack4[16] = {
             }                                                                                \
             const v8f r2_ = dx_ * dx_ + dy_ * dy_ + dz_ * dz_;                               \
             const v8i near_ = in_ & (r2_ < h2);                                              \
-            if (!__builtin_ia32_movmskps256((v8f)near_)) continue;                           \
+            /* an image is seldom in reach; the neighbour itself often (no branch to miss) */ \
+            if (im_ && !__builtin_ia32_movmskps256((v8f)near_)) continue;                    \
             if (PART) {                                                                      \
                 const v8f q_ = h - __builtin_ia32_sqrtps256(r2_), q3_ = q_ * q_ * q_;        \
                 *(PART) += (v8f)((v8i)q3_ & near_); /* + 0 out of reach: the same bits */    \
@@ -135,16 +141,119 @@ static const hbk_v4i pack4[16] = {
         }                                                                                    \
     } while (0)
 
+/* Sixteen lanes where AVX-512 is there, away from the walls: each group of sixteen is the
+ * AVX2 code's two groups of eight, its low half added to the eight lane sums before its high
+ * half and packed before it, so the bytes are the same (a high half past the row's end adds
+ * +0, which leaves a sum's bits alone: a sum is never -0). AVX-512 brings FMA, which GCC
+ * would fuse a * b + c into (one rounding, not two): not here. */
+typedef float v16f __attribute__((vector_size(64)));
+typedef int32_t v16i __attribute__((vector_size(64)));
+#define load16(p)                                                                            \
+    ({                                                                                       \
+        v16f v_;                                                                             \
+        __builtin_memcpy(&v_, (p), sizeof v_);                                               \
+        v_;                                                                                  \
+    })
+#define SQRT16(v) __builtin_ia32_sqrtps512_mask((v), (v), (unsigned short)-1, 4)
+#define MASK16(v) ((unsigned)__builtin_ia32_ptestmd512((v), (v), (unsigned short)-1))
+#define LO8(v) __builtin_shufflevector((v), (v), 0, 1, 2, 3, 4, 5, 6, 7)
+#define HI8(v) __builtin_shufflevector((v), (v), 8, 9, 10, 11, 12, 13, 14, 15)
+
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) static float
+density_free16(const hbk_fluid_cells_t *c, const float *soa, size_t stride, int32_t cx,
+               int32_t cy, int32_t cz, int32_t i, const float xi[3], float H, int32_t *list,
+               int32_t *nlist)
+{
+    const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
+    const v16f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
+    const v16f h = zero + H, h2 = zero + H * H;
+    const v16i lane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+    v8f part = {0, 0, 0, 0, 0, 0, 0, 0};
+    int32_t n = 0;
+    HBK_FLUID_FOR_ROWS(c, cx, cy, cz, a, e, {
+        for (int32_t j = a; j < e; j += 16) { /* reads up to 15 past the row: in the padding
+                                                * or the next array, and masked */
+            const v16f dx = x - load16(X + j), dy = y - load16(Y + j), dz = z - load16(Z + j);
+            const v16f r2 = dx * dx + dy * dy + dz * dz;
+            const v16i near = (lane + j < e) & (r2 < h2);
+            const v16f q = h - SQRT16(r2), q3 = q * q * q;
+            const v16f add = (v16f)((v16i)q3 & near);
+            part += LO8(add);
+            part += HI8(add);
+            if (n <= HBK_FLUID_NBR_CAP - 16) {
+                const unsigned mk = MASK16(near & (lane + j != i));
+                __builtin_ia32_compressstoresi512_mask((v16i *)(list + n), lane + j,
+                                                       (unsigned short)mk);
+                n += __builtin_popcount(mk);
+            } else n = HBK_FLUID_NBR_CAP; /* too many: the forces find them again */
+        }
+    })
+    *nlist = n < HBK_FLUID_NBR_CAP ? n : -1;
+    float p[8];
+    __builtin_memcpy(p, &part, sizeof p);
+    const float sum = hbk_fluid_lane_sum(p);
+    __builtin_ia32_vzeroupper();
+    return sum;
+}
+
+/* TERMS8 of the free path on sixteen pairs: two transposed groups of eight records. */
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) static void
+forces_free16(const float *rec8, const int32_t *list, int32_t nlist, int32_t i,
+              const float xi[8], float H, float m, float spiky, float visc, float ap[3],
+              float fv[3])
+{
+    const v16f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
+    const v16f vx = zero + xi[3], vy = zero + xi[4], vz = zero + xi[5], pi = zero + xi[7];
+    const v16f h = zero + H, tiny = zero + 1e-9f * H;
+    const v16f vm = zero + m, vs = zero + spiky, vv = zero + visc, one = zero + 1.0f;
+    const v16i lane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+    v8f part[6];
+    for (int q6 = 0; q6 < 6; ++q6) part[q6] = (v8f){0, 0, 0, 0, 0, 0, 0, 0};
+    for (int32_t k = 0; k < nlist; k += 16) {
+        const int32_t n = nlist - k;
+        v8f A[8], B[8];
+        v16f F[8];
+        RECORDS(A, list + k, n);
+        RECORDS(B, list + k + 8, n - 8);
+        for (int f = 0; f < 8; ++f)
+            F[f] = __builtin_shufflevector(A[f], B[f], 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12,
+                                           13, 14, 15);
+        const v16i act = lane < n;
+        const v16f dx = x - (one * F[0] + zero), dy = y - (one * F[1] + zero),
+                   dz = z - (one * F[2] + zero);
+        const v16f r2 = dx * dx + dy * dy + dz * dz;
+        const v16f rr = SQRT16(r2), q = h - rr;
+        const v16i push = act & (rr > tiny);
+        const v16f f = vm * (pi + F[7]) * vs * q * q / rr;
+        const v16f w = vm / F[6] * vv * q;
+        const v16f t6[6] = {f * dx, f * dy, f * dz, w * (one * F[3] - vx),
+                            w * (one * F[4] - vy), w * (one * F[5] - vz)};
+        for (int q6 = 0; q6 < 6; ++q6) {
+            const v16f t = (v16f)((v16i)t6[q6] & (q6 < 3 ? push : act));
+            part[q6] += LO8(t);
+            part[q6] += HI8(t);
+        }
+    }
+    for (int q6 = 0; q6 < 6; ++q6) {
+        float p[8];
+        __builtin_memcpy(p, &part[q6], sizeof p);
+        (q6 < 3 ? ap : fv)[q6 % 3] = hbk_fluid_lane_sum(p);
+    }
+    __builtin_ia32_vzeroupper();
+}
+
 /* Images: 0 is the neighbour itself; 1 .. nim its mirror images across the walls (sgn * x +
  * off per axis), in the scalar loop's order. */
 
 __attribute__((target("avx2"))) float
-hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
-                        size_t stride, int32_t cx, int32_t cy, int32_t cz, int32_t i,
-                        const float xi[3], float H,
+hbk_fluid_density_lanes(int lanes, const hbk_fluid_cells_t *c, const float *soa,
+                        const float *rec8, size_t stride, int32_t cx, int32_t cy, int32_t cz,
+                        int32_t i, const float xi[3], float H,
                         int nim, const float (*sgn)[3], const float (*off)[3], int32_t *list,
                         int32_t *nlist)
 {
+    if (lanes == 16 && !nim)
+        return density_free16(c, soa, stride, cx, cy, cz, i, xi, H, list, nlist);
     const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
     const v8f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
     const v8f h = zero + H, h2 = zero + H * H;
@@ -214,12 +323,16 @@ hbk_fluid_density_lanes(const hbk_fluid_cells_t *c, const float *soa, const floa
 #define TERMS8_WALLS(idx, n) TERMS8(idx, n, 1)
 
 __attribute__((target("avx2"))) void
-hbk_fluid_forces_lanes(const hbk_fluid_cells_t *c, const float *soa, const float *rec8,
-                       const int32_t *list, int32_t nlist, size_t stride,
+hbk_fluid_forces_lanes(int lanes, const hbk_fluid_cells_t *c, const float *soa,
+                       const float *rec8, const int32_t *list, int32_t nlist, size_t stride,
                        int32_t cx, int32_t cy, int32_t cz, int32_t i, const float xi[8],
                        float H, float m, float spiky, float visc, int nim,
                        const float (*sgn)[3], const float (*off)[3], float ap[3], float fv[3])
 {
+    if (lanes == 16 && !nim && nlist >= 0) {
+        forces_free16(rec8, list, nlist, i, xi, H, m, spiky, visc, ap, fv);
+        return;
+    }
     const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
     const v8f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
     const v8f vx = zero + xi[3], vy = zero + xi[4], vz = zero + xi[5], pi = zero + xi[7];
