@@ -64,8 +64,13 @@ typedef struct mirrors {
     float sgn[26][3];
 } mirrors_t;
 
-static void mirrors_near(const hbk_fluid_t *h, const float *x, float H, mirrors_t *m)
+static inline void mirrors_near(const hbk_fluid_t *h, const float *x, float H, mirrors_t *m)
 {
+    m->n = 0;
+    int any = 0; /* most particles are far from every wall: no images, no tables */
+    for (int a = 0; a < 3; ++a)
+        any |= (x[a] - h->p.box_min[a] < H) | (h->p.box_max[a] - x[a] < H);
+    if (!any) return;
     /* Per axis: identity, reflection at the low wall, at the high wall (when within H). */
     float off[3][3], sgn[3][3];
     int cnt[3];
@@ -75,7 +80,6 @@ static void mirrors_near(const hbk_fluid_t *h, const float *x, float H, mirrors_
         if (x[a] - h->p.box_min[a] < H) { off[a][cnt[a]] = 2.0f * h->p.box_min[a]; sgn[a][cnt[a]++] = -1.0f; }
         if (h->p.box_max[a] - x[a] < H) { off[a][cnt[a]] = 2.0f * h->p.box_max[a]; sgn[a][cnt[a]++] = -1.0f; }
     }
-    m->n = 0;
     for (int k = 0; k < cnt[2]; ++k)
         for (int j = 0; j < cnt[1]; ++j)
             for (int i = 0; i < cnt[0]; ++i) {
