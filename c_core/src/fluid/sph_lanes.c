@@ -196,38 +196,55 @@ density_free16(const hbk_fluid_cells_t *c, const float *soa, size_t stride, int3
     return sum;
 }
 
-/* TERMS8 of the free path on sixteen pairs: two transposed groups of eight records. */
-__attribute__((target("avx512f"), optimize("fp-contract=off"))) static void
-forces_free16(const float *rec8, const int32_t *list, int32_t nlist, int32_t i,
-              const float xi[8], float H, float m, float spiky, float visc, float ap[3],
-              float fv[3])
+/* TERMS8 on sixteen pairs: two transposed groups of eight records, each mirrored by its
+ * lane's image (WALLS: a permutation of a 16-entry table, so up to 15 images). */
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) static inline
+__attribute__((always_inline)) void
+forces16_body(const float *rec8, const int32_t *list, int32_t nlist, int32_t i,
+              const float xi[8], float H, float m, float spiky, float visc, const int WALLS,
+              int nim, const float (*sgn)[3], const float (*off)[3], float ap[3], float fv[3])
 {
     const v16f zero = {0}, x = zero + xi[0], y = zero + xi[1], z = zero + xi[2];
     const v16f vx = zero + xi[3], vy = zero + xi[4], vz = zero + xi[5], pi = zero + xi[7];
     const v16f h = zero + H, tiny = zero + 1e-9f * H;
     const v16f vm = zero + m, vs = zero + spiky, vv = zero + visc, one = zero + 1.0f;
     const v16i lane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+    v16f tsg[3] = {one, one, one}, tof[3] = {zero, zero, zero}; /* per image (0: itself) */
+    if (WALLS)
+        for (int a = 0; a < 3; ++a)
+            for (int im = 1; im <= nim; ++im) {
+                tsg[a][im] = sgn[im - 1][a];
+                tof[a][im] = off[im - 1][a];
+            }
     v8f part[6];
     for (int q6 = 0; q6 < 6; ++q6) part[q6] = (v8f){0, 0, 0, 0, 0, 0, 0, 0};
     for (int32_t k = 0; k < nlist; k += 16) {
         const int32_t n = nlist - k;
         v8f A[8], B[8];
-        v16f F[8];
+        v16f F[8], sg[3] = {one, one, one}, of[3] = {zero, zero, zero};
         RECORDS(A, list + k, n);
         RECORDS(B, list + k + 8, n - 8);
         for (int f = 0; f < 8; ++f)
             F[f] = __builtin_shufflevector(A[f], B[f], 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12,
                                            13, 14, 15);
+        if (WALLS) {
+            v16i im;
+            for (int q = 0; q < 16; ++q) im[q] = q < n ? list[k + q] >> IMG_SHIFT : 0;
+            for (int a = 0; a < 3; ++a) {
+                sg[a] = __builtin_ia32_permvarsf512_mask(tsg[a], im, zero, (unsigned short)-1);
+                of[a] = __builtin_ia32_permvarsf512_mask(tof[a], im, zero, (unsigned short)-1);
+            }
+        }
         const v16i act = lane < n;
-        const v16f dx = x - (one * F[0] + zero), dy = y - (one * F[1] + zero),
-                   dz = z - (one * F[2] + zero);
+        const v16f dx = x - (sg[0] * F[0] + of[0]), dy = y - (sg[1] * F[1] + of[1]),
+                   dz = z - (sg[2] * F[2] + of[2]);
         const v16f r2 = dx * dx + dy * dy + dz * dz;
         const v16f rr = SQRT16(r2), q = h - rr;
         const v16i push = act & (rr > tiny);
         const v16f f = vm * (pi + F[7]) * vs * q * q / rr;
         const v16f w = vm / F[6] * vv * q;
-        const v16f t6[6] = {f * dx, f * dy, f * dz, w * (one * F[3] - vx),
-                            w * (one * F[4] - vy), w * (one * F[5] - vz)};
+        const v16f t6[6] = {f * dx, f * dy, f * dz, w * (sg[0] * F[3] - vx),
+                            w * (sg[1] * F[4] - vy), w * (sg[2] * F[5] - vz)};
         for (int q6 = 0; q6 < 6; ++q6) {
             const v16f t = (v16f)((v16i)t6[q6] & (q6 < 3 ? push : act));
             part[q6] += LO8(t);
@@ -240,6 +257,15 @@ forces_free16(const float *rec8, const int32_t *list, int32_t nlist, int32_t i,
         (q6 < 3 ? ap : fv)[q6 % 3] = hbk_fluid_lane_sum(p);
     }
     __builtin_ia32_vzeroupper();
+}
+
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) static void
+forces16(const float *rec8, const int32_t *list, int32_t nlist, int32_t i, const float xi[8],
+         float H, float m, float spiky, float visc, int nim, const float (*sgn)[3],
+         const float (*off)[3], float ap[3], float fv[3])
+{
+    if (nim) forces16_body(rec8, list, nlist, i, xi, H, m, spiky, visc, 1, nim, sgn, off, ap, fv);
+    else forces16_body(rec8, list, nlist, i, xi, H, m, spiky, visc, 0, 0, sgn, off, ap, fv);
 }
 
 /* Images: 0 is the neighbour itself; 1 .. nim its mirror images across the walls (sgn * x +
@@ -329,8 +355,8 @@ hbk_fluid_forces_lanes(int lanes, const hbk_fluid_cells_t *c, const float *soa,
                        float H, float m, float spiky, float visc, int nim,
                        const float (*sgn)[3], const float (*off)[3], float ap[3], float fv[3])
 {
-    if (lanes == 16 && !nim && nlist >= 0) {
-        forces_free16(rec8, list, nlist, i, xi, H, m, spiky, visc, ap, fv);
+    if (lanes == 16 && nim < 16 && nlist >= 0) {
+        forces16(rec8, list, nlist, i, xi, H, m, spiky, visc, nim, sgn, off, ap, fv);
         return;
     }
     const float *X = soa, *Y = soa + stride, *Z = soa + 2 * stride;
