@@ -27,6 +27,19 @@ def test_uniform_flow_shifts_uvw_by_v_dt():
         np.testing.assert_array_equal(before[..., 1:], after[..., 1:])  # v, w untouched
 
 
+def shear(f, rate, frames):
+    """Steps f through `frames` frames of the shear flow vx = rate (z - 1/2) (z in the unit
+    box), fluid everywhere; returns z per vertex layer, shaped to broadcast."""
+    nx, ny, nz = f.vertices
+    z = np.linspace(0.0, 1.0, nz, dtype=np.float32)[:, None, None]
+    vel = np.zeros((nz, ny, nx, 3), np.float32)
+    vel[..., 0] = rate * (z - 0.5)
+    f.set_velocity_grid(vel, np.ones((nz, ny, nx), np.float32))
+    for _ in range(frames):
+        f.step()
+    return z
+
+
 def test_unwrapped_uvw_is_the_field_plus_whole_tiles_near_the_rest_mapping():
     # A shear flow, 1.5 s: the top and bottom layers travel 0.75 m, three tiles, so the
     # unwrapping has to choose tiles there; in between the shift is under half a tile.
@@ -34,12 +47,7 @@ def test_unwrapped_uvw_is_the_field_plus_whole_tiles_near_the_rest_mapping():
              max_flow=8.0)
     with fluid.Fluid(p) as f:
         nx, ny, nz = f.vertices
-        z = np.linspace(0.0, 1.0, nz, dtype=np.float32)[:, None, None]
-        vel = np.zeros((nz, ny, nx, 3), np.float32)
-        vel[..., 0] = 1.0 * (z - 0.5)
-        f.set_velocity_grid(vel, np.ones((nz, ny, nx), np.float32))
-        for _ in range(36):
-            f.step()
+        z = shear(f, 1.0, 36)
         for field in ("uvw_a", "uvw_b"):
             wrapped, unwrapped = f.volume(field), f.volume(field + "_unwrapped")
             tiles = unwrapped - wrapped
@@ -73,13 +81,7 @@ def shear_run(stretch_fade, frames=18):
     p = dict(GRID, resolution=(32, 32, 32), dt=1 / 24, reset_period=1.0, uvw_tile=0.25,
              max_flow=8.0, stretch_fade=stretch_fade)
     with fluid.Fluid(p) as f:
-        nx, ny, nz = f.vertices
-        z = np.linspace(0.0, 1.0, nz, dtype=np.float32)[:, None, None]
-        vel = np.zeros((nz, ny, nx, 3), np.float32)
-        vel[..., 0] = 2.0 * (z - 0.5)
-        f.set_velocity_grid(vel, np.ones((nz, ny, nx), np.float32))
-        for _ in range(frames):
-            f.step()
+        shear(f, 2.0, frames)
         mesh = f.surface()
         return f.uvw_weight(), f.volume("uvw_weight")[..., 0], mesh
 
