@@ -126,6 +126,19 @@ def test_bake_writes_vdb_grids_and_a_closed_surface(tmp_path):
     assert {"density", "velocity", "uvw", "uvw_b", "blend_0", "blend_1"} <= set(grids)
     assert grids["velocity"].vectorType == "contravariant relative"
     assert grids["uvw"].vectorType == "invariant"
+    # The renderers' unwrapped uvw: the fluid's own uvw plus whole tiles where there is fluid,
+    # inactive (zero) where there is none.
+    path = str(tmp_path / "a" / "fluid_0003.vdb")
+    dens, uvw = vdb.read_grid(path, "density"), vdb.read_grid(path, "uvw")
+    unw = vdb.read_grid(path, "uvw_unwrapped")
+    n = np.minimum(dens.shape, unw.shape[:3])
+    dens, uvw, unw = dens[:n[0], :n[1], :n[2]], uvw[:n[0], :n[1], :n[2]], unw[:n[0], :n[1], :n[2]]
+    wet = dens > 0
+    assert wet.any() and (~wet).any()
+    tiles = unw[wet] - uvw[wet]
+    np.testing.assert_allclose(tiles, np.round(tiles), atol=1e-5)
+    assert not unw[~wet].any()
+    assert grids["uvw_unwrapped"].activeVoxelCount() < grids["uvw"].activeVoxelCount()
     # Closed: every edge is shared by exactly two triangles.
     t = mesh["triangles"]
     edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)

@@ -2,6 +2,8 @@
 import ctypes
 import weakref
 
+import numpy as np
+
 from . import _lib, errors, params
 from ._lib import Message, P, check_handle, check_message, hbk_result_t
 
@@ -75,13 +77,16 @@ class Handle(Owner):
         return getattr(_lib.lib, f"hbk_{self.prefix}_{name}")(self.h, *args)
 
     def save_state(self):
-        """The simulation's checkpoint (hbk_<x>_save_state) as bytes."""
+        """The simulation's checkpoint (hbk_<x>_save_state): a read-only buffer to compare,
+        slice, hash or write like bytes. Written straight into unfilled memory: a zeroed ctypes
+        buffer and then a copy to bytes cost half a second a frame for the 200 MB of a 128^3
+        fluid."""
         n = getattr(_lib.lib, f"hbk_{self.prefix}_state_size")(self.h)
-        buf = ctypes.create_string_buffer(n)
-        self.call("save_state", buf, n)
-        return buf.raw
+        buf = np.empty(n, np.uint8)
+        self.call("save_state", buf.ctypes.data_as(ctypes.c_void_p), n)
+        return memoryview(buf).toreadonly()
 
     def load_state(self, data):
         """Continues from a checkpoint of a handle with the same params, bit for bit."""
-        buf = ctypes.create_string_buffer(bytes(data), len(data))
-        self.call("load_state", buf, len(data))
+        buf = np.frombuffer(data, np.uint8)  # read in place: the C side only reads it
+        self.call("load_state", buf.ctypes.data_as(ctypes.c_void_p), len(buf))

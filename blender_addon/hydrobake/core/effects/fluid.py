@@ -19,7 +19,8 @@ Streams per frame:
                       grid "uvw_weight" (for volume shaders: constant, or per voxel with the
                       setting stretch_fade); uvw_unwrapped and uvw_b_unwrapped (vec3,
                       invariant): the fields moved by whole tiles to near the rest mapping,
-                      for renderers (they interpolate without the wrap flags)
+                      for renderers (they interpolate without the wrap flags), where the
+                      density is above 0 (zero and inactive elsewhere)
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
                       uvw_weight, and sample_k (RGB) for each voxel texture k
 """
@@ -84,7 +85,8 @@ class FluidEffect(Effect):
             return np.ascontiguousarray(a[..., 0] if a.shape[3] == 1 else a)
         common = dict(voxel_size=tuple(self.cell), origin=tuple(self.origin))
         weight = float(self.fluid.uvw_weight())
-        grids = [dict(name="density", array=xyz(self.fluid.volume("density")), **common),
+        density = self.fluid.volume("density")
+        grids = [dict(name="density", array=xyz(density), **common),
                  dict(name="velocity", array=xyz(self.fluid.volume("motion")),
                       vector_type="CONTRAVARIANT_RELATIVE", **common),
                  dict(name="uvw", array=xyz(self.fluid.volume("uvw_a")),
@@ -94,11 +96,14 @@ class FluidEffect(Effect):
         # For renderers, which interpolate without the wrap flags: the same fields unwrapped
         # near the rest mapping, so plain trilinear interpolation is right (no line at each
         # 1 -> 0 wrap) and even a texture that does not repeat shows no tile seams where the
-        # fluid moved less than half a tile.
-        grids += [dict(name=f"{name}_unwrapped",
-                       array=xyz(self.fluid.volume(f"{field}_unwrapped")),
-                       vector_type="INVARIANT", **common)
-                  for name, field in (("uvw", "uvw_a"), ("uvw_b", "uvw_b"))]
+        # fluid moved less than half a tile. Only where there is fluid to render (density
+        # > 0; zero, so inactive, elsewhere): dense, the two grids made each file 40% larger.
+        empty = density[..., 0] <= 0.0
+        for name, field in (("uvw", "uvw_a"), ("uvw_b", "uvw_b")):
+            u = self.fluid.volume(f"{field}_unwrapped")
+            u[empty] = 0.0
+            grids.append(dict(name=f"{name}_unwrapped", array=xyz(u), vector_type="INVARIANT",
+                              **common))
         # The cross-fade weight of uvw A as a grid, for volume shaders: the frame's weight
         # everywhere (a constant grid, so tiny), or per voxel with stretch_fade.
         grids.append(dict(name="uvw_weight", array=xyz(self.fluid.volume("uvw_weight")),
