@@ -126,8 +126,8 @@ def test_bake_writes_vdb_grids_and_a_closed_surface(tmp_path):
     assert {"density", "velocity", "uvw", "uvw_b", "blend_0", "blend_1"} <= set(grids)
     assert grids["velocity"].vectorType == "contravariant relative"
     assert grids["uvw"].vectorType == "invariant"
-    # The renderers' unwrapped uvw: the fluid's own uvw plus whole tiles where there is fluid,
-    # inactive (zero) where there is none.
+    # The texturing grids hold values where there is fluid and are inactive (zero) where there
+    # is none; the renderers' unwrapped uvw is the fluid's own plus whole tiles.
     path = str(tmp_path / "a" / "fluid_0003.vdb")
     dens, uvw = vdb.read_grid(path, "density"), vdb.read_grid(path, "uvw")
     unw = vdb.read_grid(path, "uvw_unwrapped")
@@ -137,13 +137,28 @@ def test_bake_writes_vdb_grids_and_a_closed_surface(tmp_path):
     assert wet.any() and (~wet).any()
     tiles = unw[wet] - uvw[wet]
     np.testing.assert_allclose(tiles, np.round(tiles), atol=1e-5)
-    assert not unw[~wet].any()
-    assert grids["uvw_unwrapped"].activeVoxelCount() < grids["uvw"].activeVoxelCount()
+    assert not unw[~wet].any() and not uvw[~wet].any()
+    assert 0 < grids["uvw"].activeVoxelCount() <= grids["density"].activeVoxelCount()
     # Closed: every edge is shared by exactly two triangles.
     t = mesh["triangles"]
     edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     _, counts = np.unique(edges, axis=0, return_counts=True)
     assert len(t) > 0 and np.all(counts == 2)
+
+
+def test_without_a_density_the_texturing_grids_cover_the_box():
+    # A velocity grid given without a surface field: no density to say where the fluid is.
+    nv = GRID["resolution"][0] + 1
+    vel = np.full((nv, nv, nv, 3), 0.1, np.float32)
+    e = get("fluid")({"fluid": dict(GRID, textures=2)}, {"velocity": {1: (vel, None)}})
+    try:
+        e.step(1, None)
+        grids = {g["name"]: g["array"] for g in e.outputs(1)["fluid"][1]}
+    finally:
+        e.close()
+    assert not grids["density"].any()
+    assert np.any(grids["uvw"] != 0, axis=-1).mean() > 0.9
+    np.testing.assert_array_equal(grids["blend_0"] + grids["blend_1"], 1.0)
 
 
 def grid_values(path):

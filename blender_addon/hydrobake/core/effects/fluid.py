@@ -19,8 +19,9 @@ Streams per frame:
                       grid "uvw_weight" (for volume shaders: constant, or per voxel with the
                       setting stretch_fade); uvw_unwrapped and uvw_b_unwrapped (vec3,
                       invariant): the fields moved by whole tiles to near the rest mapping,
-                      for renderers (they interpolate without the wrap flags), where the
-                      density is above 0 (zero and inactive elsewhere)
+                      for renderers (they interpolate without the wrap flags). All but
+                      density and velocity hold values where the density is above 0 and are
+                      zero (inactive) elsewhere; everywhere if there is no density at all
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
                       uvw_weight, and sample_k (RGB) for each voxel texture k
 """
@@ -86,29 +87,36 @@ class FluidEffect(Effect):
         common = dict(voxel_size=tuple(self.cell), origin=tuple(self.origin))
         weight = float(self.fluid.uvw_weight())
         density = self.fluid.volume("density")
+        # The texturing grids hold values where there is fluid (density > 0) and are zero, so
+        # inactive, elsewhere: dense over the whole box they were most of each file and of its
+        # writing time, for voxels nothing renders. (A velocity grid given without a surface
+        # field has no density: then everywhere.)
+        dry = density[..., 0] <= 0.0
+        if dry.all():
+            dry[...] = False
+
+        def wet(name):
+            a = self.fluid.volume(name)
+            a[dry] = 0.0
+            return xyz(a)
         grids = [dict(name="density", array=xyz(density), **common),
                  dict(name="velocity", array=xyz(self.fluid.volume("motion")),
                       vector_type="CONTRAVARIANT_RELATIVE", **common),
-                 dict(name="uvw", array=xyz(self.fluid.volume("uvw_a")),
-                      vector_type="INVARIANT", metadata={"uvw_weight": weight}, **common),
-                 dict(name="uvw_b", array=xyz(self.fluid.volume("uvw_b")),
-                      vector_type="INVARIANT", **common)]
-        # For renderers, which interpolate without the wrap flags: the same fields unwrapped
-        # near the rest mapping, so plain trilinear interpolation is right (no line at each
-        # 1 -> 0 wrap) and even a texture that does not repeat shows no tile seams where the
-        # fluid moved less than half a tile. Only where there is fluid to render (density
-        # > 0; zero, so inactive, elsewhere): dense, the two grids made each file 40% larger.
-        empty = density[..., 0] <= 0.0
-        for name, field in (("uvw", "uvw_a"), ("uvw_b", "uvw_b")):
-            u = self.fluid.volume(f"{field}_unwrapped")
-            u[empty] = 0.0
-            grids.append(dict(name=f"{name}_unwrapped", array=xyz(u), vector_type="INVARIANT",
-                              **common))
-        # The cross-fade weight of uvw A as a grid, for volume shaders: the frame's weight
-        # everywhere (a constant grid, so tiny), or per voxel with stretch_fade.
-        grids.append(dict(name="uvw_weight", array=xyz(self.fluid.volume("uvw_weight")),
-                          **common))
-        blend = xyz(self.fluid.volume("blend"))
+                 dict(name="uvw", array=wet("uvw_a"), vector_type="INVARIANT",
+                      metadata={"uvw_weight": weight}, **common),
+                 dict(name="uvw_b", array=wet("uvw_b"), vector_type="INVARIANT", **common),
+                 # For renderers, which interpolate without the wrap flags: the same fields
+                 # unwrapped near the rest mapping, so plain trilinear interpolation is right
+                 # (no line at each 1 -> 0 wrap) and even a texture that does not repeat
+                 # shows no tile seams where the fluid moved less than half a tile.
+                 dict(name="uvw_unwrapped", array=wet("uvw_a_unwrapped"),
+                      vector_type="INVARIANT", **common),
+                 dict(name="uvw_b_unwrapped", array=wet("uvw_b_unwrapped"),
+                      vector_type="INVARIANT", **common),
+                 # The cross-fade weight of uvw A as a grid, for volume shaders: the frame's
+                 # weight, or per voxel with stretch_fade.
+                 dict(name="uvw_weight", array=wet("uvw_weight"), **common)]
+        blend = wet("blend")
         if blend.ndim == 3:
             blend = blend[..., None]
         grids += [dict(name=f"blend_{k}", array=np.ascontiguousarray(blend[..., k]), **common)
