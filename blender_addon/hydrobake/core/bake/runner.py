@@ -137,16 +137,24 @@ class BakeRunner:
         except BaseException:  # state carries the error; the thread must not die loudly
             pass
 
-    def _write_all(self, frame, outputs):
-        """Writes a frame's files side by side: the C writers release the GIL and compress
-        on their own threads, so a frame's streams go out in parallel."""
+    def _write_all(self, frame, outputs, checkpoint=None):
+        """Writes a frame's files side by side, and runs ``checkpoint`` beside them: the C
+        writers release the GIL and compress on their own threads, and a checkpoint is mostly
+        waiting for the disk, so a frame's files and its checkpoint go out in parallel."""
         items = list(outputs.items())
-        if len(items) < 2 or (os.cpu_count() or 1) < 2:
-            return [write_output(self.cache.folder, st, frame, out) for st, out in items]
-        with concurrent.futures.ThreadPoolExecutor(min(len(items), os.cpu_count())) as pool:
+        if (os.cpu_count() or 1) < 2:
+            files = [write_output(self.cache.folder, st, frame, out) for st, out in items]
+            if checkpoint:
+                checkpoint()
+            return files
+        with concurrent.futures.ThreadPoolExecutor(len(items) + 1) as pool:
+            extra = pool.submit(checkpoint) if checkpoint else None
             futures = [pool.submit(write_output, self.cache.folder, st, frame, out)
                        for st, out in items]
-            return [f.result() for f in futures]  # in stream order; the first error raises
+            files = [f.result() for f in futures]  # in stream order; the first error raises
+            if extra:
+                extra.result()
+            return files
 
     def _header(self):
         s = self.state
@@ -191,12 +199,13 @@ class BakeRunner:
         self.resumed_from = start_at
         return m, start_at + 1
 
-    def _checkpoint(self, manifest, frame):
-        """Keeps the simulation state after ``frame``: every ``checkpoint_every`` frames, and
-        always the latest (the one before it goes unless it is a kept interval)."""
+    def _checkpoint(self, frame):
+        """Writes the simulation state after ``frame``; returns its manifest entry (None for a
+        stateless effect). It runs beside the frame's files (see _write_all): the manifest
+        and the older checkpoints are touched only once everything is on disk (_keep)."""
         state = self.effect.save_state()
         if state is None:
-            return
+            return None
         name = cache_mod.frame_name("checkpoint", frame, "bin")
         # The checksum of the bytes being written, hashed while they are written (both let
         # the GIL go): re-reading a 200 MB fluid state to hash it cost a fifth of a second.
@@ -204,11 +213,19 @@ class BakeRunner:
             digest = pool.submit(lambda: hashlib.sha256(state).hexdigest())
             cache_mod.write_bytes_atomic(self.cache.path(name), state)
             digest = digest.result()
+        return {"file": name, "sha256": digest}
+
+    def _keep(self, manifest, frame, entry):
+        """Records checkpoint ``entry`` of ``frame``: every ``checkpoint_every`` frames one is
+        kept, and always the latest. Returns the files of the ones it supersedes, to remove
+        once the manifest no longer names them."""
+        if entry is None:
+            return []
         cps = manifest.setdefault("checkpoints", {})
-        for f in [f for f in cps if (int(f) - self.state.frame_start) % self.checkpoint_every]:
-            if int(f) != frame:
-                self.cache.remove(cps.pop(f)["file"])
-        cps[str(frame)] = {"file": name, "sha256": digest}
+        gone = [cps.pop(f)["file"] for f in list(cps)
+                if (int(f) - self.state.frame_start) % self.checkpoint_every and int(f) != frame]
+        cps[str(frame)] = entry
+        return gone
 
     def run(self):
         s = self.state
@@ -228,9 +245,13 @@ class BakeRunner:
                 self.effect.step(frame, self._progress)
                 if self._cancel.is_set():  # the step may have finished just as cancel came
                     raise errors.Cancelled("bake cancelled")
-                files = self._write_all(frame, self.effect.outputs(frame))
-                self._checkpoint(manifest, frame)
+                entry = []
+                files = self._write_all(frame, self.effect.outputs(frame),
+                                        lambda: entry.append(self._checkpoint(frame)))
+                gone = self._keep(manifest, frame, entry[0])
                 self.cache.add_frame(manifest, frame, files)
+                for name in gone:
+                    self.cache.remove(name)
                 s.done += 1
                 s.fraction = s.done / s.total
                 if self.on_frame:
