@@ -2,6 +2,7 @@
 bit-identical to a bake that never stopped."""
 import os
 import shutil
+import time
 
 import pytest
 
@@ -101,3 +102,43 @@ def test_free_removes_checkpoints_too(reference, tmp_path):
     shutil.copytree(reference, folder)
     BakeCache(folder).free()
     assert not folder.exists()
+
+
+def slow_checkpoints(e, seconds=0.2):
+    """The effect with a state that takes `seconds` to save, as a large one does."""
+    save = e.save_state
+    e.saves = 0
+
+    def slow():
+        e.saves += 1
+        time.sleep(seconds)
+        return save()
+    e.save_state = slow
+    return e
+
+
+def test_a_costly_checkpoint_is_written_less_often_and_on_cancel(reference, tmp_path):
+    # Twelve quick frames, each checkpoint 0.2 s: writing every frame's would cost more than
+    # a tenth of the bake, so only the kept intervals and the last are written.
+    folder = tmp_path / "bake"
+    e = slow_checkpoints(effect())
+    BakeRunner(e, folder, 1, 12, checkpoint_every=4).run()
+    e.close()
+    assert e.saves < 8  # 4 due, and a few more only if the machine is slow
+    assert sorted(map(int, BakeCache(folder).read_manifest()["checkpoints"])) == [1, 5, 9, 12]
+    assert files(folder) == files(reference)
+    # Cancelled between frames 7 and 8: frame 7's state is written before the bake stops, so
+    # nothing baked is baked again.
+    folder = tmp_path / "cut"
+    e = slow_checkpoints(effect())
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4,
+                   on_frame=lambda s: s.frame == 7 and r.cancel())
+    with pytest.raises(errors.Cancelled):
+        r.run()
+    e.close()
+    assert sorted(map(int, BakeCache(folder).read_manifest()["checkpoints"])) == [1, 5, 7]
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
+    r.run()
+    e.close()
+    assert r.resumed_from == 7 and files(folder) == files(reference)
