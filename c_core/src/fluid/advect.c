@@ -342,8 +342,9 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     hbk_fluid_corners(h, off);
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
     const int32_t ny = h->nv[1], nz = h->nv[2];
-/* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
-#pragma omp parallel for num_threads(threads) schedule(static, 1)
+/* Slabs to whichever thread is free: the work is where the fluid is (each row writes only
+ * its own outputs, so the bytes do not depend on who runs it). */
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j) (avx2 ? advect_row_avx2 : advect_row)(h, in, out, off, dt, j, k);
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from
@@ -353,8 +354,9 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
      * load_state repairs every voxel). */
     const int32_t ry = h->p.resolution[1], rz = h->p.resolution[2];
     const int checked = h->wrap_checked;
-/* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
-#pragma omp parallel for num_threads(threads) schedule(static, 1)
+/* Slabs to whichever thread is free: the work is where the fluid is (each row writes only
+ * its own outputs, so the bytes do not depend on who runs it). */
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t k = 0; k < rz; ++k)
         for (int32_t j = 0; j < ry; ++j)
             (avx2 ? flags_row_avx2 : flags_row)(h, in, out, off, dt, j, k, checked);
