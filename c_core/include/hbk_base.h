@@ -93,6 +93,15 @@ HBK_EXPORT hbk_result_t hbk_params_validate(const void *params, size_t expected_
                                             const hbk_param_info_t *table, size_t count,
                                             hbk_message_t *msg);
 
+/* Copies a grid of nx x ny x nz points of `comps` floats, stored x fastest (element c of
+ * point (x, y, z) at ((z ny + y) nx + x) comps + c, as the kernels' volumes are), into dst
+ * stored z fastest (at ((x ny + y) nz + z) comps + c): the [x][y][z] order OpenVDB's dense
+ * copies take. threads: 0 or 1 for one. dst must not overlap src. HBK_ERR_INVALID_ARGUMENT
+ * (NULL, dst == src, a size outside [1, 65536], comps outside [1, 16]). */
+HBK_EXPORT hbk_result_t hbk_grid_to_xyz(const float *src, float *dst, int32_t nx, int32_t ny,
+                                        int32_t nz, int32_t comps, int32_t threads,
+                                        hbk_message_t *msg);
+
 /* Size (field NULL) or offset of a field of a public struct, by name, e.g.
  * hbk_layout("hbk_image_t", "row_stride", &off). Lets bindings check their mirrors of the
  * structs at load time. HBK_ERR_INVALID_ARGUMENT for an unknown struct or field. */

@@ -1,6 +1,7 @@
 #include "test.h"
 #include "base/internal_base.h"
 #include <stddef.h>
+#include <stdlib.h>
 
 void test_base_result_strings(void)
 {
@@ -117,4 +118,42 @@ void test_rng_counter_independence(void)
     /* Streams and seeds differ. */
     CHECK(hbk_rng_uniform(99, 4, 10, 0) != all[0]);
     CHECK(hbk_rng_uniform(98, 3, 10, 0) != all[0]);
+}
+
+/* hbk_grid_to_xyz: every element lands at its transposed place, for sizes that are and are
+ * not multiples of the tile, 1 and 3 components, 1 and 2 threads; bad arguments are named. */
+void test_base_grid_to_xyz(void)
+{
+    const int32_t sizes[3][3] = {{1, 1, 1}, {16, 3, 32}, {37, 5, 19}};
+    for (int s = 0; s < 3; ++s)
+        for (int32_t comps = 1; comps <= 3; comps += 2)
+            for (int32_t threads = 1; threads <= 2; ++threads) {
+                const int32_t nx = sizes[s][0], ny = sizes[s][1], nz = sizes[s][2];
+                const size_t n = (size_t)nx * (size_t)ny * (size_t)nz * (size_t)comps;
+                float *src = malloc(n * sizeof *src), *dst = malloc(n * sizeof *dst);
+                for (size_t i = 0; i < n; ++i) src[i] = (float)i;
+                hbk_message_t m;
+                CHECK_OK(hbk_grid_to_xyz(src, dst, nx, ny, nz, comps, threads, &m));
+                int bad = 0;
+                for (int32_t z = 0; z < nz; ++z)
+                    for (int32_t y = 0; y < ny; ++y)
+                        for (int32_t x = 0; x < nx; ++x)
+                            for (int32_t c = 0; c < comps; ++c) {
+                                const size_t from = (((size_t)z * ny + y) * nx + x) * comps + c;
+                                const size_t to = (((size_t)x * ny + y) * nz + z) * comps + c;
+                                bad += dst[to] != src[from];
+                            }
+                CHECK(bad == 0);
+                free(src);
+                free(dst);
+            }
+    float a[8], b[8];
+    hbk_message_t m;
+    CHECK(hbk_grid_to_xyz(NULL, b, 2, 2, 2, 1, 1, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(m.text, "src") != NULL);
+    CHECK(hbk_grid_to_xyz(a, a, 2, 2, 2, 1, 1, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(hbk_grid_to_xyz(a, b, 2, 0, 2, 1, 1, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(m.text, "ny = 0") != NULL);
+    CHECK(hbk_grid_to_xyz(a, b, 2, 2, 2, 17, 1, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(m.text, "comps = 17") != NULL);
 }

@@ -78,3 +78,19 @@ def test_library_errors_become_exceptions_with_the_parameter():
         image.normal_map(h, texel_size=(0, 1))
     with pytest.raises(ValueError):  # InvalidArgument is a ValueError for plain callers
         image.normal_map(h, strength=float("nan"))
+
+
+def test_grid_to_xyz_is_the_transpose_and_refuses_bad_grids():
+    from hydrobake.core import arrays
+    rng = np.random.default_rng(5)
+    for shape in ((33, 7, 18), (5, 4, 3, 3), (17, 2, 40, 5)):
+        a = rng.random(shape, np.float32)
+        want = np.ascontiguousarray(np.swapaxes(a, 0, 2))
+        for threads in (1, 2):
+            got = arrays.grid_to_xyz(a, threads)
+            assert got.flags.c_contiguous and got.shape == want.shape
+            np.testing.assert_array_equal(got, want)
+    with pytest.raises(errors.InvalidArgument):
+        arrays.grid_to_xyz(np.zeros((2, 2, 2), np.float64))
+    with pytest.raises(errors.InvalidArgument, match="comps = 17"):
+        arrays.grid_to_xyz(np.zeros((2, 2, 2, 17), np.float32))

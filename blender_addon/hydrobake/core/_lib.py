@@ -121,6 +121,9 @@ declare([
     ("hbk_params_validate", hbk_result_t,
      [ctypes.c_void_p, ctypes.c_size_t, P(ParamInfo), ctypes.c_size_t, P(Message)],
      check_message),
+    ("hbk_grid_to_xyz", hbk_result_t,
+     [P(ctypes.c_float), P(ctypes.c_float), ctypes.c_int32, ctypes.c_int32, ctypes.c_int32,
+      ctypes.c_int32, ctypes.c_int32, P(Message)], check_message),
 ])
 
 

@@ -25,10 +25,11 @@ Streams per frame:
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
                       uvw_weight, and sample_k (RGB) for each voxel texture k
 """
+import os
+
 import numpy as np
 
-
-from .. import solid_textures
+from .. import arrays, solid_textures
 from ..fluid import Fluid
 from . import register
 from .base import Effect
@@ -81,9 +82,11 @@ class FluidEffect(Effect):
         self.mesh = self.fluid.surface(progress)
 
     def outputs(self, frame):
+        threads = int(self.params["fluid"].threads) or (os.cpu_count() or 1)
+
         def xyz(a):  # (nz, ny, nx, c) -> pyopenvdb's [x, y, z(, c)]
-            a = np.transpose(a, (2, 1, 0, 3))
-            return np.ascontiguousarray(a[..., 0] if a.shape[3] == 1 else a)
+            a = arrays.grid_to_xyz(a, threads)
+            return a[..., 0] if a.shape[3] == 1 else a
         common = dict(voxel_size=tuple(self.cell), origin=tuple(self.origin))
         weight = float(self.fluid.uvw_weight())
         density = self.fluid.volume("density")
