@@ -255,7 +255,7 @@ class BakeRunner:
         s = self.state
         s.status, s.started = "RUNNING", time.monotonic()
         self._cp_at, self._cp_cost = s.started, 0.0
-        manifest, unsaved = None, None  # the last frame baked without its checkpoint
+        unsaved = None  # the last frame baked without its checkpoint
         try:
             header = self._header()
             if self.resume:
