@@ -105,9 +105,11 @@ class BakeCache:
         return manifest
 
     def add_frame(self, manifest, frame, files):
-        """Records a completed frame: ``files`` are names in the folder, already renamed."""
-        manifest["frames"][str(frame)] = {
-            name: file_checksum(os.path.join(self.folder, name)) for name in files}
+        """Records a completed frame: ``files`` are names in the folder, already renamed, or
+        a dict of names to their sha256 when the writer has hashed them already."""
+        if not isinstance(files, dict):
+            files = {name: file_checksum(os.path.join(self.folder, name)) for name in files}
+        manifest["frames"][str(frame)] = dict(files)
         self.write_manifest(manifest)
 
     def finish(self, manifest):

@@ -146,18 +146,21 @@ class BakeRunner:
     def _write_all(self, frame, outputs, checkpoint=None):
         """Writes a frame's files side by side, and runs ``checkpoint`` beside them: the C
         writers release the GIL and compress on their own threads, and a checkpoint is mostly
-        waiting for the disk, so a frame's files and its checkpoint go out in parallel."""
+        waiting for the disk, so a frame's files and its checkpoint go out in parallel. Each
+        file is hashed by its own thread right after it is written. Returns {name: sha256}."""
+        def write(stream, output):
+            name = write_output(self.cache.folder, stream, frame, output)
+            return name, cache_mod.file_checksum(self.cache.path(name))
         items = list(outputs.items())
         if (os.cpu_count() or 1) < 2:
-            files = [write_output(self.cache.folder, st, frame, out) for st, out in items]
+            files = dict(write(st, out) for st, out in items)
             if checkpoint:
                 checkpoint()
             return files
         with concurrent.futures.ThreadPoolExecutor(len(items) + 1) as pool:
             extra = pool.submit(checkpoint) if checkpoint else None
-            futures = [pool.submit(write_output, self.cache.folder, st, frame, out)
-                       for st, out in items]
-            files = [f.result() for f in futures]  # in stream order; the first error raises
+            futures = [pool.submit(write, st, out) for st, out in items]
+            files = dict(f.result() for f in futures)  # in stream order; the first error raises
             if extra:
                 extra.result()
             return files
