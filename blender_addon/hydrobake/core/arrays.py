@@ -4,7 +4,7 @@ import ctypes
 
 import numpy as np
 
-from . import errors
+from . import _lib, errors
 from ._lib import Image
 
 FLOAT_PTR = ctypes.POINTER(ctypes.c_float)
@@ -46,7 +46,6 @@ def grid_to_xyz(arr, threads=2):
     (nx, ny, nz[, c]), the [x, y, z] order pyopenvdb's copyFromArray takes (which ignores a
     view's strides, so a transposed view will not do). In C, tile by tile on threads: numpy's
     transposing copy took a quarter of a second a frame for a 128^3 fluid's grids."""
-    from . import _lib
     if not isinstance(arr, np.ndarray) or arr.dtype != np.float32 or arr.ndim not in (3, 4):
         raise errors.InvalidArgument("grid: must be a float32 array shaped (nz, ny, nx[, c])")
     src = np.ascontiguousarray(arr)

@@ -64,8 +64,9 @@ struct hbk_fluid {
                                  * each (x, v, then the SPH's density and pressure) */
     float *soa;                 /* the same as 8 arrays of max_particles + 8 (sph_lanes.c) */
     int32_t *nbr, *nbr_n;       /* SPH scratch, one block made by the first AVX2 step: each
-                                 * particle's neighbours in reach, from the density for the
-                                 * forces (HBK_FLUID_NBR_CAP each), and their count (-1: more) */
+                                 * particle's (neighbour, image) pairs in reach, from the
+                                 * density for the forces (HBK_FLUID_NBR_CAP each), and their
+                                 * count (-1: more) */
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
@@ -173,9 +174,9 @@ static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, 
 
 /* The forces' neighbour list a particle keeps (more are found again). */
 #define HBK_FLUID_NBR_CAP 64
-/* SPH sums in eight lanes (sph.c and sph_lanes.c alike): candidate j of a row of cells that
- * starts at sorted index a adds to lane (j - a) mod 8 (but the forces away from the walls put
- * the k-th neighbour in reach in lane k mod 8), and the lanes are added in this tree. */
+/* SPH sums in eight lanes (sph.c and sph_lanes.c alike): the density's candidate j of a row of
+ * cells that starts at sorted index a adds to lane (j - a) mod 8; the forces put the k-th
+ * (neighbour, mirror image) pair in reach in lane k mod 8; the lanes are added in this tree. */
 static inline int hbk_fluid_lane_of(int32_t j, int32_t a) { return (int)((j - a) & 7); }
 static inline float hbk_fluid_lane_sum(const float p[8])
 {

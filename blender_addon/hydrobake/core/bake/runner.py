@@ -147,23 +147,20 @@ class BakeRunner:
         """Writes a frame's files side by side, and runs ``checkpoint`` beside them: the C
         writers release the GIL and compress on their own threads, and a checkpoint is mostly
         waiting for the disk, so a frame's files and its checkpoint go out in parallel. Each
-        file is hashed by its own thread right after it is written. Returns {name: sha256}."""
+        file is hashed by its own thread right after it is written. Returns ({name: sha256},
+        what ``checkpoint`` returned, or None without one)."""
         def write(stream, output):
             name = write_output(self.cache.folder, stream, frame, output)
             return name, cache_mod.file_checksum(self.cache.path(name))
         items = list(outputs.items())
         if (os.cpu_count() or 1) < 2:
             files = dict(write(st, out) for st, out in items)
-            if checkpoint:
-                checkpoint()
-            return files
+            return files, checkpoint() if checkpoint else None
         with concurrent.futures.ThreadPoolExecutor(len(items) + 1) as pool:
             extra = pool.submit(checkpoint) if checkpoint else None
             futures = [pool.submit(write, st, out) for st, out in items]
             files = dict(f.result() for f in futures)  # in stream order; the first error raises
-            if extra:
-                extra.result()
-            return files
+            return files, extra.result() if extra else None
 
     def _header(self):
         s = self.state
@@ -276,12 +273,11 @@ class BakeRunner:
                 self.effect.step(frame, self._progress)
                 if self._cancel.is_set():  # the step may have finished just as cancel came
                     raise errors.Cancelled("bake cancelled")
-                entry = []
                 due = self._due(frame)
-                files = self._write_all(
+                files, entry = self._write_all(
                     frame, self.effect.outputs(frame),
-                    (lambda: entry.append(self._checkpoint_timed(frame))) if due else None)
-                self._commit(manifest, frame, files, entry[0] if entry else None)
+                    (lambda: self._checkpoint_timed(frame)) if due else None)
+                self._commit(manifest, frame, files, entry)
                 unsaved = None if due else frame
                 s.done += 1
                 s.fraction = s.done / s.total
