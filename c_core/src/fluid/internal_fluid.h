@@ -18,7 +18,6 @@ typedef struct hbk_fluid_cells {
     int32_t *start;    /* ncells + 1 offsets into `order` */
     int32_t *order;    /* particle ids sorted by cell, ascending id within a cell */
     int32_t *cell_of;  /* cell of each particle */
-    uint8_t *near;     /* 1 if the cell or one of its 26 neighbours holds a particle */
     size_t cap_cells, cap_particles;
 } hbk_fluid_cells_t;
 

@@ -194,8 +194,9 @@ splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
 }
 
 /* Scatter by owner: vertex z-slabs are chunks of the loop; each chunk walks the particles
- * (in sorted order) whose support reaches it and adds to its own vertices only, so every
- * vertex sums its particles in one fixed order, whatever thread runs the chunk. The motion
+ * whose support reaches it (by rows of cells: y, then z, then x) and adds to its own vertices
+ * only, so every vertex sums its particles in one fixed order, whatever thread runs the chunk
+ * and however thick the slabs. The motion
  * sums go to three planes (g_mplanes), so that eight vertices of a row are eight floats in a
  * row; the Shepard normalisation writes them back interleaved. */
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
@@ -237,14 +238,12 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     const float surf_k = (float)(1.0 / pow(R, 6));
     const float *lo = h->p.box_min, *cl = h->cell;
     const int32_t slab = 4, chunks = (nz + slab - 1) / slab;
-    const size_t layer = (size_t)c->dims[0] * (size_t)c->dims[1];
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t ch = 0; ch < chunks; ++ch) {
         const int32_t z0 = ch * slab, z1 = z0 + slab < nz ? z0 + slab : nz; /* [z0, z1) */
         const float wz0 = lo[2] + (float)z0 * cl[2] - S, wz1 = lo[2] + (float)(z1 - 1) * cl[2] + S;
         const int32_t c0 = hbk_fluid_cell_coord(c, wz0, 2), c1 = hbk_fluid_cell_coord(c, wz1, 2);
-        const int32_t p0 = c->start[(size_t)c0 * layer], p1 = c->start[(size_t)(c1 + 1) * layer];
         /* Zero the sums where last frame's splat left them (not the whole grid, most of which
          * no particle reaches), then forget the rows. */
         for (int32_t kz = z0; kz < z1; ++kz) {
@@ -257,7 +256,16 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
             s.ylo[kz] = INT32_MAX;
             s.yhi[kz] = -1;
         }
-        (avx2 ? splat_chunk_avx2 : splat_chunk_sse)(h, &s, z0, z1, p0, p1, S);
+        /* The particles a row of cells at a time (the rows of one y across the slab's cell
+         * layers, then the next y): what they touch then fits in L2. Cell layer by cell layer,
+         * each layer swept the slab's whole 1 MB of sums, from L3 (15% of the fields on two
+         * cores). */
+        for (int32_t cy = 0; cy < c->dims[1]; ++cy)
+            for (int32_t cz = c0; cz <= c1; ++cz) {
+                const size_t r0 = (size_t)c->dims[0] * ((size_t)cy + (size_t)c->dims[1] * (size_t)cz);
+                const int32_t p0 = c->start[r0], p1 = c->start[r0 + (size_t)c->dims[0]];
+                if (p0 < p1) (avx2 ? splat_chunk_avx2 : splat_chunk_sse)(h, &s, z0, z1, p0, p1, S);
+            }
     }
     /* Shepard-normalised velocity, clamped (hbk_fluid_put_motion's operations, four vertices
      * at a time: a scalar loop with its divisions and the clamp's branch cost a fifth of the

@@ -10,7 +10,6 @@ void hbk_fluid_cells_free(hbk_fluid_cells_t *c)
     free(c->start);
     free(c->order);
     free(c->cell_of);
-    free(c->near);
     memset(c, 0, sizeof *c);
 }
 
@@ -28,10 +27,8 @@ hbk_result_t hbk_fluid_cells_build(hbk_fluid_cells_t *c, const float *pos, int32
     c->inv_size = 1.0f / size;
     if (ncells > c->cap_cells) {
         free(c->start);
-        free(c->near);
         c->start = malloc((ncells + 1) * sizeof *c->start);
-        c->near = malloc(ncells);
-        c->cap_cells = c->start && c->near ? ncells : 0;
+        c->cap_cells = c->start ? ncells : 0;
         if (!c->cap_cells) return HBK_ERR_OUT_OF_MEMORY;
     }
     if ((size_t)count > c->cap_particles || !c->order) {
@@ -61,19 +58,5 @@ hbk_result_t hbk_fluid_cells_build(hbk_fluid_cells_t *c, const float *pos, int32
     memcpy(fill, c->start, ncells * sizeof *fill);
     for (int32_t i = 0; i < count; ++i) c->order[fill[c->cell_of[i]]++] = i;
     free(fill);
-    const int32_t dz = c->dims[2];
-#pragma omp parallel for num_threads(threads) schedule(static)
-    for (int32_t z = 0; z < dz; ++z)
-        for (int32_t y = 0; y < dy; ++y)
-            for (int32_t x = 0; x < dx; ++x) {
-                uint8_t any = 0;
-                for (int32_t k = z > 0 ? z - 1 : 0; k <= z + 1 && k < dz && !any; ++k)
-                    for (int32_t j = y > 0 ? y - 1 : 0; j <= y + 1 && j < dy && !any; ++j) {
-                        const size_t row = (size_t)dx * ((size_t)j + (size_t)dy * (size_t)k);
-                        const int32_t i0 = x > 0 ? x - 1 : 0, i1 = x + 1 < dx ? x + 1 : dx - 1;
-                        any = c->start[row + (size_t)i1 + 1] > c->start[row + (size_t)i0];
-                    }
-                c->near[(size_t)x + (size_t)dx * ((size_t)y + (size_t)dy * (size_t)z)] = any;
-            }
     return HBK_OK;
 }
