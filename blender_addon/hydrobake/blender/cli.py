@@ -100,7 +100,7 @@ def targets(objects=None, effect_names=None):
 def _print_frame(job, t0):
     def on_frame(state):
         eta = state.eta()
-        print(f"hydrobake: {job.object_name}/{job.effect_name} frame {state.frame} "
+        print(f"hydrobake: {job.object_name}/{job.effect_name} frame {state.written} "
               f"({state.done}/{state.total}) elapsed {time.monotonic() - t0:.1f}s"
               + (f" remaining {eta:.1f}s" if eta is not None else ""), flush=True)
     return on_frame

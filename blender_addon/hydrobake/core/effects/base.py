@@ -15,6 +15,10 @@ class Effect:
 
     name = ""
     streams = ()
+    # The runner may write a frame's files while the next frame is stepped (BakeRunner.run):
+    # True only where ``outputs`` and ``save_state`` hand back arrays and bytes of their own,
+    # which a later ``step`` never writes into.
+    detached_outputs = False
 
     @classmethod
     def groups(cls):

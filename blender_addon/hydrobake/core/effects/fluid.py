@@ -39,6 +39,7 @@ from .base import Effect
 class FluidEffect(Effect):
     name = "fluid"
     streams = ("fluid", "surface")
+    detached_outputs = True  # every volume, mesh and state comes out in arrays of its own
 
     @classmethod
     def groups(cls):
