@@ -159,3 +159,26 @@ def test_cancelled_between_frames_the_last_frame_and_its_state_are_written(tmp_p
     for i in range(1, 13):
         name = f"wave_{i:04d}.exr"
         assert (folder / name).read_bytes() == (ref / name).read_bytes()
+
+
+def test_progress_counts_the_frames_already_stepped(tmp_path):
+    # While frame 3 is stepped, frame 2 may still be being written: the bar stands at two
+    # frames of five, not at the one recorded.
+    release = threading.Event()
+
+    class Held(Detached):
+        def step(self, frame, progress):
+            super().step(frame, progress)
+            if frame == 3:
+                assert release.wait(WAIT)
+
+    e = Held()
+    r = BakeRunner(e, tmp_path / "bake", 1, 5)
+    r.start()
+    try:
+        assert e.step_started.setdefault(3, threading.Event()).wait(WAIT)
+        assert r.poll_fraction() == pytest.approx(2 / 5)
+    finally:
+        release.set()
+        assert r.join(WAIT)
+    assert r.state.status == "FINISHED" and r.poll_fraction() == 1.0

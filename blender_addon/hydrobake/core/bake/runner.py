@@ -136,12 +136,14 @@ class BakeRunner:
         return bool(self._thread and self._thread.is_alive())
 
     def poll_fraction(self):
-        """Overall fraction including the current frame's progress inside C."""
+        """Overall fraction: the frames before the one being stepped (the last of them may
+        still be being written, see run) and that one's progress inside C."""
         s = self.state
         if s.status != "RUNNING":
             return s.fraction
         inner = min(max(float(self._progress.fraction), 0.0), 1.0)
-        return min((s.done + inner) / s.total, 1.0)
+        before = s.done if s.frame is None else s.frame - s.frame_start
+        return min((before + inner) / s.total, 1.0)
 
     def _run_catching(self):
         try:
