@@ -432,9 +432,10 @@ def rain_scene():
 
 
 def fluid_scene():
-    """A dam break with the paper's three sample textures: noise as the base, waves wherever
-    the flow accelerates hard (a feature rule), cells painted into the column before it falls
-    (local paint, carried along by the flow)."""
+    """A dam break with the paper's three sample textures: waves wherever the flow accelerates
+    hard and noise again where it has settled (two feature rules, far apart, so a region keeps
+    its waves while it calms down), cells painted into the column before it falls (local paint,
+    carried along by the flow)."""
     scene = new_scene("Fluid")
     scene.frame_start, scene.frame_end = 1, 36
     scene["hydrobake_still_frame"] = 30
@@ -459,6 +460,8 @@ def fluid_scene():
     s.fluid.max_flow = 8.0  # voxels a frame: the wave runs at 2-3 m/s, 7-10 voxels a frame
     rule = s.rules.add()
     rule.texture, rule.feature, rule.low, rule.high = 1, "ACCELERATION", 30.0, 1e9
+    rule = s.rules.add()  # settled: the calmest quarter of the water at rest on the floor
+    rule.texture, rule.feature, rule.low, rule.high = 0, "ACCELERATION", 0.0, 2.0
     brush = bpy.data.objects.new("Paint Brush", None)
     # The column's front top, facing the camera: the painted cells ride the wave's face.
     brush.empty_display_type, brush.empty_display_size = "SPHERE", 0.2
