@@ -332,6 +332,69 @@ void test_fluid_blend_normalised(void)
     hbk_fluid_destroy(h);
 }
 
+/* Feature paint (paper 3.1): after each step every vertex whose features all lie in a rule's
+ * ranges (bounds included) holds that texture alone, the later texture where several match;
+ * the constant features of the rows far from the fluid (matched once per row) match like any
+ * others. Rules changed between steps apply from the next step. */
+void test_fluid_rules_exact(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
+    p.textures = 3;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    if (!h) return;
+    const size_t nv = hbk_fluid_grid_vertices(h, NULL);
+    float *vel = calloc(3 * nv, sizeof *vel), *surf = calloc(nv, sizeof *surf);
+    for (size_t i = 0; i < nv; ++i) { /* a swirling ball; still and empty around it */
+        const float x = (float)(i % 17) / 16.0f - 0.4f, y = (float)(i / 17 % 17) / 16.0f - 0.4f,
+                    z = (float)(i / 289) / 16.0f - 0.4f, r = sqrtf(x * x + y * y + z * z);
+        if (r >= 0.3f) continue;
+        vel[3 * i] = -y * 3.0f; vel[3 * i + 1] = x * 3.0f; vel[3 * i + 2] = 0.5f * x;
+        surf[i] = 1.0f - r / 0.3f;
+    }
+    CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
+    const int F = HBK_FLUID_FEATURE_COUNT;
+    float lo[3][HBK_FLUID_FEATURE_COUNT], hi[3][HBK_FLUID_FEATURE_COUNT];
+    for (int t = 0; t < 3; ++t)
+        for (int c = 0; c < F; ++c) lo[t][c] = -FLT_MAX, hi[t][c] = FLT_MAX;
+    const float angle = (float)(0.5 * M_PI); /* the flow angle where there is no flow */
+    lo[0][HBK_FLUID_FEATURE_DENSITY] = 0.2f, hi[0][HBK_FLUID_FEATURE_DENSITY] = 0.6f;
+    lo[1][HBK_FLUID_FEATURE_DENSITY] = 0.5f;
+    lo[2][HBK_FLUID_FEATURE_FLOW_ANGLE] = hi[2][HBK_FLUID_FEATURE_FLOW_ANGLE] = angle;
+    for (int t = 0; t < 3; ++t) CHECK_OK(hbk_fluid_set_feature_rule(h, t, lo[t], hi[t]));
+    for (int f = 0; f < 4; ++f) {
+        if (f == 2) { /* texture 1 now inside texture 0's range, which it overrides */
+            lo[1][HBK_FLUID_FEATURE_DENSITY] = 0.3f;
+            hi[1][HBK_FLUID_FEATURE_DENSITY] = 0.45f;
+            CHECK_OK(hbk_fluid_set_feature_rule(h, 1, lo[1], hi[1]));
+        }
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        float *ft = volume(h, HBK_FLUID_VOL_FEATURES), *b = volume(h, HBK_FLUID_VOL_BLEND);
+        int count[3] = {0, 0, 0}, bad = 0;
+        for (size_t i = 0; i < nv; ++i) {
+            int want = -1;
+            for (int t = 0; t < 3; ++t) {
+                int in = 1;
+                for (int c = 0; c < F; ++c)
+                    in &= ft[(size_t)F * i + (size_t)c] >= lo[t][c] && ft[(size_t)F * i + (size_t)c] <= hi[t][c];
+                if (in) want = t;
+            }
+            if (want < 0) continue;
+            ++count[want];
+            for (int t = 0; t < 3; ++t) bad += b[3 * i + (size_t)t] != (t == want ? 1.0f : 0.0f);
+        }
+        size_t quiet = 0;
+        for (size_t r = 0; r < h->n_rows; ++r) quiet += h->quiet[r];
+        if (bad) fprintf(stderr, "rules, frame %d: %d weights wrong\n", f, bad);
+        CHECK(bad == 0 && count[0] > 0 && count[1] > 0 && count[2] > 0 && quiet > 0);
+        free(ft);
+        free(b);
+    }
+    free(vel);
+    free(surf);
+    hbk_fluid_destroy(h);
+}
+
 /* Poly6 kernel sum in double, the analytic reference. */
 static double lattice_kernel_sum(double s, double H, double ox, double oy, double oz)
 {

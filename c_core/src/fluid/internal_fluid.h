@@ -480,6 +480,7 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads);
 
 /* paint.c */
 void hbk_fluid_paint_off(hbk_fluid_t *h);
+/* features: what hbk_fluid_features wrote last (its h->quiet rows are read too). */
 void hbk_fluid_apply_rules(hbk_fluid_t *h, float *base, const float *features, int threads);
 /* Final blend of vertex i (K floats). */
 void hbk_fluid_blend_at(const hbk_fluid_t *h, const float *base, const float *paint,

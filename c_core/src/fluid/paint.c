@@ -32,33 +32,73 @@ void hbk_fluid_blend_at(const hbk_fluid_t *h, const float *base, const float *pa
     if (s > 0.0f) for (int t = 0; t < K; ++t) out[t] /= s;
 }
 
+/* The rules, four features to a vector: features 0-3, then 4-5 twice. */
+typedef struct {
+    int t;
+    hbk_v4f lo0, hi0, lo1, hi1;
+} rule4_t;
+_Static_assert(HBK_FLUID_FEATURE_COUNT == 6, "rule4_t holds six features");
+
+static int rules_compile(const hbk_fluid_t *h, rule4_t *r)
+{
+    int n = 0;
+    for (int t = 0; t < h->K; ++t) {
+        if (!h->rule_on[t]) continue;
+        const float *lo = h->rule_lo[t], *hi = h->rule_hi[t];
+        r[n++] = (rule4_t){t, {lo[0], lo[1], lo[2], lo[3]}, {hi[0], hi[1], hi[2], hi[3]},
+                           {lo[4], lo[5], lo[4], lo[5]}, {hi[4], hi[5], hi[4], hi[5]}};
+    }
+    return n;
+}
+
+/* The texture of the last rule (in texture order) whose every range holds features f, or -1.
+ * Without branches per feature: which one fails is unpredictable. */
+static inline int rule_match(const rule4_t *r, int n, const float *f)
+{
+    hbk_v4f a;
+    memcpy(&a, f, sizeof a);
+    const hbk_v4f b = {f[4], f[5], f[4], f[5]};
+    int match = -1;
+    for (int q = 0; q < n; ++q) {
+        const hbk_v4i in = (a >= r[q].lo0) & (a <= r[q].hi0) & (b >= r[q].lo1) & (b <= r[q].hi1);
+        match = __builtin_ia32_movmskps((hbk_v4f)in) == 15 ? r[q].t : match;
+    }
+    return match;
+}
+
+/* Makes b (K weights) one-hot at t; 1 if a bit changed (-0 is not +0). */
+static int set_one_hot(float *b, int K, int t)
+{
+    uint32_t diff = 0; /* inline: memcmp is a call per vertex */
+    for (int q = 0; q < K; ++q) {
+        uint32_t x;
+        memcpy(&x, b + q, sizeof x);
+        diff |= x ^ (q == t ? 0x3f800000u : 0u); /* the bits of 1.0f and +0.0f */
+    }
+    if (!diff) return 0;
+    for (int q = 0; q < K; ++q) b[q] = q == t ? 1.0f : 0.0f;
+    return 1;
+}
+
 void hbk_fluid_apply_rules(hbk_fluid_t *h, float *base, const float *features, int threads)
 {
-    int any = 0;
-    for (int t = 0; t < h->K; ++t) any |= h->rule_on[t];
-    if (!any) return;
+    rule4_t rl[HBK_FLUID_MAX_TEXTURES];
+    const int nr = rules_compile(h, rl);
+    if (!nr) return;
     const int32_t nx = h->nv[0], rows = h->nv[1] * h->nv[2];
     const int K = h->K, F = HBK_FLUID_FEATURE_COUNT;
-    /* By rows: a row whose base this changes no longer matches the other buffer's. */
+    /* By rows: a row whose base this changes no longer matches the other buffer's. A quiet row
+     * (features.c) holds one set of features at every vertex: matched once, and its
+     * features not read again. */
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int32_t r = 0; r < rows; ++r) {
+        const size_t v0 = (size_t)r * (size_t)nx;
+        const int whole = h->quiet[r] ? rule_match(rl, nr, features + (size_t)F * v0) : -2;
+        if (whole == -1) continue;
         int changed = 0;
-        for (size_t i = (size_t)r * (size_t)nx; i < (size_t)(r + 1) * (size_t)nx; ++i) {
-            const float *f = features + (size_t)F * i;
-            int match = -1;
-            for (int t = 0; t < K; ++t) {
-                if (!h->rule_on[t]) continue;
-                int in = 1;
-                for (int c = 0; c < F && in; ++c) in = f[c] >= h->rule_lo[t][c] && f[c] <= h->rule_hi[t][c];
-                if (in) match = t;
-            }
-            if (match < 0) continue;
-            float one_hot[HBK_FLUID_MAX_TEXTURES] = {0};
-            one_hot[match] = 1.0f;
-            float *b = base + (size_t)K * i;
-            if (!memcmp(b, one_hot, (size_t)K * sizeof(float))) continue;
-            memcpy(b, one_hot, (size_t)K * sizeof(float));
-            changed = 1;
+        for (size_t i = v0; i < v0 + (size_t)nx; ++i) {
+            const int match = whole >= 0 ? whole : rule_match(rl, nr, features + (size_t)F * i);
+            if (match >= 0) changed |= set_one_hot(base + (size_t)K * i, K, match);
         }
         if (changed) h->same_rows[r] = 0;
     }
