@@ -2,10 +2,10 @@
  * all volumes (two uvw fields, wrap flags, base blend, paint) and the surface, at the paper's
  * 32^3 / 10k particles, 64^3 / 50k and 128^3 / 100k, at 1 and 2 threads. A dam-break cube of
  * particles in a 1 m box, one stroke of paint active and examples.blend's two feature rules
- * (waves where the acceleration is above 30 m/s^2, noise where it is below 2), 1/24 s frames. The SPH takes the steps
- * stability needs (about 50 a frame here); the table gives the mean cost of one of them and how
- * many a frame took. The first frames are not timed: the column must have fallen and be
- * running across the floor, as in most of a bake, not sitting at rest.
+ * (waves where the acceleration is above 30 m/s^2, noise where it is below 2), 1/24 s frames.
+ * The SPH takes the steps stability needs (60-80 a frame here); the table gives the mean cost
+ * of one of them and how many a frame took. The first frames are not timed: the column must
+ * have fallen and be running across the floor, as in most of a bake, not sitting at rest.
  * Usage: bench_fluid [frames]. Prints a markdown table. */
 #include "hydrobake.h"
 #include <float.h>
