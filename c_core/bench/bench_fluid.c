@@ -52,7 +52,8 @@ int main(int argc, char **argv)
             }
             float rlo[HBK_FLUID_FEATURE_COUNT], rhi[HBK_FLUID_FEATURE_COUNT];
             for (int r = 0; r < 2; ++r) {
-                for (int q = 0; q < HBK_FLUID_FEATURE_COUNT; ++q) rlo[q] = -FLT_MAX, rhi[q] = FLT_MAX;
+                for (int q = 0; q < HBK_FLUID_FEATURE_COUNT; ++q)
+                    rlo[q] = -FLT_MAX, rhi[q] = FLT_MAX;
                 rlo[HBK_FLUID_FEATURE_ACCELERATION] = r ? 30.0f : 0.0f;
                 rhi[HBK_FLUID_FEATURE_ACCELERATION] = r ? FLT_MAX : 2.0f;
                 if (hbk_fluid_set_feature_rule(h, r, rlo, rhi)) {

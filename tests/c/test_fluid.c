@@ -373,10 +373,10 @@ void test_fluid_rules_exact(void)
         int count[3] = {0, 0, 0}, bad = 0;
         for (size_t i = 0; i < nv; ++i) {
             int want = -1;
+            const float *fi = ft + (size_t)F * i;
             for (int t = 0; t < 3; ++t) {
                 int in = 1;
-                for (int c = 0; c < F; ++c)
-                    in &= ft[(size_t)F * i + (size_t)c] >= lo[t][c] && ft[(size_t)F * i + (size_t)c] <= hi[t][c];
+                for (int c = 0; c < F; ++c) in &= fi[c] >= lo[t][c] && fi[c] <= hi[t][c];
                 if (in) want = t;
             }
             if (want < 0) continue;
