@@ -196,9 +196,9 @@ splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
 /* Scatter by owner: vertex z-slabs are chunks of the loop; each chunk walks the particles
  * whose support reaches it (by rows of cells: y, then z, then x) and adds to its own vertices
  * only, so every vertex sums its particles in one fixed order, whatever thread runs the chunk
- * and however thick the slabs. The motion
- * sums go to three planes (g_mplanes), so that eight vertices of a row are eight floats in a
- * row; the Shepard normalisation writes them back interleaved. */
+ * and however thick the slabs. The motion sums go to three planes (g_mplanes), so that eight
+ * vertices of a row are eight floats in a row; the Shepard normalisation writes them back
+ * interleaved. */
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
 {
     const size_t nv = h->n_vert;

@@ -258,7 +258,8 @@ class BakeRunner:
     def _checkpoint_timed(self, frame, state=None):
         t = time.monotonic()
         entry = self._checkpoint(frame, state)
-        self._cp_at, self._cp_cost = time.monotonic(), time.monotonic() - t
+        now = time.monotonic()
+        self._cp_at, self._cp_cost = now, now - t
         return entry
 
     def run(self):
