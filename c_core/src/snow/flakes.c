@@ -397,8 +397,9 @@ hbk_result_t snow_flakes_step(hbk_snow_t *h, int32_t substeps, hbk_progress_t *p
         if (h->tev[i].n) memcpy(h->all.e + h->all.n, h->tev[i].e, h->tev[i].n * sizeof *h->all.e);
         h->all.n += h->tev[i].n;
     }
-    /* Keys are unique (one contact per flake and substep): the order is total. */
-    qsort(h->all.e, h->all.n, sizeof *h->all.e, event_order);
+    /* Keys are unique (one contact per flake and substep): the order is total. With no
+     * events the array may be NULL, which qsort must not be given. */
+    if (h->all.n) qsort(h->all.e, h->all.n, sizeof *h->all.e, event_order);
     for (size_t i = 0; i < h->all.n; ++i) snow_stamp(h, &h->all.e[i]);
 
     snow_flake_t *t = h->flakes;
