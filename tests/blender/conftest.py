@@ -22,6 +22,9 @@ class Blender:
                         BLENDER_USER_CONFIG=os.path.join(home, "config"),
                         PYTHONPATH=SCRIPTS, PYTHONDONTWRITEBYTECODE="1")
         self.env.pop("HYDROBAKE_LIB", None)  # the installed addon must find its own library
+        # Unless told to use another build, e.g. the sanitized one (see README, Tests).
+        if os.environ.get("HBK_BLENDER_TEST_LIB"):
+            self.env["HYDROBAKE_LIB"] = os.environ["HBK_BLENDER_TEST_LIB"]
 
     def run(self, script, *args, blend=None, check=True, timeout=300, extra=()):
         cmd = [BLENDER, "-b"] + ([blend] if blend else []) + [
