@@ -59,6 +59,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
 #define HBK_TEST_LIST(X)                 \
     X(base, result_strings)              \
     X(base, params_validate)             \
+    X(base, params_float_bounds)         \
     X(base, grid_to_xyz)                 \
     X(rng, philox_known_answer)          \
     X(rng, uniform_statistics)           \

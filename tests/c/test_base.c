@@ -1,5 +1,7 @@
 #include "test.h"
 #include "base/internal_base.h"
+#include <float.h>
+#include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
 
@@ -60,6 +62,42 @@ void test_base_params_validate(void)
     CHECK(hbk_params_validate(&p, sizeof p, k_demo, n, &m) == HBK_ERR_VERSION);
     CHECK(strstr(m.text, "params.size = 8") != NULL);
     CHECK(hbk_params_validate(NULL, sizeof p, k_demo, n, NULL) == HBK_ERR_INVALID_ARGUMENT);
+}
+
+/* Bounds that are not floats: the float a caller stores for the bound (0.05f is just above
+ * 0.05, 1e-4f just below 1e-4) is inside, the next float out is not. A bound past float's
+ * range leaves every finite float inside. */
+typedef struct {
+    uint32_t size;
+    float rate, big;
+} fine_params_t;
+
+static const hbk_param_info_t k_fine[] = {
+    {"rate", HBK_PARAM_F32, offsetof(fine_params_t, rate), 1, 1e-4, 0.05, "m", NULL, "rate"},
+    {"big", HBK_PARAM_F32, offsetof(fine_params_t, big), 1, -1e300, 1e300, "1", NULL, "big"},
+};
+
+void test_base_params_float_bounds(void)
+{
+    fine_params_t p = {sizeof p, 0.05f, FLT_MAX};
+    hbk_message_t m;
+    const size_t n = sizeof k_fine / sizeof k_fine[0];
+    CHECK((double)p.rate > 0.05);
+    CHECK_OK(hbk_params_validate(&p, sizeof p, k_fine, n, &m));
+    p.rate = 1e-4f;
+    CHECK((double)p.rate < 1e-4);
+    p.big = -FLT_MAX;
+    CHECK_OK(hbk_params_validate(&p, sizeof p, k_fine, n, &m));
+    p.rate = nextafterf(0.05f, 1.0f);
+    CHECK(hbk_params_validate(&p, sizeof p, k_fine, n, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strcmp(m.text, "rate = 0.05: must be in [0.0001, 0.05] m"));
+    p.rate = nextafterf(1e-4f, 0.0f);
+    CHECK(hbk_params_validate(&p, sizeof p, k_fine, n, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(m.text, "rate = 0.0001: must be in [0.0001, 0.05] m", 42));
+    p.rate = 0.01f;
+    p.big = INFINITY;
+    CHECK(hbk_params_validate(&p, sizeof p, k_fine, n, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(m.text, "big = inf") && strstr(m.text, "finite"));
 }
 
 void test_rng_philox_known_answer(void)

@@ -81,6 +81,20 @@ void test_fluid_params_rejects(void)
     hbk_fluid_params_default(&p);
     p.smoothing_length = 5.0f * p.particle_spacing;
     CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "smoothing_length"));
+    /* The dense particle grid: 256^3 cells of h is the most allowed, 257^3 is refused, and so
+     * is 4000^3 (a 0.4 m box with h = 1e-4 m, under the per-axis limit of 4096). */
+    hbk_fluid_params_default(&p);
+    for (int a = 0; a < 3; ++a) p.box_min[a] = 0.0f, p.box_max[a] = 1.0f;
+    p.smoothing_length = p.metaball_radius = 1.0f / 256.0f;
+    p.particle_spacing = 0.5f / 256.0f;
+    CHECK_OK(hbk_fluid_params_check(&p, &m));
+    p.smoothing_length = nextafterf(1.0f / 256.0f, 0.0f);
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(m.text, "smoothing_length = 0.00390625: the box holds 16974593 cells", 59));
+    CHECK(strstr(m.text, "at most 16777216 are allowed"));
+    for (int a = 0; a < 3; ++a) p.box_max[a] = 0.4f;
+    p.particle_spacing = p.smoothing_length = p.metaball_radius = 1e-4f;
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "smoothing_length"));
     hbk_fluid_params_default(&p);
     p.metaball_radius = 0.5f * p.particle_spacing;
     CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "metaball_radius"));

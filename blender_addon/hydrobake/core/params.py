@@ -94,34 +94,37 @@ class ParamSpec:
         for name, value in values.items():
             p = self.by_name[name]
             try:
-                if p.type == ENUM and isinstance(value, str):
-                    if value not in p.items:
-                        raise errors.InvalidArgument(
-                            f"{name} = {value!r}: must be one of {', '.join(p.items)}")
-                    value = p.items.index(value)
                 if p.count > 1:
                     if len(value) != p.count:
                         raise errors.InvalidArgument(
                             f"{name}: must have {p.count} values, got {len(value)}")
-                    getattr(s, name)[:] = [self._convert(p, v) for v in value]
+                    getattr(s, name)[:] = [self._convert(p, v, f"{name}[{k}]")
+                                           for k, v in enumerate(value)]
                 else:
-                    setattr(s, name, self._convert(p, value))
-            except (TypeError, OverflowError) as exc:
+                    setattr(s, name, self._convert(p, value, name))
+            except errors.InvalidArgument:
+                raise
+            except (TypeError, ValueError, OverflowError) as exc:
                 raise errors.InvalidArgument(f"{name} = {value!r}: {exc}") from exc
         self.validate(s)
         return s
 
     @staticmethod
-    def _convert(p, v):
+    def _convert(p, v, label):
+        if p.type == ENUM and isinstance(v, str):  # an item's name, also in an array
+            if v not in p.items:
+                raise errors.InvalidArgument(f"{label} = {v!r}: must be one of "
+                                             f"{', '.join(p.items)}")
+            return p.items.index(v)
         if p.type == F32:
             return float(v)
         if isinstance(v, float) and not v.is_integer():
-            raise errors.InvalidArgument(f"{p.name} = {v}: must be a whole number")
+            raise errors.InvalidArgument(f"{label} = {v}: must be a whole number")
         v = int(v)
         if p.type == U64 and not 0 <= v < 2**64:
-            raise errors.InvalidArgument(f"{p.name} = {v}: must be in [0, 2^64)")
+            raise errors.InvalidArgument(f"{label} = {v}: must be in [0, 2^64)")
         if p.type != U64 and not -2**31 <= v < 2**31:
-            raise errors.InvalidArgument(f"{p.name} = {v}: must be in [{p.min:g}, {p.max:g}]")
+            raise errors.InvalidArgument(f"{label} = {v}: must be in [{p.min:g}, {p.max:g}]")
         return v
 
     def validate(self, s):

@@ -1,9 +1,21 @@
 /* Range checks driven by the parameter tables (see hbk_param_info_t). */
 #include "internal_base.h"
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
-static int in_range(double v, const hbk_param_info_t *p) { return v >= p->min && v <= p->max; }
+/* A float is compared with its bounds rounded to float: the documented bound, as a float
+ * (what Blender's slider or a C caller stores), must be accepted. */
+static float to_float(double d) /* past float's range is infinite, not undefined */
+{
+    return d > FLT_MAX ? INFINITY : d < -FLT_MAX ? -INFINITY : (float)d;
+}
+
+static int in_range(double v, const hbk_param_info_t *p)
+{
+    if (p->type == HBK_PARAM_F32) return (float)v >= to_float(p->min) && (float)v <= to_float(p->max);
+    return v >= p->min && v <= p->max;
+}
 
 hbk_result_t hbk_params_validate(const void *params, size_t expected_size,
                                  const hbk_param_info_t *table, size_t count, hbk_message_t *msg)

@@ -184,6 +184,7 @@ static inline float hbk_fluid_lane_sum(const float p[8])
 
 /* sph.c: one substep on h->pos / h->vel. */
 #define HBK_FLUID_MAX_SUBSTEPS 10000 /* per frame, however fast the fluid */
+#define HBK_FLUID_MAX_CELLS (1 << 24) /* in the particle grid (see hbk_fluid_params_check) */
 hbk_result_t hbk_fluid_sph_substep(hbk_fluid_t *h, float dt, int threads);
 /* The longest stable SPH step for the particles' current speeds (s). */
 double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads);
