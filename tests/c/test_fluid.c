@@ -92,6 +92,16 @@ void test_fluid_params_rejects(void)
     CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT);
     CHECK(!strncmp(m.text, "smoothing_length = 0.00390625: the box holds 16974593 cells", 59));
     CHECK(strstr(m.text, "at most 16777216 are allowed"));
+    p.source = HBK_FLUID_VELOCITY_GRID; /* no particles, no particle grid */
+    CHECK_OK(hbk_fluid_params_check(&p, &m));
+    p.source = HBK_FLUID_PARTICLES; /* particles given each frame: cells of max(h, R) */
+    CHECK_OK(hbk_fluid_params_check(&p, &m)); /* R = 1/256 */
+    p.metaball_radius = p.smoothing_length;
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "smoothing_length"));
+    p.smoothing_length = p.particle_spacing;
+    CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(m.text, "metaball_radius = 0.00390625: the box holds 16974593 cells", 58));
+    p.source = HBK_FLUID_SIMULATE;
     for (int a = 0; a < 3; ++a) p.box_max[a] = 0.4f;
     p.particle_spacing = p.smoothing_length = p.metaball_radius = 1e-4f;
     CHECK(hbk_fluid_params_check(&p, &m) == HBK_ERR_INVALID_ARGUMENT && strstr(m.text, "smoothing_length"));

@@ -56,7 +56,7 @@ static const hbk_param_info_t k_info[] = {
     I(substeps, 1, 1, 1000, "1", "Least SPH steps per frame; more are taken when stability needs them."),
     I(max_particles, 1, 0, 4000000, "1", "Particle capacity; 10k..100k."),
     F(particle_spacing, 1, 1e-4, 10, "m", "Rest spacing of the particles; sets their mass."),
-    F(smoothing_length, 1, 1e-4, 40, "m", "SPH kernel radius h, 1.5..3 particle spacings; the box may hold at most 2^24 cells of h."),
+    F(smoothing_length, 1, 1e-4, 40, "m", "SPH kernel radius h, 1.5..3 particle spacings; with particles, the box may hold at most 2^24 cells of h."),
     F(rest_density, 1, 1, 1e5, "kg/m^3", "Density of the fluid at rest; 1000 for water."),
     F(stiffness, 1, 1e-3, 1e7, "m^2/s^2", "Pressure constant k (sound speed squared); 100..2000."),
     F(viscosity, 1, 0, 100, "Pa s", "Viscosity; 0.5..5 for a lively liquid."),
@@ -114,24 +114,31 @@ hbk_result_t hbk_fluid_params_check(const hbk_fluid_params_t *p, hbk_message_t *
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "default_texture = %d: must be below textures = %d", p->default_texture,
                         p->textures);
-    /* The particle grid is dense, with cells of h (as hbk_fluid_cells_build counts them):
-     * every SPH step clears and sums all of them, so too many would only waste memory and
-     * time, and past 2^31 their index would overflow. */
-    double total = 1.0;
     for (int a = 0; a < 3; ++a) {
         double cells = (p->box_max[a] - p->box_min[a]) / (double)p->smoothing_length;
         if (cells > 4096.0)
             return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                             "smoothing_length = %g: the box is %g kernel radii along axis %d, "
                             "at most 4096 are allowed", (double)p->smoothing_length, cells, a);
-        const float d = ceilf((p->box_max[a] - p->box_min[a]) / p->smoothing_length);
+    }
+    /* The particle grid is dense, with cells of h for the SPH and of the splat's reach
+     * max(h, R) for particles given each frame (as hbk_fluid_cells_build counts them): each
+     * use clears and sums all of them, so too many would only waste memory and time, and
+     * past 2^31 their index would overflow. A velocity grid has no particles. */
+    if (p->source == HBK_FLUID_VELOCITY_GRID) return HBK_OK;
+    const int by_r = p->source == HBK_FLUID_PARTICLES && p->metaball_radius > p->smoothing_length;
+    const float size = by_r ? p->metaball_radius : p->smoothing_length;
+    double total = 1.0;
+    for (int a = 0; a < 3; ++a) {
+        const float d = ceilf((p->box_max[a] - p->box_min[a]) / size);
         total *= d < 1.0f ? 1.0 : (double)d;
     }
     if (total > (double)HBK_FLUID_MAX_CELLS)
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
-                        "smoothing_length = %g: the box holds %.0f cells of one kernel radius, "
-                        "at most %d are allowed (a larger smoothing_length or a smaller box)",
-                        (double)p->smoothing_length, total, HBK_FLUID_MAX_CELLS);
+                        "%s = %g: the box holds %.0f cells of one kernel radius, at most %d are "
+                        "allowed (a larger %s or a smaller box)",
+                        by_r ? "metaball_radius" : "smoothing_length", (double)size, total,
+                        HBK_FLUID_MAX_CELLS, by_r ? "metaball_radius" : "smoothing_length");
     return HBK_OK;
 }
 
