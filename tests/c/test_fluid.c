@@ -94,6 +94,9 @@ void test_fluid_params_rejects(void)
     CHECK(strstr(m.text, "at most 16777216 are allowed"));
     p.source = HBK_FLUID_VELOCITY_GRID; /* no particles, no particle grid */
     CHECK_OK(hbk_fluid_params_check(&p, &m));
+    for (int a = 0; a < 3; ++a) p.box_max[a] = 200.0f; /* a large Mantaflow domain */
+    CHECK_OK(hbk_fluid_params_check(&p, &m));
+    for (int a = 0; a < 3; ++a) p.box_max[a] = 1.0f;
     p.source = HBK_FLUID_PARTICLES; /* particles given each frame: cells of max(h, R) */
     CHECK_OK(hbk_fluid_params_check(&p, &m)); /* R = 1/256 */
     p.metaball_radius = p.smoothing_length;

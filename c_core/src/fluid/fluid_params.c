@@ -114,6 +114,11 @@ hbk_result_t hbk_fluid_params_check(const hbk_fluid_params_t *p, hbk_message_t *
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "default_texture = %d: must be below textures = %d", p->default_texture,
                         p->textures);
+    /* The particle grid is dense, with cells of h for the SPH and of the splat's reach
+     * max(h, R) for particles given each frame (as hbk_fluid_cells_build counts them): each
+     * use clears and sums all of them, so too many would only waste memory and time, and
+     * past 2^31 their index would overflow. A velocity grid has no particles. */
+    if (p->source == HBK_FLUID_VELOCITY_GRID) return HBK_OK;
     for (int a = 0; a < 3; ++a) {
         double cells = (p->box_max[a] - p->box_min[a]) / (double)p->smoothing_length;
         if (cells > 4096.0)
@@ -121,11 +126,6 @@ hbk_result_t hbk_fluid_params_check(const hbk_fluid_params_t *p, hbk_message_t *
                             "smoothing_length = %g: the box is %g kernel radii along axis %d, "
                             "at most 4096 are allowed", (double)p->smoothing_length, cells, a);
     }
-    /* The particle grid is dense, with cells of h for the SPH and of the splat's reach
-     * max(h, R) for particles given each frame (as hbk_fluid_cells_build counts them): each
-     * use clears and sums all of them, so too many would only waste memory and time, and
-     * past 2^31 their index would overflow. A velocity grid has no particles. */
-    if (p->source == HBK_FLUID_VELOCITY_GRID) return HBK_OK;
     const int by_r = p->source == HBK_FLUID_PARTICLES && p->metaball_radius > p->smoothing_length;
     const float size = by_r ? p->metaball_radius : p->smoothing_length;
     double total = 1.0;
