@@ -13,7 +13,8 @@ static float to_float(double d) /* past float's range is infinite, not undefined
 
 static int in_range(double v, const hbk_param_info_t *p)
 {
-    if (p->type == HBK_PARAM_F32) return (float)v >= to_float(p->min) && (float)v <= to_float(p->max);
+    if (p->type == HBK_PARAM_F32)
+        return (float)v >= to_float(p->min) && (float)v <= to_float(p->max);
     return v >= p->min && v <= p->max;
 }
 
