@@ -7,8 +7,9 @@ water/water.c, fluid/state.c), so that the corruptions hit the header fields and
 loaders trust. Run it against the sanitized build as well (build/test.sh does):
 HYDROBAKE_LIB=build/_work/cmake-sanitize/libhydrobake.so with libasan/libubsan preloaded.
 
-The bugs it found are xfail(strict) cases at the end, those that crash (or abort under UBSan)
-in a child process; known_bug() keeps their triggers out of the in-process fuzz."""
+The loader bugs it found that could crash a step (or abort under UBSan) are run at the end in a
+child process, so that a regression fails its case and not the whole run; those still open are
+xfail(strict)."""
 import json
 import os
 import struct
@@ -732,40 +733,7 @@ def check_variant(e, s, v):
     return "loaded"
 
 
-# --- known bugs: the variants that trigger them (each has an xfail test below) --------------
-
 INT64_MAX = (1 << 63) - 1
-
-
-def known_bug(e, a, v):
-    """The bug a variant would trigger, or None. These variants crash the step (or are undefined
-    behaviour that the sanitized build aborts on), so the fuzz leaves them to the xfail tests
-    below, which run them in a child process."""
-    data = v.data
-    if e is RAIN and all(a[f.off:f.off + f.size] == data[f.off:f.off + f.size]
-                         for f in RAIN.fields(a) if f.role == "size"):
-        secs = {s.name: s for s in RAIN.sections(a)}
-        d = secs["drops"]
-        mass = np.frombuffer(data, np.float64, d.nbytes // 8, d.off)[::DROP // 8]
-        film = floats(data, secs["film"])
-        if np.any(np.abs(mass) > 1e24) or np.any(np.abs(film) > 1e24):
-            return "rain-huge-drop"
-        off = np.frombuffer(data, np.float32, d.nbytes // 4, d.off).reshape(-1, DROP // 4)
-        off = off[:, DROP_OFF // 4:DROP_OFF // 4 + 16]
-        if not np.all(np.abs(off) < 1e8):
-            return "rain-drop-shape"
-        wiper = [read(data, f) for f in RAIN.fields(a) if f.name.startswith("wiper_")]
-        time = read(data, next(f for f in RAIN.fields(a) if f.name == "time"))
-        p = secs["particles"]
-        xy = np.frombuffer(data, np.float32, p.nbytes // 4, p.off).reshape(-1, 4)[:, 2:]
-        # A time past ~1e307 s makes the wiper's phase (and so the wiper) NaN.
-        if not (np.all(np.isfinite(wiper)) and np.all(np.isfinite(xy)) and abs(time) < 1e306):
-            return "rain-non-finite-wiper-or-particle"
-    if e is SNOW:
-        stats = [read(data, f) for f in SNOW.fields(a) if f.name.startswith("stats.")]
-        if max(stats) > INT64_MAX - (1 << 40):
-            return "snow-counter-overflow"
-    return None
 
 
 # --- 1. round trip --------------------------------------------------------------------------
@@ -832,11 +800,8 @@ def test_corrupted_states_load_or_are_refused_as_documented(effect):
     s.reset()
     variants = corruptions(effect, s.a, seed=100 + EFFECTS.index(effect))
     assert len(variants) > 250
-    outcomes, failures, skipped = {"refused": 0, "loaded": 0}, [], 0
+    outcomes, failures = {"refused": 0, "loaded": 0}, []
     for v in variants:
-        if known_bug(effect, s.a, v):
-            skipped += 1
-            continue
         try:
             outcomes[check_variant(effect, s, v)] += 1
         except AssertionError as exc:
@@ -845,7 +810,6 @@ def test_corrupted_states_load_or_are_refused_as_documented(effect):
     assert not failures, f"{len(failures)} of {len(variants)}:\n" + "\n".join(failures[:30])
     # Both happen: the corruptions reach past the header checks.
     assert outcomes["refused"] > 50 and outcomes["loaded"] > 50, outcomes
-    assert skipped < len(variants) // 8, skipped
 
 
 # The numbers the loaders check themselves (and the header's promise where it makes one).
@@ -1095,36 +1059,22 @@ def refused_or_finite(res, code="FormatError"):
 INF = float("inf")
 
 
-HUGE_DROP = (
-    "BUG: rain.c hbk_rain_load_state takes any drop mass and film: a mass (or film a drop "
-    "takes up) of inf, or >= FLT_MAX once cast to float, makes an infinite radius and the next "
-    "hbk_rain_step dies with SIGFPE (integer division by zero) at grid_drops.c:336 "
-    "`d->moves % every`, every = (uint32_t)(0.5f * r) = 0; from ~1e30 mg up the radius "
-    "overflows int32_t: UBSan internal_rain.h:131 signed integer overflow in ifloor "
-    "(merge_around, from rain_land)")
-
-
+# Fixed bugs, kept as regressions. A rain drop of infinite (or >= FLT_MAX) mass made an
+# infinite radius and the next step died with SIGFPE (grid_drops.c `d->moves % every`); from
+# ~1e30 mg the radius overflowed int32_t (UBSan). A NaN time, wiper or particle position made
+# rain_particles_repel overflow a bin index; a drop's shape offset of -1e10 radii overflowed
+# add_ball's; a snow counter near INT64_MAX overflowed on the next step.
 @pytest.mark.parametrize("pokes", [
-    pytest.param([["drops", DROP * 3 + DROP_MASS, "d", INF]], id="drop-mass-inf",
-                 marks=pytest.mark.xfail(strict=True, reason=HUGE_DROP)),
-    pytest.param([["drops", DROP * 5 + DROP_MASS, "d", 1e300]], id="drop-mass-1e300",
-                 marks=pytest.mark.xfail(strict=True, reason=HUGE_DROP)),
-    pytest.param([["film", 8 * i, "d", 1e300] for i in range(32 * 24)], id="film-1e300",
-                 marks=pytest.mark.xfail(strict=True, reason=HUGE_DROP)),
-    # Finite: undefined behaviour that only the sanitized build sees.
-    pytest.param([["drops", DROP * 3 + DROP_MASS, "d", 1e30]], id="drop-mass-1e30",
-                 marks=pytest.mark.xfail(UBSAN, strict=True, reason=HUGE_DROP)),
+    pytest.param([["drops", DROP * 3 + DROP_MASS, "d", INF]], id="drop-mass-inf"),
+    pytest.param([["drops", DROP * 5 + DROP_MASS, "d", 1e300]], id="drop-mass-1e300"),
+    pytest.param([["film", 8 * i, "d", 1e300] for i in range(32 * 24)], id="film-1e300"),
+    # Finite: was undefined behaviour that only the sanitized build saw.
+    pytest.param([["drops", DROP * 3 + DROP_MASS, "d", 1e30]], id="drop-mass-1e30"),
 ])
 def test_rain_state_with_a_huge_drop_is_refused_or_steps(pokes):
     refused_or_finite(run_child("rain", pokes))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: rain.c hbk_rain_load_state takes a non-finite (or > 1e307 s) time, a non-finite "
-    "wiper value or particle position: the wiper (hbk_rain_blades) or the particles "
-    "(hbk_rain_drops) read NaN, and the next step's rain_particles_repel computes "
-    "(int32_t)floorf(NaN) + -1: UBSan particles.c:127 signed integer overflow "
-    "-2147483648 + -1"))
 @pytest.mark.parametrize("pokes", [
     [[None, 64, "d", float("nan")]],
     [[None, 64, "d", INF]],
@@ -1138,22 +1088,12 @@ def test_rain_state_with_a_non_finite_wiper_or_particle_is_refused_or_steps(poke
     refused_or_finite(run_child("rain", pokes, steps=1))
 
 
-@pytest.mark.xfail(UBSAN, strict=True, reason=(
-    "BUG: rain.c hbk_rain_load_state takes any sub-metaball offset (rain_drop_t.off, in "
-    "radii): at -inf or below about -1e10, hbk_rain_heightmap's add_ball computes "
-    "ifloor(-huge) - 1: UBSan internal_rain.h:131 signed integer overflow (render -> "
-    "add_ball). Undefined behaviour only: the unsanitized build gives finite maps"))
 @pytest.mark.parametrize("value", [-INF, -1e10])
 def test_rain_state_with_an_absurd_drop_shape_is_refused_or_renders(value):
     refused_or_finite(run_child("rain", [["drops", DROP * 2 + DROP_OFF + 4, "f", value]],
                                 steps=1))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: snow/state.c hbk_snow_load_state takes any statistics (not under the checksum): "
-    "a counter near INT64_MAX overflows on the next step (UBSan flakes.c:411-418 signed "
-    "integer overflow, e.g. 9223372036854775807 + 10); unsanitized, the counter turns "
-    "negative"))
 @pytest.mark.parametrize("field", ["substeps", "flake_steps", "hits"])
 def test_snow_state_with_a_huge_counter_is_refused_or_counts_on(field):
     f = next(f for f in SNOW.fields(b"") if f.name == "stats." + field)

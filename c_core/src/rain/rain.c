@@ -540,6 +540,44 @@ hbk_result_t hbk_rain_save_state(hbk_rain_t *h, void *buffer, size_t size)
     return HBK_OK;
 }
 
+/* Numbers a step could not survive (a NaN position or time, an infinite mass makes an
+ * infinite radius): what no run of the library writes. Masses up to 1e12 mg (a tonne) and
+ * shape offsets up to 64 radii are far past any real glass. NULL if all are sound, else what
+ * is not. */
+#define STATE_MAX_MASS 1e12
+static const char *state_bad_number(const state_header_t *hd, const rain_drop_t *drops,
+                                    const rain_particle_t *parts, const unsigned char *film,
+                                    size_t n)
+{
+    if (!(fabs(hd->time) <= 1e12 && isfinite(hd->rain_in) && isfinite(hd->wiped) &&
+          isfinite(hd->run_off) && isfinite(hd->car_speed) && isfinite(hd->car_accel)))
+        return "time or water books";
+    for (int k = 0; k < 2; ++k)
+        if (!(isfinite(hd->wind[k]) && isfinite(hd->wiper_value[k]) &&
+              isfinite(hd->wiper_target[k])))
+            return "wind or wiper";
+    for (int64_t i = 0; i < hd->drop_count; ++i) {
+        const rain_drop_t *d = &drops[i];
+        if (!(d->mass >= 0.0 && d->mass <= STATE_MAX_MASS && d->mass0 >= 0.0f &&
+              d->mass0 <= STATE_MAX_MASS && isfinite(d->speed) && isfinite(d->travel) &&
+              isfinite(d->age)))
+            return "drop mass or motion";
+        for (int k = 0; k < RAIN_MAX_SUBS; ++k)
+            if (!(fabsf(d->off[k][0]) <= 64.0f && fabsf(d->off[k][1]) <= 64.0f))
+                return "drop shape";
+    }
+    for (int64_t i = 0; i < hd->particle_count; ++i)
+        if (!(parts[i].mass >= 0.0 && parts[i].mass <= STATE_MAX_MASS &&
+              isfinite(parts[i].x) && isfinite(parts[i].y)))
+            return "particle";
+    for (size_t i = 0; i < n; ++i) {
+        double f;
+        memcpy(&f, film + i * sizeof f, sizeof f);
+        if (!(fabs(f) <= STATE_MAX_MASS)) return "film";
+    }
+    return NULL;
+}
+
 hbk_result_t hbk_rain_load_state(hbk_rain_t *h, const void *buffer, size_t size)
 {
     RAIN_ENTER(h);
@@ -595,6 +633,14 @@ hbk_result_t hbk_rain_load_state(hbk_rain_t *h, const void *buffer, size_t size)
             return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state: drop %lld lies off the grid",
                             (long long)i);
         }
+    const char *bad = state_bad_number(&hd, drops, parts, at + h->n * sizeof(float), h->n);
+    if (bad) {
+        free(drops);
+        free(parts);
+        free(field);
+        free(mask);
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state: %s: not a number a run can hold", bad);
+    }
     GET(h->affinity, h->n * sizeof(float));
     GET(h->film, h->n * sizeof(double));
     GET(h->wet_time, h->n * sizeof(float));

@@ -125,6 +125,14 @@ hbk_result_t hbk_snow_load_state(hbk_snow_t *h, const void *buffer, size_t size)
     x = hash_bytes(x, in + fb + tb, tb);
     if (x != hd.checksum)
         return hbk_fail(&h->msg, HBK_ERR_FORMAT, "snow state checksum mismatch (corrupt)");
+    /* The counters are outside the checksum; a run never makes one negative or near
+     * INT64_MAX, where the next step's sums would overflow. */
+    int64_t counters[sizeof hd.stats / sizeof(int64_t)];
+    _Static_assert(sizeof counters == sizeof hd.stats, "hbk_snow_stats_t: int64_t counters only");
+    memcpy(counters, &hd.stats, sizeof counters);
+    for (size_t k = 0; k < sizeof counters / sizeof counters[0]; ++k)
+        if (counters[k] < 0 || counters[k] > (int64_t)1 << 62)
+            return hbk_fail(&h->msg, HBK_ERR_FORMAT, "snow state: statistics out of range");
     /* Into scratch first: the handle changes only if every flake is sane. */
     memcpy(h->scratch, in, fb);
     for (int32_t i = 0; i < h->p.flake_count; ++i) {
