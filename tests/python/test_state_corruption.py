@@ -8,8 +8,7 @@ loaders trust. Run it against the sanitized build as well (build/test.sh does):
 HYDROBAKE_LIB=build/_work/cmake-sanitize/libhydrobake.so with libasan/libubsan preloaded.
 
 The loader bugs it found that could crash a step (or abort under UBSan) are run at the end in a
-child process, so that a regression fails its case and not the whole run; those still open are
-xfail(strict)."""
+child process, so that a regression fails its case and not the whole run."""
 import json
 import os
 import struct
@@ -625,14 +624,6 @@ WATER.special, FLUID.special = staticmethod(water_special), staticmethod(fluid_s
 
 # --- what a variant must give -----------------------------------------------------------------
 
-# Float sections where the header promises that bad numbers are refused but the loader does
-# not check them: each is tested (xfail) by test_bad_numbers_are_refused, so the fuzz only
-# asks them not to crash.
-UNCHECKED_NUMBERS = {"water": {"sources", "accel", "footprint"},
-                     "fluid": {"uvw_a", "uvw_b", "base", "paint", "life", "motion", "density",
-                               "surface", "features", "rule_lo", "rule_hi"}}
-
-
 @dataclass
 class Expect:
     allowed: set         # exception classes a refusal may raise
@@ -676,7 +667,7 @@ def expect(e, a, v):
             refuse.append("payload size")
     if "size" not in roles:  # the sections are where `a` has them
         for s in sections:
-            if s.dtype is None or not s.refuse or s.name in UNCHECKED_NUMBERS.get(e.name, ()):
+            if s.dtype is None or not s.refuse:
                 continue
             before, after = floats(a, s), floats(v.data, s)
             bad = np.isnan(after) if s.refuse == "nan" else ~np.isfinite(after)
@@ -867,25 +858,9 @@ BAD_NUMBERS = [("water", n) for n in ("ground", "depth", "vel_x", "vel_y", "sour
               [("fluid", n) for n in ("pos", "vel", "obstacles", "uvw_a", "uvw_b", "base",
                                       "paint", "life", "motion", "density", "surface",
                                       "features", "rule_lo", "rule_hi")]
-UNCHECKED_REASON = {
-    "water": "BUG: water.c hbk_water_load_state checks ground, depth and velocities only: NaN/inf "
-             "in sources, accel or footprint loads (the header: invalid numbers are "
-             "HBK_ERR_FORMAT); the velocity is NaN two steps later",
-    "fluid": "BUG: fluid/state.c hbk_fluid_load_state checks only the particles "
-             "(finite_floats(body, 6 * count)): NaN/inf in uvw, blend, paint, fields, rules or "
-             "obstacles loads (the header: bad numbers are HBK_ERR_FORMAT); a NaN obstacle makes "
-             "every particle NaN, and the library then refuses its own next checkpoint",
-}
 
 
-def bad_number_case(name, section):
-    marks = []
-    if section in UNCHECKED_NUMBERS.get(name, ()) or (name, section) == ("fluid", "obstacles"):
-        marks = [pytest.mark.xfail(strict=True, reason=UNCHECKED_REASON[name])]
-    return pytest.param(name, section, marks=marks, id=f"{name}-{section}")
-
-
-@pytest.mark.parametrize("name,section", [bad_number_case(*c) for c in BAD_NUMBERS])
+@pytest.mark.parametrize("name,section", BAD_NUMBERS, ids=[f"{a}-{b}" for a, b in BAD_NUMBERS])
 def test_bad_numbers_are_refused(name, section):
     e = {x.name: x for x in EFFECTS}[name]
     s = states(e)

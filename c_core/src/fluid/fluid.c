@@ -1,6 +1,7 @@
 /* Fluid handle: life cycle, inputs, the frame step and the volume getters. */
 #include "internal_fluid.h"
 #include <omp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -257,6 +258,29 @@ hbk_result_t hbk_fluid_get_particles(hbk_fluid_t *h, float *pos, float *vel, int
     return HBK_OK;
 }
 
+/* 0 if o is an obstacle the step can take; else non-zero, and (if what is not NULL) the
+ * field and its allowed range in what (96 bytes). Also used by hbk_fluid_load_state. */
+int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
+{
+    if (o->type != 0 && o->type != 1) {
+        if (what) snprintf(what, 96, "type = %d: must be 0 (sphere) or 1 (box)", o->type);
+        return 1;
+    }
+    for (int a = 0; a < 3; ++a) {
+        if (!(fabsf(o->center[a]) <= 1e6f)) {
+            if (what) snprintf(what, 96, "center[%d] = %g: must be finite", a, (double)o->center[a]);
+            return 1;
+        }
+        if (!(o->extent[a] >= 0.0f && o->extent[a] <= 1e6f) && (o->type == 1 || a == 0)) {
+            if (what)
+                snprintf(what, 96, "extent[%d] = %g: must be in [0, 1e6] m", a,
+                         (double)o->extent[a]);
+            return 1;
+        }
+    }
+    return 0;
+}
+
 hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs, int32_t count)
 {
     ENTER(h);
@@ -265,18 +289,9 @@ hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t 
                         HBK_FLUID_MAX_OBSTACLES);
     if (count && !obs) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "obs: must not be NULL");
     for (int32_t i = 0; i < count; ++i) {
-        if (obs[i].type != 0 && obs[i].type != 1)
-            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                            "obs[%d].type = %d: must be 0 (sphere) or 1 (box)", i, obs[i].type);
-        for (int a = 0; a < 3; ++a) {
-            if (!(fabsf(obs[i].center[a]) <= 1e6f))
-                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                                "obs[%d].center[%d] = %g: must be finite", i, a, (double)obs[i].center[a]);
-            if (!(obs[i].extent[a] >= 0.0f && obs[i].extent[a] <= 1e6f) && (obs[i].type == 1 || a == 0))
-                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                                "obs[%d].extent[%d] = %g: must be in [0, 1e6] m", i, a,
-                                (double)obs[i].extent[a]);
-        }
+        char what[96];
+        if (hbk_fluid_obstacle_problem(&obs[i], what))
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "obs[%d].%s", i, what);
     }
     if (count) memcpy(h->obs, obs, (size_t)count * sizeof *obs);
     h->n_obs = count;

@@ -148,6 +148,8 @@ static inline float hbk_fluid_acos(float x)
 hbk_result_t hbk_fluid_cells_build(hbk_fluid_cells_t *c, const float *pos, int32_t count,
                                    const float lo[3], const float hi[3], float size, int threads);
 void hbk_fluid_cells_free(hbk_fluid_cells_t *c);
+/* fluid.c: 0 if an obstacle is one the step takes, else its problem in what (96 bytes). */
+int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what);
 static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, int a)
 {
     int32_t i = (int32_t)floorf((x - c->origin[a]) * c->inv_size);

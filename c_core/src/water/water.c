@@ -342,9 +342,22 @@ hbk_result_t hbk_water_load_state(hbk_water_t *h, const void *buffer, size_t siz
             return hbk_fail(&h->msg, HBK_ERR_FORMAT,
                             "state cell %zu: ground, depth or velocity is not a valid number", i);
     }
-    float *fresh[3] = {NULL, NULL, NULL};
     const int present[3] = {!!(flags & HAS_SOURCES), !!(flags & HAS_ACCEL),
                             !!(flags & HAS_FOOTPRINT)};
+    /* The inputs too, where present: sources, accel (two per cell), footprint. */
+    const unsigned char *in = vals + n * (sizeof(float) + 3 * sizeof(double));
+    for (int k = 0; k < 3; ++k) {
+        const size_t m = n * (k == 1 ? 2 : 1);
+        for (size_t i = 0; present[k] && i < m; ++i) {
+            float f;
+            memcpy(&f, in + i * sizeof f, sizeof f);
+            if (!isfinite(f))
+                return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state %s %zu: not a valid number",
+                                k == 0 ? "sources" : k == 1 ? "accel" : "footprint", i);
+        }
+        in += m * sizeof(float);
+    }
+    float *fresh[3] = {NULL, NULL, NULL};
     float *const *have[3] = {&h->sources, &h->accel, &h->footprint};
     for (int k = 0; k < 3; ++k)
         if (present[k] && !*have[k] && !(fresh[k] = malloc(n * (k == 1 ? 2 : 1) * sizeof(float)))) {
