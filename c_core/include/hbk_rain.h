@@ -320,7 +320,8 @@ HBK_EXPORT uint64_t hbk_rain_step_count(const hbk_rain_t *h);
  * film, wetness, tangents, mask, wipers, car, counters). Loading into a handle with the same
  * params continues bit for bit. state_size: bytes now needed (0 for NULL). save:
  * HBK_ERR_INVALID_ARGUMENT if `size` is smaller. load: HBK_ERR_FORMAT (not a rain state, other
- * version, inconsistent), HBK_ERR_INVALID_ARGUMENT (other grid, too small),
+ * version, inconsistent, numbers no run holds: NaN, infinite or absurd masses, times, wipers),
+ * HBK_ERR_INVALID_ARGUMENT (other grid, too small),
  * HBK_ERR_OUT_OF_MEMORY; the handle is unchanged on failure. */
 HBK_EXPORT size_t hbk_rain_state_size(const hbk_rain_t *h);
 HBK_EXPORT hbk_result_t hbk_rain_save_state(hbk_rain_t *h, void *buffer, size_t size);

@@ -223,7 +223,7 @@ HBK_EXPORT size_t hbk_snow_state_size(const hbk_snow_t *h);
 /* HBK_ERR_INVALID_ARGUMENT (NULL buffer, size < hbk_snow_state_size). */
 HBK_EXPORT hbk_result_t hbk_snow_save_state(hbk_snow_t *h, void *buffer, size_t size);
 /* HBK_ERR_INVALID_ARGUMENT (NULL), HBK_ERR_FORMAT (not a snow state, wrong version or
- * size, bad checksum), HBK_ERR_STATE (saved by a handle of another shape). On failure the
+ * size, bad checksum, a flake or counter no run holds), HBK_ERR_STATE (saved by a handle of another shape). On failure the
  * handle is unchanged. The state includes whether a mesh was set since the last step, so
  * call set_mesh before load_state (or in the same order as the run that saved it). */
 HBK_EXPORT hbk_result_t hbk_snow_load_state(hbk_snow_t *h, const void *buffer, size_t size);
