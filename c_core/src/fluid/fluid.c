@@ -268,7 +268,8 @@ int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
     }
     for (int a = 0; a < 3; ++a) {
         if (!(fabsf(o->center[a]) <= 1e6f)) {
-            if (what) snprintf(what, 96, "center[%d] = %g: must be finite", a, (double)o->center[a]);
+            if (what)
+                snprintf(what, 96, "center[%d] = %g: must be finite", a, (double)o->center[a]);
             return 1;
         }
         if (!(o->extent[a] >= 0.0f && o->extent[a] <= 1e6f) && (o->type == 1 || a == 0)) {

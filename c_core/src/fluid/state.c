@@ -17,33 +17,33 @@ _Static_assert(sizeof(header_t) <= STATE_HEADER, "header fits");
 
 /* What a section's bytes must be for the state to load (see check_section). */
 enum { ANY, FINITE, NOT_NAN, OBSTACLES };
-typedef struct section { void *p; size_t bytes; int check; } section_t;
+typedef struct section { void *p; size_t bytes; int check; const char *name; } section_t;
 
 /* The sections of a handle, given its particle count and input flags. */
 static int sections(hbk_fluid_t *h, int32_t count, int has_vel, int has_surf, section_t *s)
 {
     const size_t nv = h->n_vert, nvox = h->n_vox, K = (size_t)h->K, F = HBK_FLUID_FEATURE_COUNT;
     int n = 0;
-    s[n++] = (section_t){h->pos, 3 * (size_t)count * sizeof(float), FINITE};
-    s[n++] = (section_t){h->vel, 3 * (size_t)count * sizeof(float), FINITE};
-    s[n++] = (section_t){h->obs, sizeof h->obs, OBSTACLES};
-    s[n++] = (section_t){h->in_vel, has_vel ? 3 * nv * sizeof(float) : 0, FINITE};
-    s[n++] = (section_t){h->in_surface, has_surf ? nv * sizeof(float) : 0, FINITE};
-    s[n++] = (section_t){h->v.uvw[0], 3 * nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->v.uvw[1], 3 * nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->v.wrap[0], nvox, ANY};
-    s[n++] = (section_t){h->v.wrap[1], nvox, ANY};
-    s[n++] = (section_t){h->v.base, K * nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->v.paint, K * nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->v.life, nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->motion, 3 * nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->density, nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->surface, nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->features, F * nv * sizeof(float), FINITE};
-    s[n++] = (section_t){h->rule_on, sizeof h->rule_on, ANY};
+    s[n++] = (section_t){h->pos, 3 * (size_t)count * sizeof(float), FINITE, "particles"};
+    s[n++] = (section_t){h->vel, 3 * (size_t)count * sizeof(float), FINITE, "particles"};
+    s[n++] = (section_t){h->obs, sizeof h->obs, OBSTACLES, "obstacles"};
+    s[n++] = (section_t){h->in_vel, has_vel ? 3 * nv * sizeof(float) : 0, FINITE, "input velocity"};
+    s[n++] = (section_t){h->in_surface, has_surf ? nv * sizeof(float) : 0, FINITE, "input surface"};
+    s[n++] = (section_t){h->v.uvw[0], 3 * nv * sizeof(float), FINITE, "uvw"};
+    s[n++] = (section_t){h->v.uvw[1], 3 * nv * sizeof(float), FINITE, "uvw"};
+    s[n++] = (section_t){h->v.wrap[0], nvox, ANY, "wrap flags"};
+    s[n++] = (section_t){h->v.wrap[1], nvox, ANY, "wrap flags"};
+    s[n++] = (section_t){h->v.base, K * nv * sizeof(float), FINITE, "blend"};
+    s[n++] = (section_t){h->v.paint, K * nv * sizeof(float), FINITE, "paint"};
+    s[n++] = (section_t){h->v.life, nv * sizeof(float), FINITE, "paint life"};
+    s[n++] = (section_t){h->motion, 3 * nv * sizeof(float), FINITE, "motion"};
+    s[n++] = (section_t){h->density, nv * sizeof(float), FINITE, "density"};
+    s[n++] = (section_t){h->surface, nv * sizeof(float), FINITE, "surface"};
+    s[n++] = (section_t){h->features, F * nv * sizeof(float), FINITE, "features"};
+    s[n++] = (section_t){h->rule_on, sizeof h->rule_on, ANY, "rules"};
     /* A bound may be infinite: -FLT_MAX .. FLT_MAX, or beyond, for "any". */
-    s[n++] = (section_t){h->rule_lo, sizeof h->rule_lo, NOT_NAN};
-    s[n++] = (section_t){h->rule_hi, sizeof h->rule_hi, NOT_NAN};
+    s[n++] = (section_t){h->rule_lo, sizeof h->rule_lo, NOT_NAN, "rules"};
+    s[n++] = (section_t){h->rule_hi, sizeof h->rule_hi, NOT_NAN, "rules"};
     return n;
 }
 #define MAX_SECTIONS 24
@@ -153,15 +153,11 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "size = %zu: this state needs %zu bytes",
                         size, need);
     /* Check before changing anything: a NaN would spread through the simulation. */
-    static const char *const k_names[MAX_SECTIONS] = {
-        "particles", "particles", "obstacles", "input velocity", "input surface", "uvw",
-        "uvw", "wrap flags", "wrap flags", "blend", "paint", "paint life", "motion", "density",
-        "surface", "features", "rules", "rules", "rules"};
     const unsigned char *body = (const unsigned char *)buffer + STATE_HEADER, *q = body;
     for (int i = 0; i < n; q += s[i].bytes, ++i)
         if (!check_section(&s[i], q, hd.n_obs))
             return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state %s: not all valid numbers",
-                            k_names[i]);
+                            s[i].name);
     float *nv_in = NULL, *ns_in = NULL;
     if (hd.has_in_vel && !h->in_vel && !(nv_in = malloc(s[3].bytes)))
         return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "state: out of memory");
