@@ -2,6 +2,8 @@
  *
  * Conventions every kernel follows:
  *  - Every fallible call returns an hbk_result_t; HBK_OK == 0. Nothing aborts or exits.
+ *  - A call that runs out of memory returns HBK_ERR_OUT_OF_MEMORY with a message and leaves its
+ *    handle as it was (a create leaves no handle), so it may simply be tried again.
  *  - A handle keeps the detail message of its last failure (hbk_<x>_message(h)). Calls without
  *    a handle (create, stateless kernels) take an optional hbk_message_t* for the detail.
  *  - Output buffers are owned by the caller; sizes and row strides are passed in.

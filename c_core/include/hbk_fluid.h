@@ -166,9 +166,9 @@ HBK_EXPORT size_t hbk_fluid_grid_vertices(const hbk_fluid_t *h, int32_t vertices
  * and into shorter ones while the fastest particle needs them: each at most
  * 0.4 h / (sqrt(stiffness) + v_max), 0.125 h^2 rest_density / viscosity and
  * 0.25 sqrt(h / |gravity|), at most 10,000 a frame; so a frame is stable whatever `substeps`
- * says. Polls progress->cancel between substeps and phases; on HBK_ERR_CANCELLED the handle
- * is exactly as before. HBK_ERR_INVALID_ARGUMENT (NULL), HBK_ERR_OUT_OF_MEMORY,
- * HBK_ERR_CANCELLED. */
+ * says. Polls progress->cancel between substeps and phases; on HBK_ERR_CANCELLED and
+ * HBK_ERR_OUT_OF_MEMORY the handle is exactly as before. HBK_ERR_INVALID_ARGUMENT (NULL),
+ * HBK_ERR_OUT_OF_MEMORY, HBK_ERR_CANCELLED. */
 HBK_EXPORT hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress);
 /* Frames stepped since creation. 0 for NULL. */
 HBK_EXPORT uint64_t hbk_fluid_frame(const hbk_fluid_t *h);

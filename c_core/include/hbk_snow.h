@@ -177,7 +177,8 @@ HBK_EXPORT const char *hbk_snow_message(const hbk_snow_t *h);
 
 /* Material slots 0..count-1 (count 1..65536), copied. HBK_ERR_INVALID_ARGUMENT (NULL, a
  * value out of range, fewer slots than the current mesh uses); HBK_ERR_STATE in BOX mode if
- * the slot count changes after snow was laid (the atlas has one block per slot). */
+ * the slot count changes after snow was laid (the atlas has one block per slot);
+ * HBK_ERR_OUT_OF_MEMORY. On failure the slots (and in BOX mode the textures) stay. */
 HBK_EXPORT hbk_result_t hbk_snow_set_materials(hbk_snow_t *h, const hbk_snow_material_t *m,
                                                int32_t count);
 
@@ -193,8 +194,8 @@ HBK_EXPORT hbk_result_t hbk_snow_set_mesh(hbk_snow_t *h, const float *positions,
                                           const float *uvs, const int32_t *material_index,
                                           int32_t triangle_count);
 
-/* Advances substeps (1..1e6) steps of time_step. HBK_ERR_CANCELLED (progress->cancel; the
- * handle is left as before the call), HBK_ERR_OUT_OF_MEMORY, HBK_ERR_INVALID_ARGUMENT.
+/* Advances substeps (1..1e6) steps of time_step. HBK_ERR_CANCELLED (progress->cancel) and
+ * HBK_ERR_OUT_OF_MEMORY leave the handle as before the call; HBK_ERR_INVALID_ARGUMENT.
  * progress may be NULL. */
 HBK_EXPORT hbk_result_t hbk_snow_step(hbk_snow_t *h, int32_t substeps, hbk_progress_t *progress);
 

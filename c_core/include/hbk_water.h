@@ -98,8 +98,8 @@ HBK_EXPORT hbk_result_t hbk_water_set_footprint(hbk_water_t *h, const hbk_image_
 
 /* Advances one frame (`dt` s in `substeps` steps). Polls progress->cancel between steps and
  * sweeps; on HBK_ERR_CANCELLED the handle is as it was before the call. progress may be NULL.
- * Returns HBK_ERR_INVALID_ARGUMENT (NULL handle), HBK_ERR_OUT_OF_MEMORY (thread scratch),
- * HBK_ERR_CANCELLED. */
+ * Returns HBK_ERR_INVALID_ARGUMENT (NULL handle), HBK_ERR_OUT_OF_MEMORY (thread scratch; the
+ * handle is then as before), HBK_ERR_CANCELLED. */
 HBK_EXPORT hbk_result_t hbk_water_step(hbk_water_t *h, hbk_progress_t *progress);
 
 /* Getters into caller images of width x height. HBK_ERR_INVALID_ARGUMENT on a wrong view (the

@@ -442,6 +442,7 @@ hbk_result_t hbk_fluid_get_mesh(hbk_fluid_t *h, float *pos, float *normal, int32
     if (!h) return HBK_ERR_INVALID_ARGUMENT;
     hbk_message_clear(&h->msg);
     const int32_t nv = h->mesh_nv, K = h->K, F = HBK_FLUID_FEATURE_COUNT;
+    if (nv == 0) return HBK_OK; /* no mesh yet: its buffers may be NULL, and memcpy's must not */
     if (pos) memcpy(pos, h->mesh_pos, 3 * (size_t)nv * sizeof(float));
     if (normal) memcpy(normal, h->mesh_nrm, 3 * (size_t)nv * sizeof(float));
     if (tris) memcpy(tris, h->mesh_tri, 3 * (size_t)h->mesh_nt * sizeof(int32_t));

@@ -79,9 +79,15 @@ hbk_result_t hbk_exr_open(hbk_exr_reader_t **out, const char *path, hbk_message_
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = on_exr_error;
     init.user_data = r;
+    init.alloc_fn = hbk_exr_alloc;
+    init.free_fn = free;
     hbk_result_t res;
+    const unsigned long failed0 = hbk_exr_failed_allocs;
     exr_result_t rv = exr_start_read(&r->ctx, path, &init);
-    if (rv == EXR_ERR_SUCCESS) {
+    if (hbk_exr_failed_allocs != failed0) { /* even on success: the header may lack parts */
+        res = hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "\"%s\": out of memory reading the header: %s",
+                       path, hbk_exr_detail_text(&r->detail, EXR_ERR_OUT_OF_MEMORY));
+    } else if (rv == EXR_ERR_SUCCESS) {
         res = take_header(r, path, msg);
     } else {
         const char *text = hbk_exr_detail_text(&r->detail, rv);
@@ -190,9 +196,12 @@ static void convert_row(float *out, size_t pixel_stride, const uint8_t *src,
     }
 }
 
-static hbk_result_t decode_fail(hbk_exr_reader_t *r, exr_result_t rv, const char *name, int32_t y)
+/* `oom`: an OpenEXRCore allocation failed during the read, whatever rv says (it may report a
+ * corrupt chunk instead). */
+static hbk_result_t decode_fail(hbk_exr_reader_t *r, exr_result_t rv, int oom, const char *name,
+                                int32_t y)
 {
-    hbk_result_t code = rv == EXR_ERR_OUT_OF_MEMORY ? HBK_ERR_OUT_OF_MEMORY
+    hbk_result_t code = oom || rv == EXR_ERR_OUT_OF_MEMORY ? HBK_ERR_OUT_OF_MEMORY
                         : (rv == EXR_ERR_READ_IO || rv == EXR_ERR_FILE_ACCESS) ? HBK_ERR_IO
                                                                                  : HBK_ERR_FORMAT;
     return hbk_fail(&r->message, code, "\"%s\": channel \"%s\", chunk at y = %d: %s",
@@ -242,6 +251,7 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
                         (size_t)r->lines * (size_t)width * elem);
 
     hbk_result_t res = HBK_OK;
+    const unsigned long failed0 = hbk_exr_failed_allocs;
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
     int have_dec = 0;
     exr_result_t rv;
@@ -250,7 +260,7 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
         r->detail.text[0] = '\0';
         rv = exr_read_scanline_chunk_info(r->ctx, 0, (int)y, &ci);
         if (rv != EXR_ERR_SUCCESS) {
-            res = decode_fail(r, rv, name, (int32_t)y);
+            res = decode_fail(r, rv, hbk_exr_failed_allocs != failed0, name, (int32_t)y);
             break;
         }
         const int64_t first = (int64_t)ci.start_y - r->min_y; /* file row, 0 = top */
@@ -264,7 +274,7 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
         if (!have_dec) {
             rv = exr_decoding_initialize(r->ctx, 0, &ci, &dec);
             if (rv != EXR_ERR_SUCCESS) {
-                res = decode_fail(r, rv, name, (int32_t)y);
+                res = decode_fail(r, rv, hbk_exr_failed_allocs != failed0, name, (int32_t)y);
                 break;
             }
             have_dec = 1;
@@ -289,7 +299,7 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
         }
         if (rv == EXR_ERR_SUCCESS) rv = exr_decoding_run(r->ctx, 0, &dec);
         if (rv != EXR_ERR_SUCCESS) {
-            res = decode_fail(r, rv, name, (int32_t)y);
+            res = decode_fail(r, rv, hbk_exr_failed_allocs != failed0, name, (int32_t)y);
             break;
         }
         for (int32_t k = 0; k < ci.height; ++k)
@@ -298,5 +308,8 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
     }
     if (have_dec) exr_decoding_destroy(r->ctx, &dec);
     free(scratch);
+    if (res == HBK_OK && hbk_exr_failed_allocs != failed0) /* a decode that "succeeded" anyway */
+        res = hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "\"%s\": channel \"%s\": out of memory "
+                       "decoding it", file_name(r), name);
     return res;
 }

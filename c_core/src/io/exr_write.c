@@ -164,6 +164,8 @@ static hbk_result_t encode_file(const char *path, const char *tmp, int32_t width
 {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = on_exr_error;
+    init.alloc_fn = hbk_exr_alloc; /* the same malloc; see internal_exr.h */
+    init.free_fn = free;
     exr_context_t ctx = NULL;
     exr_result_t rv = exr_start_write(&ctx, tmp, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS) {

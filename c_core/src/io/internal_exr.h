@@ -5,6 +5,7 @@
 #include "../base/internal_base.h"
 #include <openexr.h> /* OpenEXRCore; the include folder comes from pkg-config */
 #include <stdio.h>
+#include <stdlib.h>
 
 /* Keeps the last message OpenEXRCore reported through a context's error handler, so that a
  * failing call can quote it: "exr_write_header: Unable to write 1234 bytes ...". */
@@ -23,6 +24,21 @@ static inline const char *hbk_exr_detail_text(const hbk_exr_detail_t *d, exr_res
     if (d && d->text[0]) return d->text;
     const char *s = exr_get_default_error_message(rv);
     return s ? s : "unknown OpenEXRCore error";
+}
+
+/* OpenEXRCore's allocations (the contexts' alloc_fn). OpenEXRCore 3.1 does not always pass an
+ * allocation failure on: a header attribute it cannot allocate is skipped, and exr_start_read
+ * then succeeds with a default in its place (a 64 x 64 data window, another compression) or
+ * fails with "'channels' attribute not found". So failures are counted here, per thread
+ * (OpenEXRCore allocates on the calling thread), and a call that saw one reports
+ * HBK_ERR_OUT_OF_MEMORY rather than trusting what it got. One counter per source file. */
+static _Thread_local unsigned long hbk_exr_failed_allocs;
+
+static inline void *hbk_exr_alloc(size_t bytes)
+{
+    void *p = malloc(bytes);
+    if (!p) ++hbk_exr_failed_allocs;
+    return p;
 }
 
 #endif

@@ -136,12 +136,18 @@ hbk_result_t hbk_snow_set_materials(hbk_snow_t *h, const hbk_snow_material_t *m,
         const int32_t ob = h->blocks;
         h->coverage = h->depth = NULL;
         hbk_result_t r = snow_textures_alloc(h, count);
+        /* The slots too before the old textures go: blocks must never differ from the slot
+         * count, or a mesh using a slot past the blocks is stamped outside the textures. */
+        if (!r) r = store_materials(h, m, count);
         if (r) {
+            free(h->coverage);
+            free(h->depth);
             h->coverage = oc; h->depth = od; h->blocks = ob;
             return r;
         }
         free(oc);
         free(od);
+        return HBK_OK;
     }
     return store_materials(h, m, count);
 }
