@@ -49,7 +49,8 @@ void af_hash(af_ctx_t *c, const void *data, size_t bytes);
 int af_threads(void);
 /* The folder for files (HBK_TEST_TMP or /tmp). */
 const char *af_tmpdir(void);
-/* Records a failure of the run, printf-style; the scenario should return after it. */
+/* Records a failure of the run (at a scenario's `line`), printf-style; the scenario should
+ * return after it. */
 void af_fail(af_ctx_t *c, int line, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 /* What to do after `expr` failed by injection: retry it (the call is named if the run's bytes
  * then differ), skip it and go on, or end the scenario (every allocation failing). */

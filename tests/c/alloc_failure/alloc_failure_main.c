@@ -46,7 +46,7 @@ void af_fail(af_ctx_t *c, int line, const char *fmt, ...)
 {
     if (c->failed) return;
     c->failed = 1;
-    int n = snprintf(c->why, sizeof c->why, "line %d: ", line);
+    int n = line ? snprintf(c->why, sizeof c->why, "line %d: ", line) : 0; /* 0: the runner's */
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(c->why + n, sizeof c->why - (size_t)n, fmt, ap);
@@ -64,8 +64,7 @@ int af_skipped(const af_ctx_t *c) { return c->skipped; }
 int af_failed(const af_ctx_t *c) { return c->failed; }
 
 /* One run with allocation `at` failing (0: none; and every one after it in mode AF_STOP),
- * handled as `mode` says; returns the
- * allocations the run made. */
+ * handled as `mode` says; returns the allocations the run made. */
 static long run_once(const af_scenario_t *s, long at, int mode, af_ctx_t *c)
 {
     memset(c, 0, sizeof *c);
