@@ -1,5 +1,6 @@
-/* Rain: a small glass with rain, one wiper and a mask, stepped, read out, saved and loaded
- * into a second handle that steps on. */
+/* Rain: a small curved glass (a gravity field) with rain, one wiper and a mask, stepped, read
+ * out, saved and loaded into a second handle that steps on. */
+#include <math.h>
 #include "alloc_failure.h"
 
 typedef struct {
@@ -51,7 +52,15 @@ static void run(af_ctx_t *c, void *state)
     for (int32_t y = 0; y < p.height; ++y)
         for (int32_t x = 0; x < p.width; ++x) mask[y * p.width + x] = x < 88 ? 1.0f : 0.0f;
     const hbk_image_t mi = {mask, p.width, p.height, 1, (size_t)p.width};
-    AF_CALL(c, hbk_rain_set_tangents(s->a, NULL, &mi), hbk_rain_message(s->a));
+    /* Curved glass: down leans towards +u across the glass (a field the state carries). */
+    float *down = af_buffer(c, 2 * (size_t)p.width * (size_t)p.height * sizeof *down);
+    for (int32_t q = 0; q < p.width * p.height; ++q) {
+        const float u = 0.5f * (float)(q % p.width) / (float)p.width;
+        down[2 * q] = u;
+        down[2 * q + 1] = -sqrtf(1.0f - u * u);
+    }
+    const hbk_image_t gi = {down, p.width, p.height, 2, 2 * (size_t)p.width};
+    AF_CALL(c, hbk_rain_set_tangents(s->a, &gi, &mi), hbk_rain_message(s->a));
     AF_CALL(c, hbk_rain_add_drop(s->a, 0.05f, 0.1f, 40.0f), hbk_rain_message(s->a));
     for (int f = 0; f < 3; ++f) AF_CALL(c, hbk_rain_step(s->a, 0.05f, NULL), hbk_rain_message(s->a));
     outputs(c, s->a);
