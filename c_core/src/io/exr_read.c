@@ -196,11 +196,12 @@ static void convert_row(float *out, size_t pixel_stride, const uint8_t *src,
     }
 }
 
-/* `oom`: an OpenEXRCore allocation failed during the read, whatever rv says (it may report a
- * corrupt chunk instead). */
-static hbk_result_t decode_fail(hbk_exr_reader_t *r, exr_result_t rv, int oom, const char *name,
-                                int32_t y)
+/* Out of memory whenever an OpenEXRCore allocation failed since the read began (`failed0` is
+ * the count then), whatever rv says: it may report a corrupt chunk instead. */
+static hbk_result_t decode_fail(hbk_exr_reader_t *r, exr_result_t rv, unsigned long failed0,
+                                const char *name, int32_t y)
 {
+    const int oom = hbk_exr_failed_allocs != failed0;
     hbk_result_t code = oom || rv == EXR_ERR_OUT_OF_MEMORY ? HBK_ERR_OUT_OF_MEMORY
                         : (rv == EXR_ERR_READ_IO || rv == EXR_ERR_FILE_ACCESS) ? HBK_ERR_IO
                                                                                  : HBK_ERR_FORMAT;
@@ -260,7 +261,7 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
         r->detail.text[0] = '\0';
         rv = exr_read_scanline_chunk_info(r->ctx, 0, (int)y, &ci);
         if (rv != EXR_ERR_SUCCESS) {
-            res = decode_fail(r, rv, hbk_exr_failed_allocs != failed0, name, (int32_t)y);
+            res = decode_fail(r, rv, failed0, name, (int32_t)y);
             break;
         }
         const int64_t first = (int64_t)ci.start_y - r->min_y; /* file row, 0 = top */
@@ -274,7 +275,7 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
         if (!have_dec) {
             rv = exr_decoding_initialize(r->ctx, 0, &ci, &dec);
             if (rv != EXR_ERR_SUCCESS) {
-                res = decode_fail(r, rv, hbk_exr_failed_allocs != failed0, name, (int32_t)y);
+                res = decode_fail(r, rv, failed0, name, (int32_t)y);
                 break;
             }
             have_dec = 1;
@@ -299,7 +300,7 @@ hbk_result_t hbk_exr_read_channel(hbk_exr_reader_t *r, const char *name, float *
         }
         if (rv == EXR_ERR_SUCCESS) rv = exr_decoding_run(r->ctx, 0, &dec);
         if (rv != EXR_ERR_SUCCESS) {
-            res = decode_fail(r, rv, hbk_exr_failed_allocs != failed0, name, (int32_t)y);
+            res = decode_fail(r, rv, failed0, name, (int32_t)y);
             break;
         }
         for (int32_t k = 0; k < ci.height; ++k)
