@@ -252,8 +252,8 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
 /* The voxel a moving voxel's centre came from: the centre plus the mean of its corners'
  * displacements (the back-trace map, trilinear, at the centre: exact for uniform and for
  * linear flow). b is its corner 0, (i, j, k) its voxel. */
-static size_t traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, int32_t i,
-                          int32_t j, int32_t k)
+size_t hbk_fluid_traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, int32_t i,
+                             int32_t j, int32_t k)
 {
     float d[3] = {0.0f, 0.0f, 0.0f};
     for (int c = 0; c < 8; ++c) {
@@ -275,7 +275,7 @@ static size_t traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, i
  * both ways leave undecided take the flag of the voxel its centre came from (traced_from).
  * That is seldom (3% of the moving voxels of a 128³ dam break), so the trace is made only
  * then. */
-#define FLAGS_ROW(MASKS)                                                                     \
+#define FLAGS_PROLOGUE                                                                       \
     const int32_t nx = h->nv[0], ny = h->nv[1];                                              \
     const int32_t rx = h->p.resolution[0], ry = h->p.resolution[1];                          \
     /* Which vertices of the row's four vertex rows move, per column: a voxel moves if its  \
@@ -297,7 +297,10 @@ static size_t traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, i
         h->same_vox[vjk] = 1;                                                                \
         return;                                                                              \
     }                                                                                        \
-    h->same_vox[vjk] = 0;                                                                    \
+    h->same_vox[vjk] = 0;
+
+#define FLAGS_ROW(MASKS)                                                                     \
+    FLAGS_PROLOGUE                                                                           \
     for (int32_t i = 0; i < rx; ++i) {                                                       \
         const size_t vox = v0i + (size_t)i, b = b0 + (size_t)i;                              \
         const int mv = col[i] | col[i + 1];                                                  \
@@ -309,12 +312,21 @@ static size_t traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, i
         unsigned d0, x0, d1, x1;                                                             \
         MASKS;                                                                               \
         size_t from = vox;                                                                   \
-        if (mv && ((d0 | x0) & (d1 | x1) & 7u) != 7u) from = traced_from(h, off, b, i, j, k); \
+        if (mv && ((d0 | x0) & (d1 | x1) & 7u) != 7u) from = hbk_fluid_traced_from(h, off, b, i, j, k); \
         out->wrap[0][vox] = hbk_fluid_repair_apply(in->wrap[0][from], d0, x0);               \
         out->wrap[1][vox] = hbk_fluid_repair_apply(in->wrap[1][from], d1, x1);               \
     }
 
 #define FLAGS_ARGS ROW_ARGS, int checked
+
+/* The AVX-512 path: sixteen voxels at a time (advect_flags16.c). */
+static void flags_row_lanes(FLAGS_ARGS)
+{
+    FLAGS_PROLOGUE
+    (void)b0;
+    (void)v0i;
+    hbk_fluid_flags_row16(h, in, out, off, j, k, col, checked);
+}
 
 static void flags_row(FLAGS_ARGS)
 {
@@ -354,11 +366,14 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
      * load_state repairs every voxel). */
     const int32_t ry = h->p.resolution[1], rz = h->p.resolution[2];
     const int checked = h->wrap_checked;
+    void (*flags_fn)(FLAGS_ARGS) = hbk_fluid_flags16_ok() ? flags_row_lanes
+                                   : avx2                 ? flags_row_avx2
+                                                          : flags_row;
 /* Slabs to whichever thread is free: the work is where the fluid is (each row writes only
  * its own outputs, so the bytes do not depend on who runs it). */
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t k = 0; k < rz; ++k)
         for (int32_t j = 0; j < ry; ++j)
-            (avx2 ? flags_row_avx2 : flags_row)(h, in, out, off, dt, j, k, checked);
+            flags_fn(h, in, out, off, dt, j, k, checked);
     h->wrap_checked = 1;
 }
