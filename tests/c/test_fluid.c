@@ -1204,21 +1204,59 @@ static hbk_fluid_t *narrow_column(void)
     return h;
 }
 
-/* The SPH lanes, the vectorised splat and the paired advection (AVX2, and the SPH's 16 lanes
- * with AVX-512) give the bytes of the plain code: HBK_PATHS switches them (see
- * c_core/src/base/paths.c; "avx2" holds AVX-512 back). Walls, obstacles, paint
- * and resets included; the metaball sum derived (radius = smoothing length, the default) and
- * splatted on its own; and a box so narrow that a particle has more mirror images than one
- * vector holds. */
+/* A flow that converges along x and shears along y (a velocity grid), with five textures and
+ * paint: the sources of sixteen neighbouring vertices spread over more than twenty vertices
+ * and over several rows, so the AVX-512 advection takes several passes a group and its plain
+ * samplers where a window would be too wide (advect_lanes.c). */
+static hbk_fluid_t *converging_grid(void)
+{
+    hbk_fluid_params_t p = params(64, HBK_FLUID_VELOCITY_GRID);
+    p.resolution[1] = p.resolution[2] = 16; /* long rows of small cells along x */
+    p.dt = 1.0f / 24.0f;
+    p.max_flow = 40.0f;
+    p.textures = 5;
+    p.threads = 2;
+    hbk_fluid_t *h = make(&p);
+    if (!h) return NULL;
+    int32_t n[3];
+    const size_t nv = hbk_fluid_grid_vertices(h, n);
+    float *v = calloc(3 * nv, sizeof *v), *surf = malloc(nv * sizeof *surf);
+    for (size_t i = 0; i < nv; ++i) {
+        const double x = (double)(i % (size_t)n[0]) / (n[0] - 1);
+        v[3 * i] = (float)(-20.0 * (x - 0.5));
+        v[3 * i + 1] = (float)(4.0 * (x - 0.5));
+        surf[i] = 1.0f;
+    }
+    const float ctr[3] = {0.5f, 0.5f, 0.5f};
+    const int ok = hbk_fluid_set_velocity_grid(h, v, surf) == HBK_OK &&
+                   hbk_fluid_paint_sphere(h, 3, ctr, 0.3f, 0.05f) == HBK_OK;
+    free(v);
+    free(surf);
+    if (!ok) {
+        hbk_fluid_destroy(h);
+        return NULL;
+    }
+    return h;
+}
+
+/* The SPH lanes, the vectorised splat and the vectorised advection (AVX2, and with AVX-512
+ * the SPH's 16 lanes, the advection's 16 vertices and the flags' 16 voxels) give the bytes of
+ * the plain code: HBK_PATHS switches them (see c_core/src/base/paths.c; "avx2" holds AVX-512
+ * back). Walls, obstacles, paint and resets included; the metaball sum derived (radius =
+ * smoothing length, the default) and splatted on its own; a box so narrow that a particle has
+ * more mirror images than one vector holds; and a converging flow whose sources are too
+ * spread for the advection's windows. */
 void test_fluid_paths_same_bytes(void)
 {
     static const char *const paths[3] = {"scalar", "avx2", NULL}; /* NULL: the widest */
-    for (int own = 0; own < 3; ++own) {
+    for (int own = 0; own < 4; ++own) {
         unsigned char *x[3] = {NULL, NULL, NULL};
         size_t s[3] = {0, 0, 0};
         for (int k = 0; k < 3; ++k) {
             if (paths[k]) setenv("HBK_PATHS", paths[k], 1);
-            hbk_fluid_t *h = own == 2 ? narrow_column() : scene_r(2, own ? 0.05f : 0.0f);
+            hbk_fluid_t *h = own == 3   ? converging_grid()
+                             : own == 2 ? narrow_column()
+                                        : scene_r(2, own ? 0.05f : 0.0f);
             int ok = h != NULL;
             for (int f = 0; f < 4 && ok; ++f) ok = hbk_fluid_step(h, NULL) == HBK_OK;
             ok = ok && hbk_fluid_update_surface(h, NULL) == HBK_OK;

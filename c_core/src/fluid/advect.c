@@ -103,10 +103,8 @@ masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsi
  * back-trace, then each field's samples, runs over the whole row before the next (see
  * trace_mid): short loops keep more vertices' loads in flight. The moving vertices'
  * displacements (source - vertex, voxel units) go to h->disp for V_r. */
-#define ADVECT_ROW(UVW, BP)                                                                  \
+#define STILL_ROW                                                                            \
     const size_t row = (size_t)nx * ((size_t)j + (size_t)ny * (size_t)k);                    \
-    hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
-    int32_t at[257], nmov = 0;                                                               \
     const size_t jk = (size_t)j + (size_t)ny * (size_t)k;                                    \
     if (h->g_fz[jk]) { /* V_m all +0 */                                                      \
         memset(h->moving + row, 0, (size_t)nx);                                              \
@@ -116,7 +114,12 @@ masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsi
         h->same_rows[jk] = 1;                                                                \
         return;                                                                              \
     }                                                                                        \
-    h->same_rows[jk] = 0;                                                                    \
+    h->same_rows[jk] = 0;
+
+#define ADVECT_ROW(UVW, BP)                                                                  \
+    STILL_ROW                                                                                \
+    hbk_fluid_lerp_t ls[257]; /* resolution <= 256 */                                        \
+    int32_t at[257], nmov = 0;                                                               \
     for (int32_t i = 0; i < nx; ++i) {                                                       \
         const size_t vi = row + (size_t)i;                                                   \
         const float *v0 = m + 3 * vi;                                                        \
@@ -249,6 +252,16 @@ __attribute__((target("avx2"))) static void advect_row_avx2(ROW_ARGS)
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
 
+/* The AVX-512 path: sixteen vertices at a time (advect_lanes.c). */
+static void advect_row_lanes(ROW_ARGS)
+{
+    const int32_t nx = h->nv[0], ny = h->nv[1];
+    const int paint = h->paint_active;
+    STILL_ROW
+    hbk_fluid_advect_row16(h, in, out, off, dt, j, k);
+    copy_still(h, in, out, row, paint);
+}
+
 /* The voxel a moving voxel's centre came from: the centre plus the mean of its corners'
  * displacements (the back-trace map, trilinear, at the centre: exact for uniform and for
  * linear flow). b is its corner 0, (i, j, k) its voxel. */
@@ -353,12 +366,15 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     size_t off[8]; /* a voxel's corners from its vertex (i, j, k) */
     hbk_fluid_corners(h, off);
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
+    void (*row_fn)(ROW_ARGS) = hbk_fluid_advect_lanes_ok() ? advect_row_lanes
+                               : avx2                      ? advect_row_avx2
+                                                           : advect_row;
     const int32_t ny = h->nv[1], nz = h->nv[2];
 /* Slabs to whichever thread is free: the work is where the fluid is (each row writes only
  * its own outputs, so the bytes do not depend on who runs it). */
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t k = 0; k < nz; ++k)
-        for (int32_t j = 0; j < ny; ++j) (avx2 ? advect_row_avx2 : advect_row)(h, in, out, off, dt, j, k);
+        for (int32_t j = 0; j < ny; ++j) row_fn(h, in, out, off, dt, j, k);
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from
      * the new corners where the short way is unambiguous. A voxel whose corners all stand
      * still keeps its flag: its centre traces back to itself, and its corners' uvw are the

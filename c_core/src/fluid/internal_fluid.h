@@ -478,6 +478,12 @@ static inline void hbk_fluid_vols_differ(hbk_fluid_t *h)
 /* weight.c: the cross-fade weight of field A per vertex (nv floats), adapted to stretch. */
 void hbk_fluid_weights(const hbk_fluid_t *h, float *out, int threads);
 
+/* advect_lanes.c: the moving vertices of row (j, k) sixteen at a time (AVX-512;
+ * hbk_fluid_advect_lanes_ok: whether this CPU and HBK_PATHS allow it). */
+int hbk_fluid_advect_lanes_ok(void);
+void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
+                            hbk_fluid_vols_t *out, const size_t off[8], float dt, int32_t j,
+                            int32_t k);
 /* advect.c: the voxel whose flags a moving voxel (i, j, k), corner 0 at vertex b, takes
  * where its corners leave a component undecided. */
 size_t hbk_fluid_traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, int32_t i,
