@@ -366,7 +366,7 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     size_t off[8]; /* a voxel's corners from its vertex (i, j, k) */
     hbk_fluid_corners(h, off);
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
-    void (*row_fn)(ROW_ARGS) = hbk_fluid_advect_lanes_ok() ? advect_row_lanes
+    void (*row_fn)(ROW_ARGS) = hbk_fluid_lanes16_ok() ? advect_row_lanes
                                : avx2                      ? advect_row_avx2
                                                            : advect_row;
     const int32_t ny = h->nv[1], nz = h->nv[2];
@@ -382,7 +382,7 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
      * load_state repairs every voxel). */
     const int32_t ry = h->p.resolution[1], rz = h->p.resolution[2];
     const int checked = h->wrap_checked;
-    void (*flags_fn)(FLAGS_ARGS) = hbk_fluid_flags16_ok() ? flags_row_lanes
+    void (*flags_fn)(FLAGS_ARGS) = hbk_fluid_lanes16_ok() ? flags_row_lanes
                                    : avx2                 ? flags_row_avx2
                                                           : flags_row;
 /* Slabs to whichever thread is free: the work is where the fluid is (each row writes only

@@ -4,73 +4,34 @@
  * out of it by a permute, and the ranges of the corners' values are taken for all sixteen at
  * once. The AVX2 flags took about 30% of the advection's instructions (callgrind); this pass
  * takes 9 ms against 13.4 on one core at 128^3 (docs/fluid_performance.md). */
-#include "internal_fluid.h"
-#include <immintrin.h>
-
-#define F16                                                                                  \
-    __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,bmi,bmi2"),                    \
-                   optimize("fp-contract=off")))
-
-int hbk_fluid_flags16_ok(void)
-{
-    return hbk_paths() >= HBK_PATHS_AVX512 && __builtin_cpu_supports("avx512bw") &&
-           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
-           __builtin_cpu_supports("bmi2");
-}
-
-/* The 3-float records of up to 17 vertices: 51 floats in four vectors. */
-typedef struct {
-    __m512 z[4];
-} win_t;
-
-/* Unaligned masked loads are slow on the build machine's CPU (this pass took twice as long
- * with them): whole vectors where the array has room (end: one past its last float), masked
- * only near its end. */
-F16 static inline void win_load(win_t *w, const float *p, int nfl, const float *end)
-{
-    if (end - p >= 64) {
-        for (int q = 0; q < 4; ++q) w->z[q] = _mm512_loadu_ps(p + 16 * q);
-        return;
-    }
-    for (int q = 0; q < 4; ++q) {
-        int c = nfl - 16 * q;
-        c = c < 0 ? 0 : c > 16 ? 16 : c;
-        w->z[q] = _mm512_maskz_loadu_ps((__mmask16)_bzhi_u32(0xffffu, (unsigned)c), p + 16 * q);
-    }
-}
-
-/* Float idx of the window, per lane (idx < 64). */
-F16 static inline __m512 win_get(const win_t *w, __m512i idx, __mmask16 high)
-{
-    const __m512 lo = _mm512_permutex2var_ps(w->z[0], idx, w->z[1]);
-    const __m512 hi = _mm512_permutex2var_ps(w->z[2], idx, w->z[3]);
-    return _mm512_mask_mov_ps(lo, high, hi);
-}
+#include "internal_lanes16.h"
 
 /* hbk_fluid_repair_masks of sixteen voxels whose corner 0 are vertices v .. v + 15 (n of them
  * in the row), one field: per lane, bit a of *d and *x as there. */
 /* Inlined: called, the windows went through memory and the pass took 15 ms instead of 9. */
-F16 static inline __attribute__((always_inline)) void
-masks16(const float *uvw, const float *end, const size_t off[8], size_t v, int n, __m128i *d,
-        __m128i *x)
+HBK_L16 static inline __attribute__((always_inline)) void masks16(const float *uvw,
+                                                                  const float *end,
+                                                                  const size_t off[8], size_t v,
+                                                                  int n, __m128i *d, __m128i *x)
 {
     const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    const __m512 half = _mm512_set1_ps(0.5f), one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f);
-    win_t w[4]; /* rows of corners 0-1, 2-3, 4-5, 6-7 */
-    for (int r = 0; r < 4; ++r) win_load(&w[r], uvw + 3 * (v + off[2 * r]), 3 * (n + 1), end);
+    const __m512 half = _mm512_set1_ps(0.5f), one = _mm512_set1_ps(1.0f),
+                 two = _mm512_set1_ps(2.0f);
+    hbk_win_t w[4]; /* rows of corners 0-1, 2-3, 4-5, 6-7 */
+    for (int r = 0; r < 4; ++r) hbk_win_load(&w[r], uvw + 3 * (v + off[2 * r]), 3 * (n + 1), end);
     *d = *x = _mm_setzero_si128();
     for (int a = 0; a < 3; ++a) {
-        const __m512i i0 = _mm512_add_epi32(_mm512_mullo_epi32(lane, _mm512_set1_epi32(3)),
-                                            _mm512_set1_epi32(a));
+        const __m512i i0 =
+            _mm512_add_epi32(_mm512_mullo_epi32(lane, _mm512_set1_epi32(3)), _mm512_set1_epi32(a));
         const __m512i i1 = _mm512_add_epi32(i0, _mm512_set1_epi32(3));
         const __mmask16 h0 = _mm512_test_epi32_mask(i0, _mm512_set1_epi32(32));
         const __mmask16 h1 = _mm512_test_epi32_mask(i1, _mm512_set1_epi32(32));
         __m512 lo = two, hi = -one, wlo = two, whi = -one;
         for (int c = 0; c < 8; ++c) { /* the corners in hbk_fluid_repair_masks' order */
-            const __m512 v = win_get(&w[c >> 1], c & 1 ? i1 : i0, c & 1 ? h1 : h0);
+            const __m512 v = hbk_win_get(&w[c >> 1], c & 1 ? i1 : i0, c & 1 ? h1 : h0);
             /* v + 1 below 0.5, else v + 0 */
-            const __m512 wv = _mm512_add_ps(
-                v, _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(v, half, _CMP_LT_OQ), one));
+            const __m512 wv =
+                _mm512_add_ps(v, _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(v, half, _CMP_LT_OQ), one));
             lo = _mm512_min_ps(v, lo); /* minps: v < lo ? v : lo, as there */
             hi = _mm512_max_ps(v, hi);
             wlo = _mm512_min_ps(wv, wlo);
@@ -84,9 +45,9 @@ masks16(const float *uvw, const float *end, const size_t off[8], size_t v, int n
     }
 }
 
-F16 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
-                               hbk_fluid_vols_t *out, const size_t off[8], int32_t j, int32_t k,
-                               const uint8_t *col, int checked)
+HBK_L16 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
+                                   hbk_fluid_vols_t *out, const size_t off[8], int32_t j, int32_t k,
+                                   const uint8_t *col, int checked)
 {
     const int32_t nx = h->nv[0], rx = h->p.resolution[0];
     const size_t b0 = (size_t)nx * ((size_t)j + (size_t)h->nv[1] * (size_t)k);
@@ -117,8 +78,7 @@ F16 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
                 _mm_storeu_si128((__m128i *)fb, f[1]);
                 for (unsigned u = undecided; u; u &= u - 1) {
                     const int q = __builtin_ctz(u);
-                    const size_t from =
-                        hbk_fluid_traced_from(h, off, b + (size_t)q, i0 + q, j, k);
+                    const size_t from = hbk_fluid_traced_from(h, off, b + (size_t)q, i0 + q, j, k);
                     fa[q] = in->wrap[0][from];
                     fb[q] = in->wrap[1][from];
                 }
@@ -126,7 +86,8 @@ F16 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
                 f[1] = _mm_loadu_si128((const __m128i *)fb);
             }
             for (int u = 0; u < 2; ++u) /* hbk_fluid_repair_apply */
-                f[u] = _mm_mask_mov_epi8(f[u], fix, _mm_or_si128(_mm_andnot_si128(d[u], f[u]), x[u]));
+                f[u] =
+                    _mm_mask_mov_epi8(f[u], fix, _mm_or_si128(_mm_andnot_si128(d[u], f[u]), x[u]));
         }
         _mm_mask_storeu_epi8(out->wrap[0] + vox, valid, f[0]);
         _mm_mask_storeu_epi8(out->wrap[1] + vox, valid, f[1]);

@@ -13,21 +13,14 @@
  * What it took to be faster than the AVX2 rows, not only in fewer instructions: whole loads
  * rather than masked ones, a field's code compiled for its channel count, and the rows ahead
  * fetched early (docs/fluid_performance.md). */
-#include "internal_fluid.h"
-#include <immintrin.h>
+#include "internal_lanes16.h"
 
-#define L16                                                                                  \
-    __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,bmi,bmi2"),                    \
-                   optimize("fp-contract=off")))
-
-int hbk_fluid_advect_lanes_ok(void)
+int hbk_fluid_lanes16_ok(void)
 {
     return hbk_paths() >= HBK_PATHS_AVX512 && __builtin_cpu_supports("avx512bw") &&
            __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
            __builtin_cpu_supports("bmi2");
 }
-
-enum { TAB = 64 }; /* floats in a window: four vectors */
 
 /* hbk_fluid_lerp_at for sixteen points: x index, vertex row (y + ny z) and voxel row. */
 typedef struct {
@@ -35,7 +28,7 @@ typedef struct {
     __m512i ix, row, vrow;
 } lerp16_t;
 
-L16 static inline void lerp16(const hbk_fluid_t *h, const __m512 x[3], lerp16_t *l)
+HBK_L16 static inline void lerp16(const hbk_fluid_t *h, const __m512 x[3], lerp16_t *l)
 {
     __m512i i[3];
     for (int a = 0; a < 3; ++a) {
@@ -49,41 +42,12 @@ L16 static inline void lerp16(const hbk_fluid_t *h, const __m512 x[3], lerp16_t 
     }
     l->ix = i[0];
     l->row = _mm512_add_epi32(i[1], _mm512_mullo_epi32(i[2], _mm512_set1_epi32(h->nv[1])));
-    l->vrow = _mm512_add_epi32(i[1],
-                               _mm512_mullo_epi32(i[2], _mm512_set1_epi32(h->p.resolution[1])));
-}
-
-/* A window of up to TAB floats from p (masked: nothing past n is read). */
-typedef struct {
-    __m512 z[4];
-} tab_t;
-
-/* Unaligned masked loads are slow on the build machine's CPU (the flags pass took twice as
- * long with them), so the window is loaded whole where the array has room (end: one past
- * its last float), and masked only near its end. */
-L16 static inline void tab_load(tab_t *t, const float *p, int n, const float *end)
-{
-    if (end - p >= TAB) {
-        for (int q = 0; q < 4; ++q) t->z[q] = _mm512_loadu_ps(p + 16 * q);
-        return;
-    }
-    if (end - p < n) n = (int)(end - p);
-    for (int q = 0; q < 4; ++q) {
-        int c = n - 16 * q;
-        c = c < 0 ? 0 : c > 16 ? 16 : c;
-        t->z[q] = _mm512_maskz_loadu_ps((__mmask16)_bzhi_u32(0xffffu, (unsigned)c), p + 16 * q);
-    }
-}
-
-L16 static inline __m512 tab_get(const tab_t *t, __m512i idx, __mmask16 high)
-{
-    const __m512 lo = _mm512_permutex2var_ps(t->z[0], idx, t->z[1]);
-    const __m512 hi = _mm512_permutex2var_ps(t->z[2], idx, t->z[3]);
-    return _mm512_mask_mov_ps(lo, high, hi);
+    l->vrow =
+        _mm512_add_epi32(i[1], _mm512_mullo_epi32(i[2], _mm512_set1_epi32(h->p.resolution[1])));
 }
 
 /* hbk_fluid_tri4's operations. */
-L16 static inline __m512 tri16(const __m512 c[8], const __m512 t[3])
+HBK_L16 static inline __m512 tri16(const __m512 c[8], const __m512 t[3])
 {
 #define LERP(p, q, s) _mm512_add_ps(p, _mm512_mul_ps(s, _mm512_sub_ps(q, p)))
     const __m512 a = LERP(c[0], c[1], t[0]), b = LERP(c[2], c[3], t[0]);
@@ -93,20 +57,20 @@ L16 static inline __m512 tri16(const __m512 c[8], const __m512 t[3])
 #undef LERP
 }
 
-/* One field of C channels (C * (span + 2) <= TAB) for the lanes P of a pass: window at vertex
+/* One field of C channels (C * (span + 2) <= HBK_WIN) for the lanes P of a pass: window at vertex
  * v0 of the four corner rows (so = sy, sz), lane offsets idx from v0. flags: the lanes' wrap
  * flags (uvw), or NULL. dst: C vectors, whose lanes P are set. */
-L16 static inline __attribute__((always_inline)) void field16(const float *f, const float *end, int C, size_t v0, size_t sy,
-                               size_t sz, int span,
-                               __m512i idx, const __m512i *flags, const __m512 t[3],
-                               __mmask16 P, __m512 *dst)
+HBK_L16 static inline __attribute__((always_inline)) void
+field16(const float *f, const float *end, int C, size_t v0, size_t sy, size_t sz, int span,
+        __m512i idx, const __m512i *flags, const __m512 t[3], __mmask16 P, __m512 *dst)
 {
     const size_t rows[4] = {v0, v0 + sy, v0 + sz, v0 + sy + sz};
-    tab_t tab[4];
+    hbk_win_t tab[4];
     const int n = C * (span + 2);
-    for (int r = 0; r < 4; ++r) tab_load(&tab[r], f + (size_t)C * rows[r], n, end);
+    for (int r = 0; r < 4; ++r) hbk_win_load(&tab[r], f + (size_t)C * rows[r], n, end);
     const __m512i cidx = _mm512_mullo_epi32(idx, _mm512_set1_epi32(C));
-    const __m512 zero = _mm512_setzero_ps(), half = _mm512_set1_ps(0.5f), one = _mm512_set1_ps(1.0f);
+    const __m512 zero = _mm512_setzero_ps(), half = _mm512_set1_ps(0.5f),
+                 one = _mm512_set1_ps(1.0f);
     for (int c = 0; c < C; ++c) {
         const __m512i i0 = _mm512_add_epi32(cidx, _mm512_set1_epi32(c));
         const __m512i i1 = _mm512_add_epi32(i0, _mm512_set1_epi32(C));
@@ -114,8 +78,8 @@ L16 static inline __attribute__((always_inline)) void field16(const float *f, co
         const __mmask16 h1 = _mm512_test_epi32_mask(i1, _mm512_set1_epi32(32));
         __m512 cr[8];
         for (int r = 0; r < 4; ++r) {
-            cr[2 * r] = tab_get(&tab[r], i0, h0);
-            cr[2 * r + 1] = tab_get(&tab[r], i1, h1);
+            cr[2 * r] = hbk_win_get(&tab[r], i0, h0);
+            cr[2 * r + 1] = hbk_win_get(&tab[r], i1, h1);
         }
         if (!flags) {
             dst[c] = tri16(cr, t);
@@ -128,8 +92,8 @@ L16 static inline __attribute__((always_inline)) void field16(const float *f, co
                                        cr[q], one);
         __m512 r = tri16(cr, t);
         r = _mm512_mask_sub_ps(r, m & _mm512_cmp_ps_mask(r, one, _CMP_GE_OQ), r, one);
-        const __mmask16 ok = _mm512_cmp_ps_mask(r, zero, _CMP_GE_OQ) &
-                             _mm512_cmp_ps_mask(r, one, _CMP_LT_OQ);
+        const __mmask16 ok =
+            _mm512_cmp_ps_mask(r, zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(r, one, _CMP_LT_OQ);
         r = _mm512_mask_mov_ps(r, m & (__mmask16)~ok, zero); /* rounding or NaN: 0 */
         dst[c] = r;
     }
@@ -141,7 +105,7 @@ typedef struct {
     int32_t ix[16], row[16], vrow[16];
 } lerp_lanes_t;
 
-L16 static void lanes_spill(const lerp16_t *l, lerp_lanes_t *s)
+HBK_L16 static void lanes_spill(const lerp16_t *l, lerp_lanes_t *s)
 {
     for (int a = 0; a < 3; ++a) _mm512_storeu_ps(s->t[a], l->t[a]);
     _mm512_storeu_si512(s->ix, l->ix);
@@ -167,7 +131,7 @@ typedef struct {
 } pass_t;
 
 /* Appends the passes of group g's lanes M at l to ps; returns the new count. */
-L16 static inline int split_passes(const lerp16_t *l, __mmask16 M, int g, pass_t *ps, int n)
+HBK_L16 static inline int split_passes(const lerp16_t *l, __mmask16 M, int g, pass_t *ps, int n)
 {
     for (__mmask16 rem = M; rem; ++n) {
         const __m512i q = _mm512_set1_epi32(__builtin_ctz(rem));
@@ -185,20 +149,22 @@ L16 static inline int split_passes(const lerp16_t *l, __mmask16 M, int g, pass_t
 }
 
 /* Lanes P of v from the plain samplers' values (sixteen floats a channel). */
-L16 static inline void merge_lanes(__m512 *v, int C, const float (*tmp)[16], __mmask16 P)
+HBK_L16 static inline void merge_lanes(__m512 *v, int C, const float (*tmp)[16], __mmask16 P)
 {
     for (int c = 0; c < C; ++c) v[c] = _mm512_mask_loadu_ps(v[c], P, tmp[c]);
 }
 
 /* V_m at the midpoints of a pass's lanes, into vm. */
-L16 static inline __attribute__((always_inline)) void motion_pass(const hbk_fluid_t *h, const size_t off[8], const lerp16_t *l,
-                            const pass_t *p, __m512 vm[3])
+HBK_L16 static inline __attribute__((always_inline)) void motion_pass(const hbk_fluid_t *h,
+                                                                      const size_t off[8],
+                                                                      const lerp16_t *l,
+                                                                      const pass_t *p, __m512 vm[3])
 {
     const size_t nx = (size_t)h->nv[0], sy = nx, sz = nx * (size_t)h->nv[1];
-    if (3 * (p->span + 2) <= TAB) {
+    if (3 * (p->span + 2) <= HBK_WIN) {
         const __m512i idx = _mm512_sub_epi32(l->ix, _mm512_set1_epi32(p->x0));
-        field16(h->motion, h->motion + 3 * h->n_vert + 4, 3, (size_t)p->x0 + nx * (size_t)p->row, sy, sz, p->span, idx, NULL,
-                l->t, p->P, vm);
+        field16(h->motion, h->motion + 3 * h->n_vert + 4, 3, (size_t)p->x0 + nx * (size_t)p->row,
+                sy, sz, p->span, idx, NULL, l->t, p->P, vm);
         return;
     }
     lerp_lanes_t s;
@@ -219,8 +185,9 @@ L16 static inline __attribute__((always_inline)) void motion_pass(const hbk_flui
 enum { F_UVW_A, F_UVW_B, F_BASE, F_PAINT, F_LIFE };
 
 /* Field f at the sources of a pass's lanes, into v (C channel vectors, lanes P set). */
-L16 static inline __attribute__((always_inline)) void field_pass(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, const size_t off[8],
-                           const lerp16_t *l, const pass_t *p, int f, int C, __m512 *v)
+HBK_L16 static inline __attribute__((always_inline)) void
+field_pass(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, const size_t off[8], const lerp16_t *l,
+           const pass_t *p, int f, int C, __m512 *v)
 {
     const size_t nx = (size_t)h->nv[0], sy = nx, sz = nx * (size_t)h->nv[1];
     const int K = h->K, wide = K > 3 ? K : 3, span = p->span;
@@ -230,11 +197,12 @@ L16 static inline __attribute__((always_inline)) void field_pass(const hbk_fluid
                        : f == F_BASE  ? in->base
                        : f == F_PAINT ? in->paint
                                       : in->life;
-    if (wide * (span + 2) <= TAB) {
+    if (wide * (span + 2) <= HBK_WIN) {
         const __m512i idx = _mm512_sub_epi32(l->ix, _mm512_set1_epi32(p->x0));
         const size_t v0 = (size_t)p->x0 + nx * (size_t)p->row;
         if (f > F_UVW_B) {
-            field16(src, src + (size_t)C * h->n_vert + 4, C, v0, sy, sz, span, idx, NULL, l->t, P, v);
+            field16(src, src + (size_t)C * h->n_vert + 4, C, v0, sy, sz, span, idx, NULL, l->t, P,
+                    v);
             return;
         }
         /* the lanes' wrap flags: their voxels lie in one voxel row (span < 20) */
@@ -244,9 +212,9 @@ L16 static inline __attribute__((always_inline)) void field_pass(const hbk_fluid
                 ? _mm256_loadu_si256((const __m256i *)(in->wrap[f] + w0))
                 : _mm256_maskz_loadu_epi8((__mmask32)_bzhi_u32(~0u, (unsigned)span + 1u),
                                           in->wrap[f] + w0);
-        const __m512i fl = _mm512_permutex2var_epi32(
-            _mm512_cvtepu8_epi32(_mm256_castsi256_si128(b)), idx,
-            _mm512_cvtepu8_epi32(_mm256_extracti128_si256(b, 1)));
+        const __m512i fl =
+            _mm512_permutex2var_epi32(_mm512_cvtepu8_epi32(_mm256_castsi256_si128(b)), idx,
+                                      _mm512_cvtepu8_epi32(_mm256_extracti128_si256(b, 1)));
         field16(src, src + 3 * h->n_vert + 4, 3, v0, sy, sz, span, idx, &fl, l->t, P, v);
         return;
     }
@@ -257,8 +225,10 @@ L16 static inline __attribute__((always_inline)) void field_pass(const hbk_fluid
         const int q = __builtin_ctz(b);
         const hbk_fluid_lerp_t lq = lane_lerp(h, &s, q);
         float r[HBK_FLUID_MAX_TEXTURES];
-        if (f <= F_UVW_B) hbk_fluid_sample_wrapped3_o(src, in->wrap[f], off, &lq, r);
-        else hbk_fluid_sample_n_o(src, C, off, &lq, r);
+        if (f <= F_UVW_B)
+            hbk_fluid_sample_wrapped3_o(src, in->wrap[f], off, &lq, r);
+        else
+            hbk_fluid_sample_n_o(src, C, off, &lq, r);
         for (int c = 0; c < C; ++c) tmp[c][q] = r[c];
     }
     merge_lanes(v, C, tmp, P);
@@ -267,10 +237,9 @@ L16 static inline __attribute__((always_inline)) void field_pass(const hbk_fluid
 /* Record float q of sixteen 3-float records is channel q % 3 of lane q / 3: per vector of
  * records, the lane from channels 0 and 1 (index + 16 for channel 1), and which floats come
  * from channel 2. */
-static const int32_t rec3_ab[3][16] = {
-    {0, 16, 0, 1, 17, 0, 2, 18, 0, 3, 19, 0, 4, 20, 0, 5},
-    {21, 0, 6, 22, 0, 7, 23, 0, 8, 24, 0, 9, 25, 0, 10, 26},
-    {0, 11, 27, 0, 12, 28, 0, 13, 29, 0, 14, 30, 0, 15, 31, 0}};
+static const int32_t rec3_ab[3][16] = {{0, 16, 0, 1, 17, 0, 2, 18, 0, 3, 19, 0, 4, 20, 0, 5},
+                                       {21, 0, 6, 22, 0, 7, 23, 0, 8, 24, 0, 9, 25, 0, 10, 26},
+                                       {0, 11, 27, 0, 12, 28, 0, 13, 29, 0, 14, 30, 0, 15, 31, 0}};
 static const int32_t rec3_c[3][16] = {
     {0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5},
     {5, 5, 6, 6, 6, 7, 7, 7, 8, 8, 8, 9, 9, 9, 10, 10},
@@ -278,7 +247,7 @@ static const int32_t rec3_c[3][16] = {
 static const uint16_t rec3_from_c[3] = {0x4924, 0x2492, 0x9249};
 
 /* Lanes M of C channel vectors into the C-float records at dst (lane 0's). */
-L16 static inline void store_records(float *dst, int C, const __m512 *ch, __mmask16 M)
+HBK_L16 static inline void store_records(float *dst, int C, const __m512 *ch, __mmask16 M)
 {
     if (C == 1) {
         _mm512_mask_storeu_ps(dst, M, ch[0]);
@@ -302,7 +271,7 @@ L16 static inline void store_records(float *dst, int C, const __m512 *ch, __mmas
 }
 
 /* The lines of n floats from f. */
-L16 static inline void prefetch_span(const float *f, size_t n)
+HBK_L16 static inline void prefetch_span(const float *f, size_t n)
 {
     const char *a = (const char *)f, *e = (const char *)(f + n);
     for (; a < e; a += 64) __builtin_prefetch(a);
@@ -311,9 +280,9 @@ L16 static inline void prefetch_span(const float *f, size_t n)
 
 /* As advect.c's rows: the vertex rows one up and one layer up, a group ahead, of every field
  * the samples read, and the voxel rows of their flags. */
-L16 static inline __attribute__((always_inline)) void
-prefetch_ahead(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, int32_t i0,
-                           int32_t j, int32_t k, size_t v, int paint)
+HBK_L16 static inline __attribute__((always_inline)) void
+prefetch_ahead(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, int32_t i0, int32_t j, int32_t k,
+               size_t v, int paint)
 {
     const size_t sy = (size_t)h->nv[0], sz = sy * (size_t)h->nv[1], K = (size_t)h->K;
     const size_t rx = (size_t)h->p.resolution[0], ry = (size_t)h->p.resolution[1];
@@ -339,7 +308,7 @@ prefetch_ahead(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, int32_t i0,
 
 /* Field f (C channels) over all the passes ps of a row, into out: each an instance of its own,
  * with C known, so the windows stay in registers. */
-L16 static inline __attribute__((always_inline)) void
+HBK_L16 static inline __attribute__((always_inline)) void
 field_all(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out,
           const size_t off[8], const lerp16_t *ls, const pass_t *ps, int np, size_t row, int f,
           int C)
@@ -367,18 +336,18 @@ field_all(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *ou
     }
 }
 
-#define FIELD_ALL_ARGS                                                                       \
-    const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out,                 \
-        const size_t off[8], const lerp16_t *ls, const pass_t *ps, int np, size_t row, int f
-L16 static __attribute__((noinline)) void field_all3(FIELD_ALL_ARGS)
+#define FIELD_ALL_ARGS                                                                             \
+    const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out, const size_t off[8],  \
+        const lerp16_t *ls, const pass_t *ps, int np, size_t row, int f
+HBK_L16 static __attribute__((noinline)) void field_all3(FIELD_ALL_ARGS)
 {
     field_all(h, in, out, off, ls, ps, np, row, f, 3);
 }
-L16 static __attribute__((noinline)) void field_all1(FIELD_ALL_ARGS)
+HBK_L16 static __attribute__((noinline)) void field_all1(FIELD_ALL_ARGS)
 {
     field_all(h, in, out, off, ls, ps, np, row, f, 1);
 }
-L16 static __attribute__((noinline)) void field_allk(FIELD_ALL_ARGS)
+HBK_L16 static __attribute__((noinline)) void field_allk(FIELD_ALL_ARGS)
 {
     field_all(h, in, out, off, ls, ps, np, row, f, h->K);
 }
@@ -395,9 +364,9 @@ typedef struct {
     pass_t ps[GROUPS * 16];
 } row16_t;
 
-L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
-                                hbk_fluid_vols_t *out, const size_t off[8], float dt, int32_t j,
-                                int32_t k)
+HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
+                                    hbk_fluid_vols_t *out, const size_t off[8], float dt, int32_t j,
+                                    int32_t k)
 {
     const int32_t nx = h->nv[0], ng = (nx + 15) / 16;
     const size_t row = (size_t)nx * ((size_t)j + (size_t)h->nv[1] * (size_t)k);
@@ -411,22 +380,24 @@ L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in
         const int32_t i0 = 16 * g, n = nx - i0 < 16 ? nx - i0 : 16;
         const __mmask16 valid = (__mmask16)((1u << n) - 1);
         const size_t v = row + (size_t)i0;
-        tab_t mt;
-        tab_load(&mt, h->motion + 3 * v, 3 * n, h->motion + 3 * h->n_vert + 4);
+        hbk_win_t mt;
+        hbk_win_load(&mt, h->motion + 3 * v, 3 * n, h->motion + 3 * h->n_vert + 4);
         __mmask16 still = valid;
         __m512 v0[3];
         for (int a = 0; a < 3; ++a) {
             const __m512i id = _mm512_add_epi32(_mm512_mullo_epi32(lane, _mm512_set1_epi32(3)),
                                                 _mm512_set1_epi32(a));
-            v0[a] = tab_get(&mt, id, _mm512_test_epi32_mask(id, _mm512_set1_epi32(32)));
+            v0[a] = hbk_win_get(&mt, id, _mm512_test_epi32_mask(id, _mm512_set1_epi32(32)));
             still &= _mm512_cmp_ps_mask(v0[a], _mm512_setzero_ps(), _CMP_EQ_OQ);
         }
         const __mmask16 M = r.M[g] = valid & (__mmask16)~still;
         prefetch_ahead(h, in, i0, j, k, v, paint);
-        _mm_mask_storeu_epi8(h->moving + v, valid, _mm_and_si128(_mm_movm_epi8(M), _mm_set1_epi8(1)));
+        _mm_mask_storeu_epi8(h->moving + v, valid,
+                             _mm_and_si128(_mm_movm_epi8(M), _mm_set1_epi8(1)));
         if (!M) continue;
         const float hd = 0.5f * dt;
-        const __m512 x[3] = {_mm512_cvtepi32_ps(_mm512_add_epi32(lane, _mm512_set1_epi32(i0))), y, z};
+        const __m512 x[3] = {_mm512_cvtepi32_ps(_mm512_add_epi32(lane, _mm512_set1_epi32(i0))), y,
+                             z};
         __m512 p[3];
         for (int a = 0; a < 3; ++a) {
             p[a] = _mm512_sub_ps(x[a], _mm512_mul_ps(_mm512_mul_ps(_mm512_set1_ps(hd), v0[a]),
@@ -458,8 +429,9 @@ L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in
                                  y, z};
             __m512 p[3], d[3];
             for (int a = 0; a < 3; ++a) {
-                p[a] = _mm512_sub_ps(x[a], _mm512_mul_ps(_mm512_mul_ps(_mm512_set1_ps(dt), r.vm[g][a]),
-                                                         _mm512_set1_ps(h->inv_cell[a])));
+                p[a] =
+                    _mm512_sub_ps(x[a], _mm512_mul_ps(_mm512_mul_ps(_mm512_set1_ps(dt), r.vm[g][a]),
+                                                      _mm512_set1_ps(h->inv_cell[a])));
                 d[a] = _mm512_sub_ps(p[a], x[a]);
             }
             store_records(h->disp + 3 * (row + (size_t)i0), 3, d, M);
@@ -469,7 +441,7 @@ L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in
     }
     for (int f = F_UVW_A; np && f <= (paint ? F_LIFE : F_BASE); ++f)
         (f <= F_UVW_B || (f != F_LIFE && K == 3) ? field_all3
-         : f == F_LIFE                            ? field_all1
-                                                  : field_allk)(h, in, out, off, r.l, r.ps, np, row, f);
+         : f == F_LIFE                           ? field_all1
+                       : field_allk)(h, in, out, off, r.l, r.ps, np, row, f);
     _mm256_zeroupper(); /* the caller is SSE code */
 }

@@ -478,9 +478,9 @@ static inline void hbk_fluid_vols_differ(hbk_fluid_t *h)
 /* weight.c: the cross-fade weight of field A per vertex (nv floats), adapted to stretch. */
 void hbk_fluid_weights(const hbk_fluid_t *h, float *out, int threads);
 
-/* advect_lanes.c: the moving vertices of row (j, k) sixteen at a time (AVX-512;
- * hbk_fluid_advect_lanes_ok: whether this CPU and HBK_PATHS allow it). */
-int hbk_fluid_advect_lanes_ok(void);
+/* advect_lanes.c: whether this CPU and HBK_PATHS allow the sixteen-lane (AVX-512) kernels,
+ * and the moving vertices of row (j, k) sixteen at a time. */
+int hbk_fluid_lanes16_ok(void);
 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
                             hbk_fluid_vols_t *out, const size_t off[8], float dt, int32_t j,
                             int32_t k);
@@ -489,9 +489,7 @@ void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
 size_t hbk_fluid_traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, int32_t i,
                              int32_t j, int32_t k);
 /* advect_flags16.c: V_r of voxel row (j, k) sixteen voxels at a time (AVX-512), given col[i]:
- * whether vertex column i of the row's four vertex rows moves. hbk_fluid_flags16_ok: whether
- * this CPU and HBK_PATHS allow it. */
-int hbk_fluid_flags16_ok(void);
+ * whether vertex column i of the row's four vertex rows moves. */
 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
                            hbk_fluid_vols_t *out, const size_t off[8], int32_t j, int32_t k,
                            const uint8_t *col, int checked);
