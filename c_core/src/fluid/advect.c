@@ -325,7 +325,8 @@ size_t hbk_fluid_traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b
         unsigned d0, x0, d1, x1;                                                             \
         MASKS;                                                                               \
         size_t from = vox;                                                                   \
-        if (mv && ((d0 | x0) & (d1 | x1) & 7u) != 7u) from = hbk_fluid_traced_from(h, off, b, i, j, k); \
+        if (mv && ((d0 | x0) & (d1 | x1) & 7u) != 7u)                                        \
+            from = hbk_fluid_traced_from(h, off, b, i, j, k);                                \
         out->wrap[0][vox] = hbk_fluid_repair_apply(in->wrap[0][from], d0, x0);               \
         out->wrap[1][vox] = hbk_fluid_repair_apply(in->wrap[1][from], d1, x1);               \
     }
@@ -365,10 +366,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     hbk_fluid_vols_t *out = &h->scratch;
     size_t off[8]; /* a voxel's corners from its vertex (i, j, k) */
     hbk_fluid_corners(h, off);
-    const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
-    void (*row_fn)(ROW_ARGS) = hbk_fluid_lanes16_ok() ? advect_row_lanes
-                               : avx2                      ? advect_row_avx2
-                                                           : advect_row;
+    const int avx2 = hbk_paths() >= HBK_PATHS_AVX2, lanes16 = hbk_fluid_lanes16_ok();
+    void (*row_fn)(ROW_ARGS) = lanes16 ? advect_row_lanes : avx2 ? advect_row_avx2 : advect_row;
     const int32_t ny = h->nv[1], nz = h->nv[2];
 /* Slabs to whichever thread is free: the work is where the fluid is (each row writes only
  * its own outputs, so the bytes do not depend on who runs it). */
@@ -382,9 +381,7 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
      * load_state repairs every voxel). */
     const int32_t ry = h->p.resolution[1], rz = h->p.resolution[2];
     const int checked = h->wrap_checked;
-    void (*flags_fn)(FLAGS_ARGS) = hbk_fluid_lanes16_ok() ? flags_row_lanes
-                                   : avx2                 ? flags_row_avx2
-                                                          : flags_row;
+    void (*flags_fn)(FLAGS_ARGS) = lanes16 ? flags_row_lanes : avx2 ? flags_row_avx2 : flags_row;
 /* Slabs to whichever thread is free: the work is where the fluid is (each row writes only
  * its own outputs, so the bytes do not depend on who runs it). */
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
