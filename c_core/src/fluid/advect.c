@@ -337,9 +337,7 @@ size_t hbk_fluid_traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b
 static void flags_row_lanes(FLAGS_ARGS)
 {
     FLAGS_PROLOGUE
-    (void)b0;
-    (void)v0i;
-    hbk_fluid_flags_row16(h, in, out, off, j, k, col, checked);
+    hbk_fluid_flags_row16(h, in, out, off, j, k, b0, v0i, col, checked);
 }
 
 static void flags_row(FLAGS_ARGS)

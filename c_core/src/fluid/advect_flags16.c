@@ -47,11 +47,9 @@ HBK_L16 static inline __attribute__((always_inline)) void masks16(const float *u
 
 HBK_L16 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
                                    hbk_fluid_vols_t *out, const size_t off[8], int32_t j, int32_t k,
-                                   const uint8_t *col, int checked)
+                                   size_t b0, size_t v0i, const uint8_t *col, int checked)
 {
-    const int32_t nx = h->nv[0], rx = h->p.resolution[0];
-    const size_t b0 = (size_t)nx * ((size_t)j + (size_t)h->nv[1] * (size_t)k);
-    const size_t v0i = (size_t)rx * ((size_t)j + (size_t)h->p.resolution[1] * (size_t)k);
+    const int32_t rx = h->p.resolution[0];
     for (int32_t i0 = 0; i0 < rx; i0 += 16) {
         const int n = rx - i0 < 16 ? rx - i0 : 16;
         const __mmask16 valid = (__mmask16)_bzhi_u32(0xffffu, (unsigned)n);

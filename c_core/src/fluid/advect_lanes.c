@@ -402,7 +402,6 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
         for (int a = 0; a < 3; ++a) {
             p[a] = _mm512_sub_ps(x[a], _mm512_mul_ps(_mm512_mul_ps(_mm512_set1_ps(hd), v0[a]),
                                                      _mm512_set1_ps(h->inv_cell[a])));
-            r.vm[g][a] = _mm512_setzero_ps();
         }
         lerp16(h, p, &r.l[g]);
         np = split_passes(&r.l[g], M, g, r.ps, np);

@@ -488,11 +488,12 @@ void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
  * where its corners leave a component undecided. */
 size_t hbk_fluid_traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b, int32_t i,
                              int32_t j, int32_t k);
-/* advect_flags16.c: V_r of voxel row (j, k) sixteen voxels at a time (AVX-512), given col[i]:
- * whether vertex column i of the row's four vertex rows moves. */
+/* advect_flags16.c: V_r of voxel row (j, k) sixteen voxels at a time (AVX-512), given its
+ * first vertex b0 and voxel v0i, and col[i]: whether vertex column i of the row's four vertex
+ * rows moves. */
 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
                            hbk_fluid_vols_t *out, const size_t off[8], int32_t j, int32_t k,
-                           const uint8_t *col, int checked);
+                           size_t b0, size_t v0i, const uint8_t *col, int checked);
 /* advect.c: advects h->v into h->scratch by h->motion over dt (does not swap). */
 void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads);
 
