@@ -60,17 +60,26 @@ static inline void grad_in(const mc_t *m, const float *f, const size_t s[3], flo
 }
 
 /* Crossing point of edge (p, p + d), field values f0 and f1, in world units, unclamped. */
-static void crossing_f(const mc_t *m, int32_t i, int32_t j, int32_t k, int d, float f0, float f1,
-                       float out[3], float *t_out)
+static inline void crossing_f(const mc_t *m, int32_t i, int32_t j, int32_t k, int d, float f0,
+                              float f1, float out[3], float *t_out)
 {
-    const int32_t i1 = i + (d & 1), j1 = j + (d >> 1 & 1), k1 = k + (d >> 2 & 1);
     float t = (m->iso - f0) / (f1 - f0);
     t = t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t;
-    const int32_t a[3] = {i, j, k}, b[3] = {i1, j1, k1};
-    for (int c = 0; c < 3; ++c)
-        out[c] = m->h->p.box_min[c] +
-                 ((float)(a[c] - 1) + t * (float)(b[c] - a[c])) * m->h->cell[c];
+    /* scalars, not arrays of the corners: the compiler stored those as two ints and read them
+     * back as one 8-byte load, a failed store forward every call */
+    const float *lo = m->h->p.box_min, *cell = m->h->cell;
+    out[0] = lo[0] + ((float)(i - 1) + t * (float)(d & 1)) * cell[0];
+    out[1] = lo[1] + ((float)(j - 1) + t * (float)(d >> 1 & 1)) * cell[1];
+    out[2] = lo[2] + ((float)(k - 1) + t * (float)(d >> 2 & 1)) * cell[2];
     *t_out = t;
+}
+
+/* The cache lines of the n bytes at p. */
+static inline void prefetch_bytes(const void *p, size_t n)
+{
+    const char *a = p;
+    for (size_t q = 0; q < n; q += 64) __builtin_prefetch(a + q);
+    __builtin_prefetch(a + n - 1);
 }
 
 /* Every cube's triangles by its corners' inside bits: each vertex is the axis edge from corner
@@ -81,6 +90,7 @@ typedef struct mc_tri {
 typedef struct mc_table {
     int16_t first[257];     /* triangles of cube config b: tri[first[b] .. first[b + 1]) */
     uint8_t rank[256][8];   /* edges of mask m before direction d: pop8(m & (bit d-1 - 1)) */
+    uint32_t count[256];    /* a whole cube of config b: its crossing axis edges + triangles << 16 */
     mc_tri_t tri[256 * 10]; /* at most 12 crossings: 10 triangles a cube */
 } mc_table_t;
 
@@ -153,6 +163,11 @@ static void build_table(mc_table_t *tb)
         }
     }
     tb->first[256] = (int16_t)n;
+    for (int b = 0; b < 256; ++b) { /* the axis edges from corner 0 that cross */
+        const unsigned e = (unsigned)((b ^ b >> 1) & 1) | (unsigned)((b ^ b >> 2) & 1) << 1 |
+                           (unsigned)((b ^ b >> 4) & 1) << 2;
+        tb->count[b] = (uint32_t)pop8(e) | (uint32_t)(tb->first[b + 1] - tb->first[b]) << 16;
+    }
     for (int m = 0; m < 256; ++m)
         for (int d = 1; d < 8; ++d) tb->rank[m][d] = (uint8_t)pop8((unsigned)m & ((1u << (d - 1)) - 1u));
 }
@@ -253,10 +268,12 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
                     memcpy(mask + p, &b, sizeof b);
                     const v16u cf = bits & ~(v16u)(bits == 255); /* all inside: none */
                     memcpy(cfg + p, &cf, sizeof cf);
-                    for (int l = 0; l < 16; ++l) {
-                        nvr += pop8(b[l]);
-                        ntr += tb->first[bits[l] + 1] - tb->first[bits[l]];
-                    }
+                    /* both counts from one entry (config 0 stands for 255: neither has any);
+                     * a row's sums fit the entry's halves */
+                    uint32_t both = 0;
+                    for (int l = 0; l < 16; ++l) both += tb->count[cfg[p + (size_t)l]];
+                    nvr += both & 0xffffu;
+                    ntr += both >> 16;
                 }
             for (; i < ex; ++i) {
                 const size_t p = pidx(&m, i, j, k);
@@ -326,6 +343,18 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
             const size_t q = (size_t)j + (size_t)ey * (size_t)k;
             if (row_v[q + 1] == row_v[q]) continue; /* no vertex */
             int32_t id = (int32_t)row_v[q];
+            /* The field rows the next row's gradients read first (a row's vertices are too few
+             * and far apart for the hardware to fetch them ahead): rows j + 3 of this layer,
+             * j + 2 of the layers either side, j + 1 two layers up (field rows are one less). */
+            const int32_t fj = j - 1, fk = k - 1;
+            const int32_t ahead[4][2] = {{fj + 3, fk}, {fj + 2, fk - 1}, {fj + 2, fk + 1},
+                                         {fj + 1, fk + 2}};
+            for (int a = 0; a < 4; ++a)
+                if (ahead[a][0] >= 0 && ahead[a][0] < h->nv[1] && ahead[a][1] >= 0 &&
+                    ahead[a][1] < h->nv[2])
+                    prefetch_bytes(h->surface + fs[1] * (size_t)ahead[a][0] +
+                                       fs[2] * (size_t)ahead[a][1],
+                                   (size_t)h->nv[0] * sizeof(float));
             /* Edges whose ends and their neighbours lie in the grid (padded 2 .. e - 4) read
              * the field directly. */
             const int yz_in = j >= 2 && j <= ey - 4 && k >= 2 && k <= ez - 4;
@@ -385,6 +414,13 @@ hbk_result_t hbk_fluid_update_surface(hbk_fluid_t *h, hbk_progress_t *progress)
             if (row_t[q + 1] == row_t[q]) continue; /* no triangle in this row */
             size_t out = (size_t)row_t[q];
             const size_t p0 = pidx(&m, 0, j, k);
+            /* The vertex numbers and edge masks the next row reads first: rows j + 2 of layers
+             * k and k + 1 (pass 2 wrote them a whole grid ago). */
+            for (int a = 0; a < 2 && j + 2 < ey && k + a < ez; ++a) {
+                const size_t pa = pidx(&m, 0, j + 2, k + a);
+                prefetch_bytes(first + pa, (size_t)ex * sizeof *first);
+                prefetch_bytes(mask + pa, (size_t)ex);
+            }
             for (int32_t i = 0; i < ex - 1; ++i) {
                 const size_t p = p0 + (size_t)i;
                 if (i + 8 <= ex - 1) { /* eight empty cubes at once */
