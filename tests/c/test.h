@@ -137,6 +137,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, wrap_flags_advect)          \
     X(fluid, blend_normalised)           \
     X(fluid, rules_exact)                \
+    X(fluid, rules_after_flow)           \
     X(fluid, density_lattice)            \
     X(fluid, sph_rest)                   \
     X(fluid, sph_stable_steps)           \

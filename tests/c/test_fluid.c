@@ -437,6 +437,54 @@ void test_fluid_rules_exact(void)
     rules_exact();
 }
 
+/* A rule is left unapplied to a row only while the row's base is known one-hot at its texture
+ * in both buffers (rows_hot): a row that moved in between is matched again. Rows far above a
+ * ball are made one-hot by a rule of no density, rate or acceleration; one frame of upward flow
+ * carries the ball's texture 0 into them (the rule fails on moving rows), the next stops
+ * everything (it fails on the acceleration), and once all is quiet the rule must hold again
+ * everywhere. */
+void test_fluid_rules_after_flow(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
+    p.textures = 2;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    if (!h) return;
+    const size_t nv = hbk_fluid_grid_vertices(h, NULL);
+    float *zero = calloc(3 * nv, sizeof(float)), *up = calloc(3 * nv, sizeof(float)),
+          *ball = calloc(nv, sizeof(float));
+    for (size_t i = 0; i < nv; ++i) {
+        const float x = (float)(i % 17) / 16.0f - 0.5f, y = (float)(i / 17 % 17) / 16.0f - 0.3f,
+                    z = (float)(i / 289) / 16.0f - 0.5f, r = sqrtf(x * x + y * y + z * z);
+        ball[i] = r < 0.2f ? 1.0f - r / 0.2f : 0.0f;
+        up[3 * i + 1] = 4.0f / 16.0f * 24.0f; /* four cells a frame */
+    }
+    float lo[HBK_FLUID_FEATURE_COUNT], hi[HBK_FLUID_FEATURE_COUNT];
+    for (int c = 0; c < HBK_FLUID_FEATURE_COUNT; ++c) lo[c] = -FLT_MAX, hi[c] = FLT_MAX;
+    lo[HBK_FLUID_FEATURE_DENSITY] = hi[HBK_FLUID_FEATURE_DENSITY] = 0.0f;
+    lo[HBK_FLUID_FEATURE_DENSITY_RATE] = hi[HBK_FLUID_FEATURE_DENSITY_RATE] = 0.0f;
+    lo[HBK_FLUID_FEATURE_ACCELERATION] = hi[HBK_FLUID_FEATURE_ACCELERATION] = 0.0f;
+    CHECK_OK(hbk_fluid_set_feature_rule(h, 1, lo, hi));
+    for (int f = 0; f < 8; ++f) {
+        CHECK_OK(hbk_fluid_set_velocity_grid(h, f < 3 ? zero : f == 3 ? up : zero,
+                                             f <= 3 ? ball : zero));
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        float *b = volume(h, HBK_FLUID_VOL_BLEND);
+        size_t off = 0; /* vertices not one-hot at texture 1 */
+        for (size_t i = 0; i < nv; ++i) off += b[2 * i] != 0.0f || b[2 * i + 1] != 1.0f;
+        if (f == 4) CHECK(off > 0); /* the flow brought texture 0 up, and the rule failed */
+        if (f == 7) {
+            if (off) fprintf(stderr, "rules after flow: %zu vertices not one-hot\n", off);
+            CHECK(off == 0);
+        }
+        free(b);
+    }
+    free(zero);
+    free(up);
+    free(ball);
+    hbk_fluid_destroy(h);
+}
+
 /* Poly6 kernel sum in double, the analytic reference. */
 static double lattice_kernel_sum(double s, double H, double ox, double oy, double oz)
 {

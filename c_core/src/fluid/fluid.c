@@ -53,6 +53,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->splat_ylo);
     free(h->splat_yhi);
     free(h->moving);
+    free(h->rule_tex);
     free(h->row_flags);
     free(h->same_vox);
     free(h->sorted);
@@ -109,8 +110,9 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->splat_ylo = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->splat_yhi = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->moving = malloc(nv);
+    h->rule_tex = malloc(nv);
     const size_t rows = h->n_rows = (size_t)h->nv[1] * (size_t)h->nv[2];
-    h->row_flags = calloc(8, rows);
+    h->row_flags = calloc(9, rows);
     if (h->row_flags) {
         h->blank = h->row_flags;
         h->g_blank = h->row_flags + rows;
@@ -120,6 +122,8 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
         h->g_fq = h->row_flags + 5 * rows;
         h->quiet = h->row_flags + 6 * rows;
         h->same_rows = h->row_flags + 7 * rows;
+        h->rows_hot = h->row_flags + 8 * rows;
+        memset(h->rows_hot, 0xff, rows);
         memset(h->blank, 1, rows); /* h->density, motion and surface start zeroed */
         memset(h->fz, 1, rows);
     }
@@ -129,7 +133,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
         !h->splat_ylo || !h->splat_yhi || !h->row_flags ||
-        !h->moving || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
+        !h->moving || !h->rule_tex || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",
@@ -463,7 +467,6 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
         }
         paint_active = any;
     }
-    hbk_fluid_apply_rules(h, n->base, h->g_features, threads);
     double t3 = omp_get_wtime();
     if (hbk_cancelled(progress)) {
         restore_particles(h, sim);

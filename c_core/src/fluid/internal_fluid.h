@@ -73,6 +73,8 @@ struct hbk_fluid {
     int32_t *splat_ylo, *splat_yhi; /* per vertex layer: the rows of g_wsum and g_mplanes that
                                  * may be non-zero (metaballs.c clears only those) */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
+    uint8_t *rule_tex;          /* nv: the texture this step's feature rules set (0xff: none),
+                                 * matched by the features pass outside quiet rows */
     /* Per vertex row, for the fields of the handle (h->density ...) and those under
      * construction (g_density ...), swapped with them: */
     uint8_t *blank, *g_blank;   /* density, V_m and surface all written +0 as a row no particle
@@ -86,6 +88,9 @@ struct hbk_fluid {
                                  * be copied again (advection) */
     uint8_t *row_flags;         /* the block the flags above live in, n_rows each */
     size_t n_rows;              /* vertex rows, ny x nz */
+    uint8_t *rows_hot;          /* the texture a rule made the row's whole base one-hot at
+                                 * in both buffers (0xff: none); forgotten when the row is
+                                 * copied, as it stops being the same (advect.c) */
     uint8_t *same_vox;          /* ry x rz: same_rows for a voxel row of the flags */
     float *disp;                /* nv x 3: a moving vertex's back-trace, source - vertex, in
                                  * voxels (advection, for V_r); g_normal's buffer */
@@ -494,13 +499,33 @@ size_t hbk_fluid_traced_from(const hbk_fluid_t *h, const size_t off[8], size_t b
 void hbk_fluid_flags_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
                            hbk_fluid_vols_t *out, const size_t off[8], int32_t j, int32_t k,
                            size_t b0, size_t v0i, const uint8_t *col, int checked);
-/* advect.c: advects h->v into h->scratch by h->motion over dt (does not swap). */
+/* advect.c: advects h->v into h->scratch by h->motion over dt (does not swap), and sets the
+ * feature rules on the advected base (by this step's features, h->g_features). */
 void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads);
 
 /* paint.c */
 void hbk_fluid_paint_off(hbk_fluid_t *h);
-/* features: what hbk_fluid_features wrote last (its h->quiet rows are read too). */
-void hbk_fluid_apply_rules(hbk_fluid_t *h, float *base, const float *features, int threads);
+/* The feature rules, compiled for matching: features 0-3, then 4-5 twice, four to a vector. */
+typedef struct {
+    int t;
+    hbk_v4f lo0, hi0, lo1, hi1;
+} hbk_fluid_rule4_t;
+_Static_assert(HBK_FLUID_FEATURE_COUNT == 6, "hbk_fluid_rule4_t holds six features");
+typedef struct {
+    int n, lanes;
+    hbk_fluid_rule4_t r[HBK_FLUID_MAX_TEXTURES];
+    /* eight vertices' records of each rule's bounds (AVX-512) */
+    float lo8[HBK_FLUID_MAX_TEXTURES][8 * HBK_FLUID_FEATURE_COUNT];
+    float hi8[HBK_FLUID_MAX_TEXTURES][8 * HBK_FLUID_FEATURE_COUNT];
+} hbk_fluid_rules_t;
+void hbk_fluid_rules_compile(const hbk_fluid_t *h, hbk_fluid_rules_t *r);
+/* h->rule_tex of the nx vertices from v0, whose features are at features (that row's). */
+void hbk_fluid_rules_match_row(const hbk_fluid_t *h, const hbk_fluid_rules_t *rl,
+                               const float *features, size_t v0);
+/* Vertex row r of base becomes one-hot at the last matching rule's texture, per vertex: by
+ * h->rule_tex, or in a quiet row (h->quiet) by its one set of features. */
+void hbk_fluid_rules_row(hbk_fluid_t *h, const hbk_fluid_rules_t *rl, float *base,
+                         const float *features, size_t r);
 /* Final blend of vertex i (K floats). */
 void hbk_fluid_blend_at(const hbk_fluid_t *h, const float *base, const float *paint,
                         const float *life, size_t i, float *out);

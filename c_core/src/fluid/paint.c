@@ -1,9 +1,8 @@
 /* Blend weights: the base blend (advected, rewritten by the feature rules) under local paint
  * (advected, fading). The blend a vertex shows is base * (1 - a f) + paint * f, with a the
  * paint coverage (sum of its weights) and f its fade, so it sums to one whenever base does. */
-#include "internal_fluid.h"
+#include "internal_lanes16.h"
 #include <float.h>
-#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -32,42 +31,43 @@ void hbk_fluid_blend_at(const hbk_fluid_t *h, const float *base, const float *pa
     if (s > 0.0f) for (int t = 0; t < K; ++t) out[t] /= s;
 }
 
-/* The rules, four features to a vector: features 0-3, then 4-5 twice. */
-typedef struct {
-    int t;
-    hbk_v4f lo0, hi0, lo1, hi1;
-} rule4_t;
-_Static_assert(HBK_FLUID_FEATURE_COUNT == 6, "rule4_t holds six features");
-
-static int rules_compile(const hbk_fluid_t *h, rule4_t *r)
+void hbk_fluid_rules_compile(const hbk_fluid_t *h, hbk_fluid_rules_t *r)
 {
-    int n = 0;
+    r->n = 0;
+    r->lanes = hbk_fluid_lanes16_ok();
     for (int t = 0; t < h->K; ++t) {
         if (!h->rule_on[t]) continue;
         const float *lo = h->rule_lo[t], *hi = h->rule_hi[t];
-        r[n++] = (rule4_t){t, {lo[0], lo[1], lo[2], lo[3]}, {hi[0], hi[1], hi[2], hi[3]},
-                           {lo[4], lo[5], lo[4], lo[5]}, {hi[4], hi[5], hi[4], hi[5]}};
+        for (int q = 0; q < 8 * HBK_FLUID_FEATURE_COUNT; ++q) {
+            r->lo8[r->n][q] = lo[q % HBK_FLUID_FEATURE_COUNT];
+            r->hi8[r->n][q] = hi[q % HBK_FLUID_FEATURE_COUNT];
+        }
+        r->r[r->n++] = (hbk_fluid_rule4_t){t,
+                                           {lo[0], lo[1], lo[2], lo[3]},
+                                           {hi[0], hi[1], hi[2], hi[3]},
+                                           {lo[4], lo[5], lo[4], lo[5]},
+                                           {hi[4], hi[5], hi[4], hi[5]}};
     }
-    return n;
 }
 
 /* The texture of the last rule (in texture order) whose every range holds features f, or -1.
  * Without branches per feature: which one fails is unpredictable. */
-static inline int rule_match(const rule4_t *r, int n, const float *f)
+static inline int rule_match(const hbk_fluid_rules_t *r, const float *f)
 {
     hbk_v4f a;
     memcpy(&a, f, sizeof a);
     const hbk_v4f b = {f[4], f[5], f[4], f[5]};
     int match = -1;
-    for (int q = 0; q < n; ++q) {
-        const hbk_v4i in = (a >= r[q].lo0) & (a <= r[q].hi0) & (b >= r[q].lo1) & (b <= r[q].hi1);
-        match = __builtin_ia32_movmskps((hbk_v4f)in) == 15 ? r[q].t : match;
+    for (int q = 0; q < r->n; ++q) {
+        const hbk_fluid_rule4_t *p = &r->r[q];
+        const hbk_v4i in = (a >= p->lo0) & (a <= p->hi0) & (b >= p->lo1) & (b <= p->hi1);
+        match = __builtin_ia32_movmskps((hbk_v4f)in) == 15 ? p->t : match;
     }
     return match;
 }
 
 /* Makes b (K weights) one-hot at t; 1 if a bit changed (-0 is not +0). */
-static int set_one_hot(float *b, int K, int t)
+static inline int set_one_hot(float *b, int K, int t)
 {
     uint32_t diff = 0; /* inline: memcmp is a call per vertex */
     for (int q = 0; q < K; ++q) {
@@ -80,28 +80,125 @@ static int set_one_hot(float *b, int K, int t)
     return 1;
 }
 
-void hbk_fluid_apply_rules(hbk_fluid_t *h, float *base, const float *features, int threads)
+/* rule_match of the eight vertices whose features are at f (AVX-512), into tex[0 .. 8): their
+ * 48 features are three vectors, each compared with the rule's bounds repeated, and a vertex
+ * matches where its six bits are set. */
+HBK_L16 static inline void match8(const hbk_fluid_rules_t *rl, const float *f, uint8_t *tex)
 {
-    rule4_t rl[HBK_FLUID_MAX_TEXTURES];
-    const int nr = rules_compile(h, rl);
-    if (!nr) return;
-    const int32_t nx = h->nv[0], rows = h->nv[1] * h->nv[2];
-    const int K = h->K, F = HBK_FLUID_FEATURE_COUNT;
-    /* By rows: a row whose base this changes no longer matches the other buffer's. A quiet row
-     * (features.c) holds one set of features at every vertex: matched once, and its
-     * features not read again. */
-#pragma omp parallel for num_threads(threads) schedule(static)
-    for (int32_t r = 0; r < rows; ++r) {
-        const size_t v0 = (size_t)r * (size_t)nx;
-        const int whole = h->quiet[r] ? rule_match(rl, nr, features + (size_t)F * v0) : -2;
-        if (whole == -1) continue;
-        int changed = 0;
-        for (size_t i = v0; i < v0 + (size_t)nx; ++i) {
-            const int match = whole >= 0 ? whole : rule_match(rl, nr, features + (size_t)F * i);
-            if (match >= 0) changed |= set_one_hot(base + (size_t)K * i, K, match);
-        }
-        if (changed) h->same_rows[r] = 0;
+    const __m512 f0 = _mm512_loadu_ps(f), f1 = _mm512_loadu_ps(f + 16),
+                 f2 = _mm512_loadu_ps(f + 32);
+    __m128i t = _mm_set1_epi8(-1);
+    for (int q = 0; q < rl->n; ++q) { /* the last rule wins */
+        const float *lo = rl->lo8[q], *hi = rl->hi8[q];
+        const __mmask16 m0 = _mm512_mask_cmp_ps_mask(
+            _mm512_cmp_ps_mask(f0, _mm512_loadu_ps(lo), _CMP_GE_OQ), f0, _mm512_loadu_ps(hi),
+            _CMP_LE_OQ);
+        const __mmask16 m1 = _mm512_mask_cmp_ps_mask(
+            _mm512_cmp_ps_mask(f1, _mm512_loadu_ps(lo + 16), _CMP_GE_OQ), f1,
+            _mm512_loadu_ps(hi + 16), _CMP_LE_OQ);
+        const __mmask16 m2 = _mm512_mask_cmp_ps_mask(
+            _mm512_cmp_ps_mask(f2, _mm512_loadu_ps(lo + 32), _CMP_GE_OQ), f2,
+            _mm512_loadu_ps(hi + 32), _CMP_LE_OQ);
+        const uint64_t m = (uint64_t)m0 | (uint64_t)m1 << 16 | (uint64_t)m2 << 32;
+        const uint64_t all = m & m >> 1 & m >> 2 & m >> 3 & m >> 4 & m >> 5;
+        const __mmask16 hit = (__mmask16)_pext_u64(all, 0x041041041041ull); /* bit 6 v */
+        t = _mm_mask_mov_epi8(t, hit, _mm_set1_epi8((char)rl->r[q].t));
     }
+    _mm_storel_epi64((__m128i *)tex, t);
+}
+
+HBK_L16 static void match_row8(const hbk_fluid_rules_t *rl, const float *features, uint8_t *tex,
+                               int32_t nx)
+{
+    int32_t i = 0;
+    for (; i + 8 <= nx; i += 8) match8(rl, features + HBK_FLUID_FEATURE_COUNT * (size_t)i, tex + i);
+    for (; i < nx; ++i)
+        tex[i] = (uint8_t)rule_match(rl, features + HBK_FLUID_FEATURE_COUNT * (size_t)i);
+}
+
+void hbk_fluid_rules_match_row(const hbk_fluid_t *h, const hbk_fluid_rules_t *rl,
+                               const float *features, size_t v0)
+{
+    const int32_t nx = h->nv[0];
+    uint8_t *tex = h->rule_tex + v0;
+    if (rl->lanes) {
+        match_row8(rl, features, tex, nx);
+        return;
+    }
+    for (int32_t i = 0; i < nx; ++i)
+        tex[i] = (uint8_t)rule_match(rl, features + HBK_FLUID_FEATURE_COUNT * (size_t)i);
+}
+
+/* set_one_hot at tex[i] for vertices [i0, i1) of a row whose bases are at b (0xff: none). */
+static int apply_span(float *b, int K, const uint8_t *tex, int32_t i0, int32_t i1)
+{
+    int changed = 0;
+    for (int32_t i = i0; i < i1; ++i)
+        if (tex[i] != 0xff) changed |= set_one_hot(b + (size_t)K * (size_t)i, K, tex[i]);
+    return changed;
+}
+
+/* apply_span sixteen vertices at a time (AVX-512): their K * 16 weights are K vectors, each
+ * float the vertex's texture test against its channel, without a branch per vertex (whether a
+ * vertex matches, and whether it was one-hot already, are unpredictable). The weights are
+ * written back whole: the same bits where nothing changes. */
+HBK_L16 static int apply_row16(float *b, int K, const uint8_t *tex, int32_t nx)
+{
+    __m512i vtx[HBK_FLUID_MAX_TEXTURES], chan[HBK_FLUID_MAX_TEXTURES];
+    for (int z = 0; z < K; ++z) { /* float q of the group: vertex q / K, channel q % K */
+        const __m512i q = _mm512_add_epi32(
+            _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
+            _mm512_set1_epi32(16 * z));
+        int32_t v[16], c[16];
+        _mm512_storeu_si512(v, q);
+        for (int l = 0; l < 16; ++l) c[l] = v[l] % K, v[l] /= K;
+        vtx[z] = _mm512_loadu_si512(v);
+        chan[z] = _mm512_loadu_si512(c);
+    }
+    const __m512 one = _mm512_set1_ps(1.0f);
+    __mmask16 changed = 0;
+    int32_t i = 0;
+    for (; i + 16 <= nx; i += 16) {
+        const __m512i t = _mm512_cvtepu8_epi32(_mm_loadu_si128((const __m128i *)(tex + i)));
+        if (_mm512_cmpneq_epi32_mask(t, _mm512_set1_epi32(0xff)) == 0) continue;
+        float *p = b + (size_t)K * (size_t)i;
+        for (int z = 0; z < K; ++z) {
+            const __m512i tz = _mm512_permutexvar_epi32(vtx[z], t);
+            const __mmask16 set = _mm512_cmpneq_epi32_mask(tz, _mm512_set1_epi32(0xff));
+            const __m512 old = _mm512_loadu_ps(p + 16 * z);
+            const __m512 w = _mm512_maskz_mov_ps(_mm512_cmpeq_epi32_mask(tz, chan[z]), one);
+            changed |= _mm512_mask_cmpneq_epi32_mask(set, _mm512_castps_si512(old),
+                                                     _mm512_castps_si512(w));
+            _mm512_storeu_ps(p + 16 * z, _mm512_mask_mov_ps(old, set, w));
+        }
+    }
+    return (changed != 0) | apply_span(b, K, tex, i, nx);
+}
+
+void hbk_fluid_rules_row(hbk_fluid_t *h, const hbk_fluid_rules_t *rl, float *base,
+                         const float *features, size_t r)
+{
+    const int32_t nx = h->nv[0];
+    const int K = h->K;
+    const size_t v0 = r * (size_t)nx;
+    int changed = 0;
+    if (h->quiet[r]) {
+        /* A quiet row (features.c) holds one set of features at every vertex: matched once. */
+        const int whole = rule_match(rl, features + (size_t)HBK_FLUID_FEATURE_COUNT * v0);
+        if (whole == -1) return;
+        /* Far from the fluid the rows stay the same from frame to frame: a row the rule made
+         * one-hot in both buffers is left alone (most of a box's rows, 129 compares each). A
+         * quiet row is still, so the advection has just made it the same in both buffers, and
+         * forgot rows_hot if it had to copy. */
+        if (h->rows_hot[r] == whole) return;
+        for (size_t i = v0; i < v0 + (size_t)nx; ++i)
+            changed |= set_one_hot(base + (size_t)K * i, K, whole);
+        if (!changed) h->rows_hot[r] = (uint8_t)whole;
+    } else if (rl->lanes)
+        changed = apply_row16(base + (size_t)K * v0, K, h->rule_tex + v0, nx);
+    else
+        changed = apply_span(base + (size_t)K * v0, K, h->rule_tex + v0, 0, nx);
+    if (changed) h->same_rows[r] = 0; /* no longer the other buffer's base */
 }
 
 #define ENTER(h)                                      \
