@@ -107,26 +107,30 @@ HBK_L16 static inline void match8(const hbk_fluid_rules_t *rl, const float *f, u
     _mm_storel_epi64((__m128i *)tex, t);
 }
 
+/* rule_match of vertices [i0, nx) of a row into tex (0xff: none). */
+static void match_span(const hbk_fluid_rules_t *rl, const float *features, uint8_t *tex,
+                       int32_t i0, int32_t nx)
+{
+    for (int32_t i = i0; i < nx; ++i)
+        tex[i] = (uint8_t)rule_match(rl, features + HBK_FLUID_FEATURE_COUNT * (size_t)i);
+}
+
 HBK_L16 static void match_row8(const hbk_fluid_rules_t *rl, const float *features, uint8_t *tex,
                                int32_t nx)
 {
     int32_t i = 0;
     for (; i + 8 <= nx; i += 8) match8(rl, features + HBK_FLUID_FEATURE_COUNT * (size_t)i, tex + i);
-    for (; i < nx; ++i)
-        tex[i] = (uint8_t)rule_match(rl, features + HBK_FLUID_FEATURE_COUNT * (size_t)i);
+    match_span(rl, features, tex, i, nx);
 }
 
 void hbk_fluid_rules_match_row(const hbk_fluid_t *h, const hbk_fluid_rules_t *rl,
                                const float *features, size_t v0)
 {
-    const int32_t nx = h->nv[0];
     uint8_t *tex = h->rule_tex + v0;
-    if (rl->lanes) {
-        match_row8(rl, features, tex, nx);
-        return;
-    }
-    for (int32_t i = 0; i < nx; ++i)
-        tex[i] = (uint8_t)rule_match(rl, features + HBK_FLUID_FEATURE_COUNT * (size_t)i);
+    if (rl->lanes)
+        match_row8(rl, features, tex, h->nv[0]);
+    else
+        match_span(rl, features, tex, 0, h->nv[0]);
 }
 
 /* set_one_hot at tex[i] for vertices [i0, i1) of a row whose bases are at b (0xff: none). */
