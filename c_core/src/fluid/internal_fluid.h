@@ -514,9 +514,11 @@ _Static_assert(HBK_FLUID_FEATURE_COUNT == 6, "hbk_fluid_rule4_t holds six featur
 typedef struct {
     int n, lanes;
     hbk_fluid_rule4_t r[HBK_FLUID_MAX_TEXTURES];
-    /* eight vertices' records of each rule's bounds (AVX-512) */
+    /* AVX-512: eight vertices' records of each rule's bounds; and for float q of sixteen
+     * vertices' K weights, its vertex q / K and channel q % K */
     float lo8[HBK_FLUID_MAX_TEXTURES][8 * HBK_FLUID_FEATURE_COUNT];
     float hi8[HBK_FLUID_MAX_TEXTURES][8 * HBK_FLUID_FEATURE_COUNT];
+    int32_t vtx16[16 * HBK_FLUID_MAX_TEXTURES], chan16[16 * HBK_FLUID_MAX_TEXTURES];
 } hbk_fluid_rules_t;
 void hbk_fluid_rules_compile(const hbk_fluid_t *h, hbk_fluid_rules_t *r);
 /* h->rule_tex of the nx vertices from v0, whose features are at features (that row's). */

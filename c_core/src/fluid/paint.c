@@ -35,6 +35,10 @@ void hbk_fluid_rules_compile(const hbk_fluid_t *h, hbk_fluid_rules_t *r)
 {
     r->n = 0;
     r->lanes = hbk_fluid_lanes16_ok();
+    for (int q = 0; q < 16 * h->K; ++q) {
+        r->vtx16[q] = q / h->K;
+        r->chan16[q] = q % h->K;
+    }
     for (int t = 0; t < h->K; ++t) {
         if (!h->rule_on[t]) continue;
         const float *lo = h->rule_lo[t], *hi = h->rule_hi[t];
@@ -83,23 +87,18 @@ static inline int set_one_hot(float *b, int K, int t)
 /* rule_match of the eight vertices whose features are at f (AVX-512), into tex[0 .. 8): their
  * 48 features are three vectors, each compared with the rule's bounds repeated, and a vertex
  * matches where its six bits are set. */
-HBK_L16 static inline void match8(const hbk_fluid_rules_t *rl, const float *f, uint8_t *tex)
+HBK_L16 static inline void match8(const hbk_fluid_rules_t *rl, const float *feat, uint8_t *tex)
 {
-    const __m512 f0 = _mm512_loadu_ps(f), f1 = _mm512_loadu_ps(f + 16),
-                 f2 = _mm512_loadu_ps(f + 32);
+    const __m512 f[3] = {_mm512_loadu_ps(feat), _mm512_loadu_ps(feat + 16),
+                         _mm512_loadu_ps(feat + 32)};
     __m128i t = _mm_set1_epi8(-1);
     for (int q = 0; q < rl->n; ++q) { /* the last rule wins */
-        const float *lo = rl->lo8[q], *hi = rl->hi8[q];
-        const __mmask16 m0 = _mm512_mask_cmp_ps_mask(
-            _mm512_cmp_ps_mask(f0, _mm512_loadu_ps(lo), _CMP_GE_OQ), f0, _mm512_loadu_ps(hi),
-            _CMP_LE_OQ);
-        const __mmask16 m1 = _mm512_mask_cmp_ps_mask(
-            _mm512_cmp_ps_mask(f1, _mm512_loadu_ps(lo + 16), _CMP_GE_OQ), f1,
-            _mm512_loadu_ps(hi + 16), _CMP_LE_OQ);
-        const __mmask16 m2 = _mm512_mask_cmp_ps_mask(
-            _mm512_cmp_ps_mask(f2, _mm512_loadu_ps(lo + 32), _CMP_GE_OQ), f2,
-            _mm512_loadu_ps(hi + 32), _CMP_LE_OQ);
-        const uint64_t m = (uint64_t)m0 | (uint64_t)m1 << 16 | (uint64_t)m2 << 32;
+        __mmask16 mz[3];
+        for (int z = 0; z < 3; ++z)
+            mz[z] = _mm512_mask_cmp_ps_mask(
+                _mm512_cmp_ps_mask(f[z], _mm512_loadu_ps(rl->lo8[q] + 16 * z), _CMP_GE_OQ), f[z],
+                _mm512_loadu_ps(rl->hi8[q] + 16 * z), _CMP_LE_OQ);
+        const uint64_t m = (uint64_t)mz[0] | (uint64_t)mz[1] << 16 | (uint64_t)mz[2] << 32;
         const uint64_t all = m & m >> 1 & m >> 2 & m >> 3 & m >> 4 & m >> 5;
         const __mmask16 hit = (__mmask16)_pext_u64(all, 0x041041041041ull); /* bit 6 v */
         t = _mm_mask_mov_epi8(t, hit, _mm_set1_epi8((char)rl->r[q].t));
@@ -146,19 +145,9 @@ static int apply_span(float *b, int K, const uint8_t *tex, int32_t i0, int32_t i
  * float the vertex's texture test against its channel, without a branch per vertex (whether a
  * vertex matches, and whether it was one-hot already, are unpredictable). The weights are
  * written back whole: the same bits where nothing changes. */
-HBK_L16 static int apply_row16(float *b, int K, const uint8_t *tex, int32_t nx)
+HBK_L16 static int apply_row16(const hbk_fluid_rules_t *rl, float *b, int K, const uint8_t *tex,
+                               int32_t nx)
 {
-    __m512i vtx[HBK_FLUID_MAX_TEXTURES], chan[HBK_FLUID_MAX_TEXTURES];
-    for (int z = 0; z < K; ++z) { /* float q of the group: vertex q / K, channel q % K */
-        const __m512i q = _mm512_add_epi32(
-            _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
-            _mm512_set1_epi32(16 * z));
-        int32_t v[16], c[16];
-        _mm512_storeu_si512(v, q);
-        for (int l = 0; l < 16; ++l) c[l] = v[l] % K, v[l] /= K;
-        vtx[z] = _mm512_loadu_si512(v);
-        chan[z] = _mm512_loadu_si512(c);
-    }
     const __m512 one = _mm512_set1_ps(1.0f);
     __mmask16 changed = 0;
     int32_t i = 0;
@@ -167,10 +156,12 @@ HBK_L16 static int apply_row16(float *b, int K, const uint8_t *tex, int32_t nx)
         if (_mm512_cmpneq_epi32_mask(t, _mm512_set1_epi32(0xff)) == 0) continue;
         float *p = b + (size_t)K * (size_t)i;
         for (int z = 0; z < K; ++z) {
-            const __m512i tz = _mm512_permutexvar_epi32(vtx[z], t);
+            const __m512i tz =
+                _mm512_permutexvar_epi32(_mm512_loadu_si512(rl->vtx16 + 16 * z), t);
             const __mmask16 set = _mm512_cmpneq_epi32_mask(tz, _mm512_set1_epi32(0xff));
             const __m512 old = _mm512_loadu_ps(p + 16 * z);
-            const __m512 w = _mm512_maskz_mov_ps(_mm512_cmpeq_epi32_mask(tz, chan[z]), one);
+            const __m512i chan = _mm512_loadu_si512(rl->chan16 + 16 * z);
+            const __m512 w = _mm512_maskz_mov_ps(_mm512_cmpeq_epi32_mask(tz, chan), one);
             changed |= _mm512_mask_cmpneq_epi32_mask(set, _mm512_castps_si512(old),
                                                      _mm512_castps_si512(w));
             _mm512_storeu_ps(p + 16 * z, _mm512_mask_mov_ps(old, set, w));
@@ -199,7 +190,7 @@ void hbk_fluid_rules_row(hbk_fluid_t *h, const hbk_fluid_rules_t *rl, float *bas
             changed |= set_one_hot(base + (size_t)K * i, K, whole);
         if (!changed) h->rows_hot[r] = (uint8_t)whole;
     } else if (rl->lanes)
-        changed = apply_row16(base + (size_t)K * v0, K, h->rule_tex + v0, nx);
+        changed = apply_row16(rl, base + (size_t)K * v0, K, h->rule_tex + v0, nx);
     else
         changed = apply_span(base + (size_t)K * v0, K, h->rule_tex + v0, 0, nx);
     if (changed) h->same_rows[r] = 0; /* no longer the other buffer's base */
