@@ -1252,6 +1252,22 @@ static hbk_fluid_t *narrow_column(void)
     return h;
 }
 
+/* Particles on a fine grid: a reach of about 10 vertices at res 48 (two eight-lane blocks a
+ * row in the vector splat) and about 19 at res 96 (over sixteen: the plain splat takes it). */
+static hbk_fluid_t *wide_reach(int32_t res)
+{
+    hbk_fluid_params_t p = params(res, HBK_FLUID_SIMULATE);
+    const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.2f, 0.2f, 0.2f}, top[3] = {0.2f, 0.1f, 0.1f};
+    memcpy(p.box_max, hi, sizeof hi);
+    p.particle_spacing = 0.01f;
+    p.smoothing_length = p.metaball_radius = 0.02f;
+    p.max_particles = 2000;
+    p.threads = 2;
+    hbk_fluid_t *h = make(&p);
+    if (h && hbk_fluid_fill_box(h, lo, top, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
+    return h;
+}
+
 /* A flow that converges along x and shears along y (a velocity grid), with five textures and
  * paint: the sources of sixteen neighbouring vertices spread over more than twenty vertices
  * and over several rows, so the AVX-512 advection takes several passes a group and its plain
@@ -1292,17 +1308,19 @@ static hbk_fluid_t *converging_grid(void)
  * the plain code: HBK_PATHS switches them (see c_core/src/base/paths.c; "avx2" holds AVX-512
  * back). Walls, obstacles, paint and resets included; the metaball sum derived (radius =
  * smoothing length, the default) and splatted on its own; a box so narrow that a particle has
- * more mirror images than one vector holds; and a converging flow whose sources are too
- * spread for the advection's windows. */
+ * more mirror images than one vector holds; a converging flow whose sources are too spread
+ * for the advection's windows; and particles whose reach spans two of the splat's eight-lane
+ * blocks, or more than it takes. */
 void test_fluid_paths_same_bytes(void)
 {
     static const char *const paths[3] = {"scalar", "avx2", NULL}; /* NULL: the widest */
-    for (int own = 0; own < 4; ++own) {
+    for (int own = 0; own < 6; ++own) {
         unsigned char *x[3] = {NULL, NULL, NULL};
         size_t s[3] = {0, 0, 0};
         for (int k = 0; k < 3; ++k) {
             if (paths[k]) setenv("HBK_PATHS", paths[k], 1);
-            hbk_fluid_t *h = own == 3   ? converging_grid()
+            hbk_fluid_t *h = own >= 4   ? wide_reach(own == 4 ? 48 : 96)
+                             : own == 3 ? converging_grid()
                              : own == 2 ? narrow_column()
                                         : scene_r(2, own ? 0.05f : 0.0f);
             int ok = h != NULL;

@@ -93,15 +93,90 @@ static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, 
     }
 }
 
+enum { SLAB = 4 }; /* vertex layers a chunk of the splat owns */
+
+/* One particle's rows in reach within a slab, for the vector splats: its x offsets squared
+ * (eight lanes a block, nb blocks), which lanes are in reach, and the rows listed (vertex
+ * offset of the first lane, dy^2 + dz^2). Listed first, so that the loop over them has no
+ * branch: tested row by row, which rows are out of reach changes with every particle. */
+typedef struct {
+    v8f dx2[2];
+    v8i inx[2];
+    int full[2], nb, n;
+    int32_t at[SLAB * 16 + 16];
+    float ryz[SLAB * 16 + 16];
+} rows_t;
+
+/* Lists particle x's rows (splat_row's operations, eight lanes at a time; T: the larger radius
+ * squared). 0: out of reach of the slab in x; 1: listed; 2: the plain splat must take it (a
+ * reach over 16 vertices, coarse particles on a fine grid, or a NaN position). */
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) int
+list_rows(const hbk_fluid_t *h, const splat_t *s, const float *x, int32_t z0, int32_t z1,
+          float S, float T, rows_t *r)
+{
+    const int32_t nx = h->nv[0], ny = h->nv[1];
+    const float *lo = h->p.box_min, *cl = h->cell;
+    const v8f zero = {0}, inf = zero + __builtin_inff(), Tv = zero + T;
+    const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    int32_t a0[3], a1[3];
+    reach(h, x, S, z0, z1, a0, a1);
+    if (a0[0] > a1[0]) return 0;
+    mark_rows(s, a0, a1);
+    const int nb = r->nb = (a1[0] - a0[0]) / 8 + 1;
+    if (nb > 2 || a1[1] - a0[1] >= 16) return 2;
+    for (int b = 0; b < nb; ++b) {
+        const int32_t kx = a0[0] + 8 * b;
+        const v8f kk = __builtin_convertvector(lane + kx, v8f);
+        const v8f dx = (zero + lo[0]) + kk * cl[0] - x[0];
+        r->dx2[b] = dx * dx;
+        r->inx[b] = lane + kx <= a1[0];
+        r->full[b] = kx + 8 <= nx;
+    }
+    /* dy^2 per row of the reach; +inf past it (and past the sixteen a reach may have), so
+     * that those rows are never in reach */
+    v8f dy2[4];
+    for (int q = 0; q < 2; ++q) {
+        const v8i ky = lane + (a0[1] + 8 * q);
+        const v8f dy = (zero + lo[1]) + __builtin_convertvector(ky, v8f) * cl[1] - x[1];
+        const v8i in = ky <= a1[1];
+        dy2[q] = (v8f)(((v8i)(dy * dy) & in) | ((v8i)inf & ~in));
+        dy2[q + 2] = inf;
+    }
+    /* A layer's rows within reach are one run (dy^2 falls, then rises, also when rounded),
+     * found by two compares; a NaN breaks the run. */
+    const float *d2 = (const float *)dy2;
+    int n = 0, runs = 1;
+    for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
+        const float dz = lo[2] + (float)kz * cl[2] - x[2], dz2 = dz * dz;
+        const unsigned out = (unsigned)__builtin_ia32_movmskps256((v8f)(dy2[0] + dz2 >= Tv)) |
+                             (unsigned)__builtin_ia32_movmskps256((v8f)(dy2[1] + dz2 >= Tv)) << 8;
+        const unsigned in = ~out & 0xffffu, first = in ? (unsigned)__builtin_ctz(in) : 0u;
+        runs &= ((in >> first) & ((in >> first) + 1u)) == 0u;
+        v8f q0, q1;
+        memcpy(&q0, d2 + first, sizeof q0);
+        memcpy(&q1, d2 + first + 8, sizeof q1);
+        q0 += dz2;
+        q1 += dz2;
+        memcpy(r->ryz + n, &q0, sizeof q0);
+        memcpy(r->ryz + n + 8, &q1, sizeof q1);
+        const v8i o0 = nx * (a0[1] + (int32_t)first + ny * kz) + a0[0] + lane * nx, o1 = o0 + 8 * nx;
+        memcpy(r->at + n, &o0, sizeof o0);
+        memcpy(r->at + n + 8, &o1, sizeof o1);
+        n += __builtin_popcount(in);
+    }
+    r->n = n;
+    return runs ? 1 : 2;
+}
+
 /* splat_chunk_sse eight vertices of a row at a time, each lane with splat_row's operations
- * (a vertex out of reach is not changed: the same bytes). A particle's x offsets are squared
- * once for all its rows. Away from a row's end, lanes out of reach add +0 (a sum is never -0,
- * so adding +0 keeps its bits) with plain loads and stores, far cheaper than masked stores;
- * within 8 of the end, where lanes would reach the next row (perhaps another thread's slab),
- * the stores are masked. OWN: the metaball sum is splatted too. */
+ * (a vertex out of reach is not changed: the same bytes). Away from a row's end, lanes out of
+ * reach add +0 (a sum is never -0, so adding +0 keeps its bits) with plain loads and stores,
+ * far cheaper than masked stores; within 8 of the end, where lanes would reach the next row
+ * (perhaps another thread's slab), the stores are masked. OWN: the metaball sum is splatted
+ * too. */
 #define SPLAT_ADD(p, add, m)                                                                 \
     do {                                                                                     \
-        if (full[b]) {                                                                       \
+        if (r->full[b]) {                                                                    \
             v8f o_;                                                                          \
             memcpy(&o_, (p), sizeof o_);                                                     \
             o_ += (v8f)((v8i)(add) & (m));                                                   \
@@ -112,77 +187,47 @@ static void splat_chunk_sse(const hbk_fluid_t *h, const splat_t *s, int32_t z0, 
         }                                                                                    \
     } while (0)
 
+/* The listed rows of a particle (v: its velocity), eight lanes at a time. */
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+rows8(const splat_t *s, const rows_t *r, const float *v, const int OWN)
+{
+    const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
+    const v8f iR2 = zero + s->inv_R2, v0 = zero + v[0], v1 = zero + v[1], v2 = zero + v[2];
+    /* locals: through s the compiler would reload every pointer per row */
+    float *const ws = s->wsum, *const m0 = s->mot[0], *const m1 = s->mot[1];
+    float *const m2 = s->mot[2], *const sf = s->surf;
+    for (int e = 0; e < r->n; ++e)
+        for (int b = 0; b < r->nb; ++b) {
+            const size_t at = (size_t)r->at[e] + 8 * (size_t)b;
+            const v8f r2 = r->dx2[b] + r->ryz[e];
+            const v8i mh = r->inx[b] & (r2 < H2);
+            const v8f d = H2 - r2, w = d * d * d;
+            SPLAT_ADD(ws + at, w, mh);
+            SPLAT_ADD(m0 + at, w * v0, mh);
+            SPLAT_ADD(m1 + at, w * v1, mh);
+            SPLAT_ADD(m2 + at, w * v2, mh);
+            if (OWN) {
+                const v8i mr = r->inx[b] & (r2 < R2);
+                const v8f t = one - r2 * iR2;
+                SPLAT_ADD(sf + at, t * t * t, mr);
+            }
+        }
+}
+#undef SPLAT_ADD
+
 __attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
 splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32_t p0,
            int32_t p1, float S, const int OWN)
 {
-    const int32_t nx = h->nv[0], ny = h->nv[1];
-    const float *lo = h->p.box_min, *cl = h->cell;
-    const v8f zero = {0}, H2 = zero + s->H2, R2 = zero + s->R2, one = zero + 1.0f;
-    const v8f iR2 = zero + s->inv_R2;
-    const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
-    /* Locals: the sums are floats, so through pointers the compiler would reload every
-     * particle value and pointer per row. */
-    float *const ws = s->wsum, *const m0 = s->mot[0], *const m1 = s->mot[1];
-    float *const m2 = s->mot[2], *const sf = s->surf;
-    const float H2s = s->H2, R2s = s->R2, lo1 = lo[1], lo2 = lo[2], cl1 = cl[1], cl2 = cl[2];
+    const float T = OWN && s->R2 > s->H2 ? s->R2 : s->H2;
+    rows_t r;
     for (int32_t k = p0; k < p1; ++k) {
-        const float *x = s->xv + 8 * (size_t)k, *vp = x + 3; /* read in order, not by id */
-        const float x1 = x[1], x2 = x[2];
-        const v8f v0 = zero + vp[0], v1 = zero + vp[1], v2 = zero + vp[2];
-        int32_t a0[3], a1[3];
-        reach(h, x, S, z0, z1, a0, a1);
-        if (a0[0] > a1[0]) continue;
-        mark_rows(s, a0, a1);
-        const int nb = (a1[0] - a0[0]) / 8 + 1;
-        if (nb > 2 || a1[1] - a0[1] >= 16) { /* reach over 16 vertices (coarse particles on
-                                                * a fine grid) */
-            const int32_t q = k + 1;
-            splat_chunk_sse(h, s, z0, z1, k, q, S);
-            continue;
-        }
-        v8f dx2[2];
-        v8i inx[2];
-        int full[2];
-        for (int b = 0; b < nb; ++b) {
-            const int32_t kx = a0[0] + 8 * b;
-            const v8f kk = __builtin_convertvector(lane + kx, v8f);
-            const v8f dx = (zero + lo[0]) + kk * cl[0] - x[0];
-            dx2[b] = dx * dx;
-            inx[b] = lane + kx <= a1[0];
-            full[b] = kx + 8 <= nx;
-        }
-        float dy2[16]; /* the rows' dy^2, once */
-        for (int32_t q = 0; q <= a1[1] - a0[1]; ++q) {
-            const float dy = lo1 + (float)(a0[1] + q) * cl1 - x1;
-            dy2[q] = dy * dy;
-        }
-        for (int32_t kz = a0[2]; kz <= a1[2]; ++kz) {
-            const float dz = lo2 + (float)kz * cl2 - x2, dz2 = dz * dz;
-            for (int32_t ky = a0[1]; ky <= a1[1]; ++ky) {
-                const float ryz = dy2[ky - a0[1]] + dz2;
-                if (ryz >= H2s && (!OWN || ryz >= R2s)) continue;
-                const size_t row = (size_t)nx * ((size_t)ky + (size_t)ny * (size_t)kz) + (size_t)a0[0];
-                for (int b = 0; b < nb; ++b) {
-                    const size_t at = row + 8 * (size_t)b;
-                    const v8f r2 = dx2[b] + ryz;
-                    const v8i mh = inx[b] & (r2 < H2);
-                    const v8f d = H2 - r2, w = d * d * d;
-                    SPLAT_ADD(ws + at, w, mh);
-                    SPLAT_ADD(m0 + at, w * v0, mh);
-                    SPLAT_ADD(m1 + at, w * v1, mh);
-                    SPLAT_ADD(m2 + at, w * v2, mh);
-                    if (OWN) {
-                        const v8i mr = inx[b] & (r2 < R2);
-                        const v8f t = one - r2 * iR2;
-                        SPLAT_ADD(sf + at, t * t * t, mr);
-                    }
-                }
-            }
-        }
+        const float *x = s->xv + 8 * (size_t)k; /* read in order, not by id */
+        const int how = list_rows(h, s, x, z0, z1, S, T, &r);
+        if (how == 1) rows8(s, &r, x + 3, OWN);
+        else if (how == 2) splat_chunk_sse(h, s, z0, z1, k, k + 1, S);
     }
 }
-#undef SPLAT_ADD
 
 __attribute__((target("avx2"))) static void
 splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32_t p0,
@@ -237,7 +282,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     const float dens_k = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
     const float surf_k = (float)(1.0 / pow(R, 6));
     const float *lo = h->p.box_min, *cl = h->cell;
-    const int32_t slab = 4, chunks = (nz + slab - 1) / slab;
+    const int32_t slab = SLAB, chunks = (nz + slab - 1) / slab;
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t ch = 0; ch < chunks; ++ch) {
