@@ -1235,37 +1235,37 @@ void test_fluid_noise_tileable(void)
     free(u);
 }
 
+/* Particles filling [0, top] of a box [0, hi] on a res^3 grid, spacing sp, h = metaball
+ * radius = H, two threads. */
+static hbk_fluid_t *box_scene(int32_t res, const float hi[3], const float top[3], float sp,
+                              float H, int32_t max_particles)
+{
+    hbk_fluid_params_t p = params(res, HBK_FLUID_SIMULATE);
+    const float lo[3] = {0.0f, 0.0f, 0.0f};
+    memcpy(p.box_max, hi, 3 * sizeof *hi);
+    p.particle_spacing = sp;
+    p.smoothing_length = p.metaball_radius = H;
+    p.max_particles = max_particles;
+    p.threads = 2;
+    hbk_fluid_t *h = make(&p);
+    if (h && hbk_fluid_fill_box(h, lo, top, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
+    return h;
+}
+
 /* A column in a box narrower than two smoothing lengths: particles see both walls of x and
  * of y, up to 17 mirror images besides themselves. */
 static hbk_fluid_t *narrow_column(void)
 {
-    hbk_fluid_params_t p = params(8, HBK_FLUID_SIMULATE);
-    const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.05f, 0.05f, 0.4f};
-    memcpy(p.box_max, hi, sizeof hi);
-    p.particle_spacing = 0.0125f;
-    p.smoothing_length = p.metaball_radius = 0.03f;
-    p.max_particles = 1000;
-    p.threads = 2;
-    hbk_fluid_t *h = make(&p);
-    const float top[3] = {0.05f, 0.05f, 0.25f};
-    if (h && hbk_fluid_fill_box(h, lo, top, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
-    return h;
+    const float hi[3] = {0.05f, 0.05f, 0.4f}, top[3] = {0.05f, 0.05f, 0.25f};
+    return box_scene(8, hi, top, 0.0125f, 0.03f, 1000);
 }
 
 /* Particles on a fine grid: a reach of about 10 vertices at res 48 (two eight-lane blocks a
  * row in the vector splat) and about 19 at res 96 (over sixteen: the plain splat takes it). */
 static hbk_fluid_t *wide_reach(int32_t res)
 {
-    hbk_fluid_params_t p = params(res, HBK_FLUID_SIMULATE);
-    const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.2f, 0.2f, 0.2f}, top[3] = {0.2f, 0.1f, 0.1f};
-    memcpy(p.box_max, hi, sizeof hi);
-    p.particle_spacing = 0.01f;
-    p.smoothing_length = p.metaball_radius = 0.02f;
-    p.max_particles = 2000;
-    p.threads = 2;
-    hbk_fluid_t *h = make(&p);
-    if (h && hbk_fluid_fill_box(h, lo, top, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
-    return h;
+    const float hi[3] = {0.2f, 0.2f, 0.2f}, top[3] = {0.2f, 0.1f, 0.1f};
+    return box_scene(res, hi, top, 0.01f, 0.02f, 2000);
 }
 
 /* A flow that converges along x and shears along y (a velocity grid), with five textures and
