@@ -107,9 +107,13 @@ typedef struct {
     float ryz[SLAB * 16 + 16];
 } rows_t;
 
+/* What list_rows found: the particle is out of reach of the slab in x; its rows are listed;
+ * or the plain splat must take it (a reach over 16 vertices, coarse particles on a fine grid,
+ * or a NaN position). */
+enum { ROWS_NONE, ROWS_LISTED, ROWS_PLAIN };
+
 /* Lists particle x's rows (splat_row's operations, eight lanes at a time; T: the larger radius
- * squared). 0: out of reach of the slab in x; 1: listed; 2: the plain splat must take it (a
- * reach over 16 vertices, coarse particles on a fine grid, or a NaN position). */
+ * squared). */
 __attribute__((target("avx2"))) static inline __attribute__((always_inline)) int
 list_rows(const hbk_fluid_t *h, const splat_t *s, const float *x, int32_t z0, int32_t z1,
           float S, float T, rows_t *r)
@@ -120,10 +124,10 @@ list_rows(const hbk_fluid_t *h, const splat_t *s, const float *x, int32_t z0, in
     const v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
     int32_t a0[3], a1[3];
     reach(h, x, S, z0, z1, a0, a1);
-    if (a0[0] > a1[0]) return 0;
+    if (a0[0] > a1[0]) return ROWS_NONE;
     mark_rows(s, a0, a1);
     const int nb = r->nb = (a1[0] - a0[0]) / 8 + 1;
-    if (nb > 2 || a1[1] - a0[1] >= 16) return 2;
+    if (nb > 2 || a1[1] - a0[1] >= 16) return ROWS_PLAIN;
     for (int b = 0; b < nb; ++b) {
         const int32_t kx = a0[0] + 8 * b;
         const v8f kk = __builtin_convertvector(lane + kx, v8f);
@@ -159,13 +163,14 @@ list_rows(const hbk_fluid_t *h, const splat_t *s, const float *x, int32_t z0, in
         q1 += dz2;
         memcpy(r->ryz + n, &q0, sizeof q0);
         memcpy(r->ryz + n + 8, &q1, sizeof q1);
-        const v8i o0 = nx * (a0[1] + (int32_t)first + ny * kz) + a0[0] + lane * nx, o1 = o0 + 8 * nx;
+        const v8i o0 = nx * (a0[1] + (int32_t)first + ny * kz) + a0[0] + lane * nx;
+        const v8i o1 = o0 + 8 * nx;
         memcpy(r->at + n, &o0, sizeof o0);
         memcpy(r->at + n + 8, &o1, sizeof o1);
         n += __builtin_popcount(in);
     }
     r->n = n;
-    return runs ? 1 : 2;
+    return runs ? ROWS_LISTED : ROWS_PLAIN;
 }
 
 /* splat_chunk_sse eight vertices of a row at a time, each lane with splat_row's operations
@@ -224,8 +229,8 @@ splat_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1, int32
     for (int32_t k = p0; k < p1; ++k) {
         const float *x = s->xv + 8 * (size_t)k; /* read in order, not by id */
         const int how = list_rows(h, s, x, z0, z1, S, T, &r);
-        if (how == 1) rows8(s, &r, x + 3, OWN);
-        else if (how == 2) splat_chunk_sse(h, s, z0, z1, k, k + 1, S);
+        if (how == ROWS_LISTED) rows8(s, &r, x + 3, OWN);
+        else if (how == ROWS_PLAIN) splat_chunk_sse(h, s, z0, z1, k, k + 1, S);
     }
 }
 
@@ -282,11 +287,11 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     const float dens_k = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
     const float surf_k = (float)(1.0 / pow(R, 6));
     const float *lo = h->p.box_min, *cl = h->cell;
-    const int32_t slab = SLAB, chunks = (nz + slab - 1) / slab;
+    const int32_t chunks = (nz + SLAB - 1) / SLAB;
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (int32_t ch = 0; ch < chunks; ++ch) {
-        const int32_t z0 = ch * slab, z1 = z0 + slab < nz ? z0 + slab : nz; /* [z0, z1) */
+        const int32_t z0 = ch * SLAB, z1 = z0 + SLAB < nz ? z0 + SLAB : nz; /* [z0, z1) */
         const float wz0 = lo[2] + (float)z0 * cl[2] - S, wz1 = lo[2] + (float)(z1 - 1) * cl[2] + S;
         const int32_t c0 = hbk_fluid_cell_coord(c, wz0, 2), c1 = hbk_fluid_cell_coord(c, wz1, 2);
         /* Zero the sums where last frame's splat left them (not the whole grid, most of which
