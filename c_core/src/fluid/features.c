@@ -95,6 +95,46 @@ static void vertex_curvature(const feat_t *f, int32_t i, int32_t j, int32_t k)
     })
 #define SEL8(m, a, b) ((v8f)(((v8i)(a) & (m)) | ((v8i)(b) & ~(m))))
 
+typedef double v4d __attribute__((vector_size(32)));
+
+/* The eight records of six features at o, from the first five in lanes (the sixth, the
+ * curvature, is +0 until its pass): the pairs (d, rate), (ang, acc) and (div, 0) of a lane are
+ * three 64-bit units, put in record order by permutes, not forty scalar stores. */
+__attribute__((target("avx2"))) static inline __attribute__((always_inline)) void
+store_records8(float *o, v8f d, v8f rate, v8f ang, v8f acc, v8f div)
+{
+    const v8f zero = {0};
+    /* a: lanes 0 1 4 5, b: 2 3 6 7 (64-bit units of each 128-bit half) */
+    const v4d A0 = (v4d)__builtin_shufflevector(d, rate, 0, 8, 1, 9, 4, 12, 5, 13);
+    const v4d A1 = (v4d)__builtin_shufflevector(d, rate, 2, 10, 3, 11, 6, 14, 7, 15);
+    const v4d B0 = (v4d)__builtin_shufflevector(ang, acc, 0, 8, 1, 9, 4, 12, 5, 13);
+    const v4d B1 = (v4d)__builtin_shufflevector(ang, acc, 2, 10, 3, 11, 6, 14, 7, 15);
+    const v4d C0 = (v4d)__builtin_shufflevector(div, zero, 0, 8, 1, 9, 4, 12, 5, 13);
+    const v4d C1 = (v4d)__builtin_shufflevector(div, zero, 2, 10, 3, 11, 6, 14, 7, 15);
+    /* units in order: lane l's A, B, C; lanes 0 1 in X0, 2 3 in X1 (low), 4 5 and 6 7 high */
+    const v4d AB0 = __builtin_shufflevector(A0, B0, 0, 4, 1, 5); /* A0 B0 A1 B1 */
+    const v4d AB1 = __builtin_shufflevector(A1, B1, 0, 4, 1, 5); /* A2 B2 A3 B3 */
+    const v4d AB4 = __builtin_shufflevector(A0, B0, 2, 6, 3, 7); /* A4 B4 A5 B5 */
+    const v4d AB6 = __builtin_shufflevector(A1, B1, 2, 6, 3, 7); /* A6 B6 A7 B7 */
+    const v4d out[6] = {
+        __builtin_shufflevector(AB0, C0, 0, 1, 4, 2),  /* A0 B0 C0 A1 */
+        __builtin_shufflevector(AB0, C0, 3, 5, 0, 0),  /* B1 C1 (A2 B2 next) */
+        __builtin_shufflevector(AB1, C1, 4, 2, 3, 5),  /* C2 A3 B3 C3 */
+        __builtin_shufflevector(AB4, C0, 0, 1, 6, 2),  /* A4 B4 C4 A5 */
+        __builtin_shufflevector(AB4, C0, 3, 7, 0, 0),  /* B5 C5 (A6 B6 next) */
+        __builtin_shufflevector(AB6, C1, 6, 2, 3, 7),  /* C6 A7 B7 C7 */
+    };
+    v4d o1 = out[1], o4 = out[4];
+    o1 = __builtin_shufflevector(o1, AB1, 0, 1, 4, 5); /* B1 C1 A2 B2 */
+    o4 = __builtin_shufflevector(o4, AB6, 0, 1, 4, 5); /* B5 C5 A6 B6 */
+    __builtin_memcpy(o, &out[0], 32);
+    __builtin_memcpy(o + 8, &o1, 32);
+    __builtin_memcpy(o + 16, &out[2], 32);
+    __builtin_memcpy(o + 24, &out[3], 32);
+    __builtin_memcpy(o + 32, &o4, 32);
+    __builtin_memcpy(o + 40, &out[5], 32);
+}
+
 __attribute__((target("avx2"))) static void features8(const feat_t *f, size_t vi)
 {
     const hbk_fluid_t *h = f->h;
@@ -147,14 +187,7 @@ __attribute__((target("avx2"))) static void features8(const feat_t *f, size_t vi
         const v8f n = g[q] * inv;
         __builtin_memcpy(f->np[q] + vi, &n, sizeof n);
     }
-    float *o = h->g_features + (size_t)HBK_FLUID_FEATURE_COUNT * vi;
-    for (int l = 0; l < 8; ++l, o += HBK_FLUID_FEATURE_COUNT) {
-        o[HBK_FLUID_FEATURE_DENSITY] = d[l];
-        o[HBK_FLUID_FEATURE_DENSITY_RATE] = rate[l];
-        o[HBK_FLUID_FEATURE_FLOW_ANGLE] = ang[l];
-        o[HBK_FLUID_FEATURE_ACCELERATION] = acc[l];
-        o[HBK_FLUID_FEATURE_DIVERGENCE] = div[l];
-    }
+    store_records8(h->g_features + (size_t)HBK_FLUID_FEATURE_COUNT * vi, d, rate, ang, acc, div);
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
 
