@@ -372,6 +372,7 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     const int32_t ny = h->nv[1], nz = h->nv[2];
     hbk_fluid_rules_t rules;
     hbk_fluid_rules_compile(h, &rules);
+    h->rules_matched = rules.n > 0; /* the features pass just matched them */
 /* Slabs to whichever thread is free: the work is where the fluid is (each row writes only
  * its own outputs, so the bytes do not depend on who runs it). */
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
@@ -400,4 +401,5 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
         for (int32_t j = 0; j < ry; ++j)
             flags_fn(h, in, out, off, dt, j, k, checked);
     h->wrap_checked = 1;
+    h->rules_matched = 0;
 }

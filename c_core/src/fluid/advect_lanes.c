@@ -362,6 +362,7 @@ typedef struct {
     __m512 vm[GROUPS][3];
     lerp16_t l[GROUPS];
     pass_t ps[GROUPS * 16];
+    pass_t bps[GROUPS * 16]; /* the passes whose base is sampled */
 } row16_t;
 
 HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
@@ -438,9 +439,24 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
             np = split_passes(&r.l[g], M, g, r.ps, np);
         }
     }
+    /* The base of a pass whose every lane a feature rule sets (hbk_fluid_rules_row, right
+     * after this row) is not sampled: it would be overwritten. */
+    pass_t *bps = r.ps;
+    int nb = np;
+    if (np && h->rules_matched) {
+        bps = r.bps;
+        nb = 0;
+        for (int q = 0; q < np; ++q) {
+            const pass_t *p = &r.ps[q];
+            const __m128i tex = _mm_maskz_loadu_epi8(p->P, h->rule_tex + row + 16 * (size_t)p->g);
+            bps[nb] = *p;
+            nb += _mm_mask_cmpneq_epi8_mask(p->P, tex, _mm_set1_epi8((char)0xff)) != p->P;
+        }
+    }
     for (int f = F_UVW_A; np && f <= (paint ? F_LIFE : F_BASE); ++f)
         (f <= F_UVW_B || (f != F_LIFE && K == 3) ? field_all3
          : f == F_LIFE                           ? field_all1
-                       : field_allk)(h, in, out, off, r.l, r.ps, np, row, f);
+                       : field_allk)(h, in, out, off, r.l, f == F_BASE ? bps : r.ps,
+                                     f == F_BASE ? nb : np, row, f);
     _mm256_zeroupper(); /* the caller is SSE code */
 }

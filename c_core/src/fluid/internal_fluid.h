@@ -75,6 +75,7 @@ struct hbk_fluid {
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
     uint8_t *rule_tex;          /* nv: the texture this step's feature rules set (0xff: none),
                                  * matched by the features pass outside quiet rows */
+    int rules_matched;          /* rule_tex holds this step's matches (some rule is on) */
     /* Per vertex row, for the fields of the handle (h->density ...) and those under
      * construction (g_density ...), swapped with them: */
     uint8_t *blank, *g_blank;   /* density, V_m and surface all written +0 as a row no particle
