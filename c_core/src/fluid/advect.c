@@ -112,7 +112,8 @@ masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsi
             copy_still(h, in, out, row, paint);                                              \
             h->rows_hot[jk] = 0xff; /* same again, but perhaps not one-hot */                \
         }                                                                                    \
-        else if (paint) /* the life fades in both buffers: not part of "same" */             \
+        else if (paint && !(in->unpainted[jk] && out->unpainted[jk]))                        \
+            /* the life fades in both buffers: not part of "same" */                         \
             memcpy(out->life + row, in->life + row, (size_t)nx * sizeof(float));             \
         h->same_rows[jk] = 1;                                                                \
         return;                                                                              \
@@ -182,6 +183,9 @@ masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsi
 static void copy_still(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out,
                        size_t row, int paint)
 {
+    /* both rows' paint and life +0 already (out's flag is rewritten after the row) */
+    const size_t r = row / (size_t)h->nv[0];
+    paint = paint && !(in->unpainted[r] && out->unpainted[r]);
     const int32_t nx = h->nv[0];
     for (int32_t i = 0; i < nx;) {
         if (h->moving[row + (size_t)i]) {
@@ -368,6 +372,8 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     size_t off[8]; /* a voxel's corners from its vertex (i, j, k) */
     hbk_fluid_corners(h, off);
     const int avx2 = hbk_paths() >= HBK_PATHS_AVX2, lanes16 = hbk_fluid_lanes16_ok();
+    const int paint = h->paint_active;
+    const size_t nx = (size_t)h->nv[0], K = (size_t)h->K;
     void (*row_fn)(ROW_ARGS) = lanes16 ? advect_row_lanes : avx2 ? advect_row_avx2 : advect_row;
     const int32_t ny = h->nv[1], nz = h->nv[2];
     hbk_fluid_rules_t rules;
@@ -379,12 +385,17 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j) {
             row_fn(h, in, out, off, dt, j, k);
+            const size_t r = (size_t)j + (size_t)ny * (size_t)k;
             /* The rules (matched by the features pass) while the row's base is in cache: a
              * pass of their own read it and the features back from memory (4-7 ms of a 128^3
              * frame on two cores). */
-            if (rules.n)
-                hbk_fluid_rules_row(h, &rules, out->base, h->g_features,
-                                    (size_t)j + (size_t)ny * (size_t)k);
+            if (rules.n) hbk_fluid_rules_row(h, &rules, out->base, h->g_features, r);
+            /* Which rows hold no paint, for the sixteen-lane path to skip sampling them: a
+             * still row copied a known one, else looked at while in cache. */
+            if (paint)
+                out->unpainted[r] = (h->g_fz[r] && in->unpainted[r]) ||
+                                    (hbk_fluid_all_zero(out->life + nx * r, nx) &&
+                                     hbk_fluid_all_zero(out->paint + K * nx * r, K * nx));
         }
     /* V_r: the flag of the voxel the centre came from (binary, so nearest), then repaired from
      * the new corners where the short way is unambiguous. A voxel whose corners all stand

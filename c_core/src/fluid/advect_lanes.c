@@ -270,6 +270,22 @@ HBK_L16 static inline void store_records(float *dst, int C, const __m512 *ch, __
     }
 }
 
+/* Zeros in lanes M of the C-float records at dst (lane 0's), eight lanes at a time: C <= 8
+ * floats each, so their floats' mask fits 64 bits. */
+HBK_L16 static inline void zero_records(float *dst, int C, __mmask16 M)
+{
+    static const uint64_t every[HBK_FLUID_MAX_TEXTURES + 1] = {
+        0, 0xff, 0x5555, 0x249249, 0x11111111, 0x0842108421ull, 0x041041041041ull,
+        0x02040810204081ull, 0x0101010101010101ull}; /* bit C q for lane q < 8 */
+    const uint64_t ones = (1ull << C) - 1;
+    for (int half = 0; half < 2; ++half) {
+        const uint64_t m = _pdep_u64((M >> (8 * half)) & 0xffu, every[C]) * ones;
+        float *d = dst + 8 * C * half;
+        for (int z = 0; z < C; z += 2) /* 16 floats a store, C * 8 in all */
+            _mm512_mask_storeu_ps(d + 8 * z, (__mmask16)(m >> (8 * z)), _mm512_setzero_ps());
+    }
+}
+
 /* The lines of n floats from f. */
 HBK_L16 static inline void prefetch_span(const float *f, size_t n)
 {
@@ -293,7 +309,7 @@ prefetch_ahead(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, int32_t i0, int
         prefetch_span(in->uvw[1] + 3 * pv, 48);
         prefetch_span(h->motion + 3 * pv, 48);
         prefetch_span(in->base + K * pv, 16 * K);
-        if (paint) {
+        if (paint && !in->unpainted[pv / sy]) {
             prefetch_span(in->paint + K * pv, 16 * K);
             prefetch_span(in->life + pv, 16);
         }
@@ -363,6 +379,7 @@ typedef struct {
     lerp16_t l[GROUPS];
     pass_t ps[GROUPS * 16];
     pass_t bps[GROUPS * 16]; /* the passes whose base is sampled */
+    pass_t pps[GROUPS * 16]; /* the passes whose paint and life are sampled */
 } row16_t;
 
 HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t *in,
@@ -453,10 +470,33 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
             nb += _mm_mask_cmpneq_epi8_mask(p->P, tex, _mm_set1_epi8((char)0xff)) != p->P;
         }
     }
-    for (int f = F_UVW_A; np && f <= (paint ? F_LIFE : F_BASE); ++f)
+    /* The paint and life of a pass whose four source rows hold none are +0 (every corner
+     * +0, every weight finite and >= 0): written, not sampled. Most of the fluid is not
+     * painted. */
+    int npp = 0;
+    if (np && paint) {
+        const size_t ny = (size_t)h->nv[1];
+        /* this row of out (the buffer of the frame before) held no paint either: its flag is
+         * rewritten after this row */
+        const int out_zero = out->unpainted[row / (size_t)nx];
+        for (int q = 0; q < np; ++q) {
+            const pass_t *p = &r.ps[q];
+            const uint8_t *u = in->unpainted + p->row;
+            if (u[0] & u[1] & u[ny] & u[ny + 1]) {
+                if (out_zero) continue; /* +0 there already */
+                zero_records(out->paint + (size_t)K * (row + (size_t)(16 * p->g)), K, p->P);
+                _mm512_mask_storeu_ps(out->life + row + (size_t)(16 * p->g), p->P,
+                                      _mm512_setzero_ps());
+            } else
+                r.pps[npp++] = *p;
+        }
+    }
+    for (int f = F_UVW_A; np && f <= (paint ? F_LIFE : F_BASE); ++f) {
+        const pass_t *fps = f == F_BASE ? bps : f >= F_PAINT ? r.pps : r.ps;
+        const int fn = f == F_BASE ? nb : f >= F_PAINT ? npp : np;
         (f <= F_UVW_B || (f != F_LIFE && K == 3) ? field_all3
          : f == F_LIFE                           ? field_all1
-                       : field_allk)(h, in, out, off, r.l, f == F_BASE ? bps : r.ps,
-                                     f == F_BASE ? nb : np, row, f);
+                       : field_allk)(h, in, out, off, r.l, fps, fn, row, f);
+    }
     _mm256_zeroupper(); /* the caller is SSE code */
 }

@@ -225,18 +225,6 @@ __attribute__((target("avx2"))) static void curvature8(const feat_t *f, size_t v
         for (; i < nx; ++i) PER(&f, i, j, k);                                                \
     } while (0)
 
-/* Every float of f[0 .. n) is +0, bit for bit. */
-static int all_zero(const float *f, size_t n)
-{
-    uint32_t any = 0;
-    for (size_t i = 0; i < n; ++i) {
-        uint32_t b;
-        memcpy(&b, f + i, sizeof b);
-        any |= b;
-    }
-    return any == 0;
-}
-
 /* Row (j, k) and the rows its differences read (j +- 1, k +- 1) are all zero now, and the row
  * itself last frame too (when there is a last frame). */
 static int quiet(const uint8_t *zc, const uint8_t *zp, int prev, int32_t j, int32_t k,
@@ -279,8 +267,8 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (size_t r = 0; r < rows; ++r) {
         const size_t v0 = r * (size_t)nx;
-        zc[r] = h->g_blank[r] || (all_zero(h->g_density + v0, (size_t)nx) &&
-                                  all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx));
+        zc[r] = h->g_blank[r] || (hbk_fluid_all_zero(h->g_density + v0, (size_t)nx) &&
+                                  hbk_fluid_all_zero(h->g_motion + 3 * v0, 3 * (size_t)nx));
     }
 /* Slabs dealt out in turn: the fluid (the work) sits low in the box. */
 #pragma omp parallel for num_threads(threads) schedule(static, 1)

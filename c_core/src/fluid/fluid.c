@@ -8,11 +8,11 @@
 static void vols_free(hbk_fluid_vols_t *v)
 {
     free(v->uvw[0]); free(v->uvw[1]); free(v->wrap[0]); free(v->wrap[1]);
-    free(v->base); free(v->paint); free(v->life);
+    free(v->base); free(v->paint); free(v->life); free(v->unpainted);
     memset(v, 0, sizeof *v);
 }
 
-static int vols_alloc(hbk_fluid_vols_t *v, size_t nv, size_t nvox, int K)
+static int vols_alloc(hbk_fluid_vols_t *v, size_t nv, size_t nvox, size_t rows, int K)
 {
     /* Sampled fields get 4 floats of padding: samplers load 4 floats at a time. */
     v->uvw[0] = calloc(3 * nv + 4, sizeof(float));
@@ -22,7 +22,9 @@ static int vols_alloc(hbk_fluid_vols_t *v, size_t nv, size_t nvox, int K)
     v->base = calloc((size_t)K * nv + 4, sizeof(float));
     v->paint = calloc((size_t)K * nv + 4, sizeof(float));
     v->life = calloc(nv + 4, sizeof(float));
-    return v->uvw[0] && v->uvw[1] && v->wrap[0] && v->wrap[1] && v->base && v->paint && v->life;
+    v->unpainted = calloc(rows, 1);
+    return v->uvw[0] && v->uvw[1] && v->wrap[0] && v->wrap[1] && v->base && v->paint && v->life &&
+           v->unpainted;
 }
 
 /* Kernel sum of a cubic lattice of spacing s around one of its points: sets the mass so that
@@ -133,8 +135,8 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
         !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
         !h->splat_ylo || !h->splat_yhi || !h->row_flags ||
-        !h->moving || !h->rule_tex || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, h->K) ||
-        !vols_alloc(&h->scratch, nv, h->n_vox, h->K)) {
+        !h->moving || !h->rule_tex || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, rows, h->K) ||
+        !vols_alloc(&h->scratch, nv, h->n_vox, rows, h->K)) {
         hbk_fluid_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "fluid volumes %d x %d x %d: out of memory",
                         p->resolution[0], p->resolution[1], p->resolution[2]);

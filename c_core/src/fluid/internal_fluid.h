@@ -28,6 +28,8 @@ typedef struct hbk_fluid_vols {
     float *base;       /* nv x K: base blend (feature paint acts on it) */
     float *paint;      /* nv x K: paint weights, sum = coverage in [0, 1] */
     float *life;       /* nv: seconds of paint left (duration + fade when painted) */
+    uint8_t *unpainted; /* per vertex row: 1 if its paint and life are all +0, 0 if not or not
+                         * known (kept by the advection while paint is active) */
 } hbk_fluid_vols_t;
 
 struct hbk_fluid {
@@ -475,6 +477,18 @@ static inline float hbk_fluid_unwrap(float u, float rest) { return u + floorf(re
 void hbk_fluid_uvw_unwrapped(const hbk_fluid_t *h, const float *uvw, float *out, int threads);
 
 /* Anything but the advection that writes h->v or h->scratch makes them differ. */
+/* Every float of f[0 .. n) is +0, bit for bit. */
+static inline int hbk_fluid_all_zero(const float *f, size_t n)
+{
+    uint32_t any = 0;
+    for (size_t i = 0; i < n; ++i) {
+        uint32_t b;
+        memcpy(&b, f + i, sizeof b);
+        any |= b;
+    }
+    return any == 0;
+}
+
 static inline void hbk_fluid_vols_differ(hbk_fluid_t *h)
 {
     memset(h->same_rows, 0, h->n_rows);

@@ -242,6 +242,7 @@ static hbk_result_t stroke(hbk_fluid_t *h, int32_t texture, const float *mask,
         h->v.life[i] = L;
     }
     h->paint_active = 1;
+    memset(h->v.unpainted, 0, h->n_rows); /* not known */
     hbk_fluid_vols_differ(h);
     return HBK_OK;
 }

@@ -181,6 +181,7 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     h->paint_active = hd.paint_active;
     h->frame = hd.frame;
     h->wrap_checked = 0; /* the next advection repairs every voxel's flags */
+    memset(h->v.unpainted, 0, h->n_rows); /* not known */
     hbk_fluid_vols_differ(h);
     memset(h->blank, 0, h->n_rows); /* the fields are new */
     memset(h->fz, 0, h->n_rows);
