@@ -460,12 +460,16 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     if (paint_active) {
         int any = 0;
         const float dt = h->p.dt;
-        const size_t nv = h->n_vert;
+        const size_t nx = (size_t)h->nv[0];
+        /* by rows: a row the advection found clean stays so (most of the box) */
 #pragma omp parallel for num_threads(threads) schedule(static) reduction(| : any)
-        for (size_t i = 0; i < nv; ++i) {
-            const float l = n->life[i] - dt;
-            n->life[i] = l > 0.0f ? l : 0.0f;
-            any |= l > 0.0f;
+        for (size_t r = 0; r < h->n_rows; ++r) {
+            if (n->unpainted[r]) continue;
+            for (size_t i = r * nx; i < (r + 1) * nx; ++i) {
+                const float l = n->life[i] - dt;
+                n->life[i] = l > 0.0f ? l : 0.0f;
+                any |= l > 0.0f;
+            }
         }
         paint_active = any;
     }
