@@ -243,6 +243,55 @@ splat_chunk_avx2(const hbk_fluid_t *h, const splat_t *s, int32_t z0, int32_t z1,
     __builtin_ia32_vzeroupper(); /* the caller is SSE code */
 }
 
+/* The Shepard normalisation's four-vertex loop below, eight vertices at a time from i0 while
+ * they fit before i1 (returns where it stopped): the same operations per lane, V_m written
+ * interleaved by permutes instead of 24 scalar stores, and the pointers in locals (through h
+ * every store made the compiler load them again). */
+__attribute__((target("avx2"))) static size_t normalise8(const hbk_fluid_t *h, size_t i0, size_t i1,
+                                                         float dens_k, float surf_k, float vmax,
+                                                         int own_surf)
+{
+    const size_t nv = h->n_vert;
+    const float *const ws = h->g_wsum;
+    float *const dn = h->g_density, *const sf = h->g_surface, *const gm = h->g_motion;
+    float *const mp[3] = {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv};
+    const v8f zero = {0}, vm = zero + vmax, vm2 = zero + vmax * vmax;
+    size_t i = i0;
+    for (; i + 8 <= i1; i += 8) {
+        v8f w, v[3];
+        memcpy(&w, ws + i, sizeof w);
+        const v8f dens = dens_k * w, surf = surf_k * w;
+        memcpy(dn + i, &dens, sizeof dens);
+        if (!own_surf) memcpy(sf + i, &surf, sizeof surf);
+        const v8i pos = w > zero;
+        for (int a = 0; a < 3; ++a) {
+            v8f sum;
+            memcpy(&sum, mp[a] + i, sizeof sum);
+            v[a] = (v8f)(((v8i)(sum / w) & pos) | ((v8i)sum & ~pos));
+        }
+        const v8f s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        const v8i over = s2 > vm2;
+        if (__builtin_ia32_movmskps256((v8f)over)) {
+            const v8f f = vm / __builtin_ia32_sqrtps256(s2);
+            for (int a = 0; a < 3; ++a)
+                v[a] = (v8f)(((v8i)(v[a] * f) & over) | ((v8i)v[a] & ~over));
+        }
+        for (int a = 0; a < 3; ++a) memcpy(mp[a] + i, &v[a], sizeof v[a]);
+        /* x y z of eight vertices into 24 interleaved floats */
+        const v8f lo = __builtin_shufflevector(v[0], v[1], 0, 8, 1, 9, 2, 10, 3, 11);
+        const v8f hi = __builtin_shufflevector(v[0], v[1], 4, 12, 5, 13, 6, 14, 7, 15);
+        const v8f mid = __builtin_shufflevector(lo, hi, 6, 7, 8, 9, 10, 11, 12, 13);
+        const v8f o0 = __builtin_shufflevector(lo, v[2], 0, 1, 8, 2, 3, 9, 4, 5);
+        const v8f o1 = __builtin_shufflevector(mid, v[2], 10, 0, 1, 11, 2, 3, 12, 4);
+        const v8f o2 = __builtin_shufflevector(hi, v[2], 3, 13, 4, 5, 14, 6, 7, 15);
+        memcpy(gm + 3 * i, &o0, sizeof o0);
+        memcpy(gm + 3 * i + 8, &o1, sizeof o1);
+        memcpy(gm + 3 * i + 16, &o2, sizeof o2);
+    }
+    __builtin_ia32_vzeroupper(); /* the caller is SSE code */
+    return i;
+}
+
 /* Scatter by owner: vertex z-slabs are chunks of the loop; each chunk walks the particles
  * whose support reaches it (by rows of cells: y, then z, then x) and adds to its own vertices
  * only, so every vertex sums its particles in one fixed order, whatever thread runs the chunk
@@ -336,7 +385,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
             continue;
         }
         h->g_blank[r] = 0;
-        size_t i = i0;
+        size_t i = avx2 ? normalise8(h, i0, i1, dens_k, surf_k, vmax, own_surf) : i0;
         for (; i + 4 <= i1; i += 4) {
             hbk_v4f w, v[3];
             memcpy(&w, h->g_wsum + i, sizeof w);
