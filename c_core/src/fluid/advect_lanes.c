@@ -309,6 +309,7 @@ prefetch_ahead(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, int32_t i0, int
         prefetch_span(in->uvw[1] + 3 * pv, 48);
         prefetch_span(h->motion + 3 * pv, 48);
         prefetch_span(in->base + K * pv, 16 * K);
+        if (!q) __builtin_prefetch(h->rule_tex + pv); /* the next row's base list reads it */
         if (paint && !in->unpainted[pv / sy]) {
             prefetch_span(in->paint + K * pv, 16 * K);
             prefetch_span(in->life + pv, 16);
@@ -456,6 +457,10 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
             np = split_passes(&r.l[g], M, g, r.ps, np);
         }
     }
+    /* Both uvw fields first: by the time the lists below copy the passes, the stores that
+     * wrote them have retired (read at once, a pass's 16-byte copy waited for them). */
+    for (int f = F_UVW_A; np && f <= F_UVW_B; ++f)
+        field_all3(h, in, out, off, r.l, r.ps, np, row, f);
     /* The base of a pass whose every lane a feature rule sets (hbk_fluid_rules_row, right
      * after this row) is not sampled: it would be overwritten. */
     pass_t *bps = r.ps;
@@ -465,7 +470,9 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
         nb = 0;
         for (int q = 0; q < np; ++q) {
             const pass_t *p = &r.ps[q];
-            const __m128i tex = _mm_maskz_loadu_epi8(p->P, h->rule_tex + row + 16 * (size_t)p->g);
+            /* rule_tex has 16 bytes of padding: a plain load (a masked one is slow here) */
+            const __m128i tex =
+                _mm_loadu_si128((const __m128i *)(h->rule_tex + row + 16 * (size_t)p->g));
             bps[nb] = *p;
             nb += _mm_mask_cmpneq_epi8_mask(p->P, tex, _mm_set1_epi8((char)0xff)) != p->P;
         }
@@ -491,12 +498,11 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
                 r.pps[npp++] = *p;
         }
     }
-    for (int f = F_UVW_A; np && f <= (paint ? F_LIFE : F_BASE); ++f) {
-        const pass_t *fps = f == F_BASE ? bps : f >= F_PAINT ? r.pps : r.ps;
-        const int fn = f == F_BASE ? nb : f >= F_PAINT ? npp : np;
-        (f <= F_UVW_B || (f != F_LIFE && K == 3) ? field_all3
-         : f == F_LIFE                           ? field_all1
-                       : field_allk)(h, in, out, off, r.l, fps, fn, row, f);
+    for (int f = F_BASE; np && f <= (paint ? F_LIFE : F_BASE); ++f) {
+        const pass_t *fps = f == F_BASE ? bps : r.pps;
+        const int fn = f == F_BASE ? nb : npp;
+        (f != F_LIFE && K == 3 ? field_all3 : f == F_LIFE ? field_all1 : field_allk)(
+            h, in, out, off, r.l, fps, fn, row, f);
     }
     _mm256_zeroupper(); /* the caller is SSE code */
 }

@@ -112,7 +112,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->splat_ylo = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->splat_yhi = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->moving = malloc(nv);
-    h->rule_tex = malloc(nv);
+    h->rule_tex = calloc(nv + 16, 1); /* + 16: the advection loads sixteen at a time */
     const size_t rows = h->n_rows = (size_t)h->nv[1] * (size_t)h->nv[2];
     h->row_flags = calloc(9, rows);
     if (h->row_flags) {
