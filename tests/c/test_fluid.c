@@ -1175,20 +1175,47 @@ static hbk_fluid_t *updraft(void)
     return ok ? h : NULL;
 }
 
-/* The weight of texture 1 at vertex (8, 10, 8). */
-static float painted(hbk_fluid_t *h)
+/* Fluid from y = 10/16 up, rising at four cells a frame from y = 12/16: rows 10 and 11 hold
+ * fluid that stands (no vertex of theirs moves, though they are not empty), and vertex
+ * (4, 14, 8) rises from (4, 10, 8). */
+static hbk_fluid_t *standing_rows(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
+    p.textures = 2;
+    p.max_flow = 8.0f;
+    hbk_fluid_t *h = make(&p);
+    if (!h) return NULL;
+    const size_t nv = hbk_fluid_grid_vertices(h, NULL);
+    float *v = calloc(3 * nv, sizeof *v), *surf = calloc(nv, sizeof *surf);
+    for (size_t i = 0; i < nv; ++i) {
+        const size_t y = i / 17 % 17;
+        if (y >= 12) v[3 * i + 1] = 4.0f / 16.0f * 24.0f;
+        if (y >= 10) surf[i] = 1.0f;
+    }
+    const int ok = hbk_fluid_set_velocity_grid(h, v, surf) == HBK_OK;
+    free(v);
+    free(surf);
+    if (!ok) hbk_fluid_destroy(h);
+    return ok ? h : NULL;
+}
+
+/* The weight of texture 1 at vertex (i, j, 8). */
+static float painted_at(hbk_fluid_t *h, int i, int j)
 {
     float *b = volume(h, HBK_FLUID_VOL_BLEND);
-    const float w = b ? b[2 * (8 + 17 * (10 + 17 * 8)) + 1] : 0.0f;
+    const float w = b ? b[2 * ((size_t)i + 17 * ((size_t)j + 17 * 8)) + 1] : 0.0f;
     free(b);
     return w;
 }
+
+static float painted(hbk_fluid_t *h) { return painted_at(h, 8, 10); }
 
 /* Paint on still air flows into the fluid that leaves it, and painted fluid carried off
  * leaves none behind. The sixteen-lane advection writes +0 paint for sources in rows known to
  * hold none, and nothing where the row holds +0 already (advect_lanes.c): this fails if a
  * still row is taken as unpainted without a look, if a stroke or load_state leaves rows
- * marked so, or if a row written two frames ago is taken as clean. */
+ * marked so, if a row written two frames ago is taken as clean, or if a row is kept clean
+ * whose still vertices copy paint. */
 void test_fluid_paint_from_still_rows(void)
 {
     static const char *const paths[2] = {"scalar", NULL};
@@ -1229,12 +1256,24 @@ void test_fluid_paint_from_still_rows(void)
             CHECK_OK(hbk_fluid_step(d, NULL));
             CHECK(painted(d) == 0.0f);
         }
+        /* standing fluid painted after two frames that knew its rows clean: the copy of its
+         * vertices makes the out rows painted */
+        hbk_fluid_t *e = standing_rows();
+        const float still[3] = {0.25f, 0.625f, 0.5f};
+        CHECK(e && hbk_fluid_paint_sphere(e, 0, far, 0.05f, 0.0f) == HBK_OK);
+        for (int f = 0; f < 2 && e; ++f) CHECK_OK(hbk_fluid_step(e, NULL));
+        CHECK(e && hbk_fluid_paint_sphere(e, 1, still, 0.07f, 0.0f) == HBK_OK);
+        for (int f = 0; f < 3 && e; ++f) {
+            CHECK_OK(hbk_fluid_step(e, NULL));
+            CHECK(painted_at(e, 4, 10) == 1.0f && painted_at(e, 4, 14) > 0.5f);
+        }
         unsetenv("HBK_PATHS");
         free(saved);
         hbk_fluid_destroy(a);
         hbk_fluid_destroy(b);
         hbk_fluid_destroy(c);
         hbk_fluid_destroy(d);
+        hbk_fluid_destroy(e);
     }
 }
 

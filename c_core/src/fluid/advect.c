@@ -391,9 +391,10 @@ void hbk_fluid_advect(hbk_fluid_t *h, float dt, int threads)
              * frame on two cores). */
             if (rules.n) hbk_fluid_rules_row(h, &rules, out->base, h->g_features, r);
             /* Which rows hold no paint, for the sixteen-lane path to skip sampling them: a
-             * still row copied a known one, else looked at while in cache. */
+             * still row copied a known one, the sixteen-lane path knows it left a clean one
+             * (2), else the row is looked at while in cache. */
             if (paint)
-                out->unpainted[r] = (h->g_fz[r] && in->unpainted[r]) ||
+                out->unpainted[r] = out->unpainted[r] == 2 || (h->g_fz[r] && in->unpainted[r]) ||
                                     (hbk_fluid_all_zero(out->life + nx * r, nx) &&
                                      hbk_fluid_all_zero(out->paint + K * nx * r, K * nx));
         }

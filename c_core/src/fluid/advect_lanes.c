@@ -481,11 +481,12 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
      * +0, every weight finite and >= 0): written, not sampled. Most of the fluid is not
      * painted. */
     int npp = 0;
+    /* this row of out (the buffer of the frame before) held no paint either: its flag is
+     * rewritten after this row */
+    const size_t jk = row / (size_t)nx;
+    const int out_zero = paint && out->unpainted[jk];
     if (np && paint) {
         const size_t ny = (size_t)h->nv[1];
-        /* this row of out (the buffer of the frame before) held no paint either: its flag is
-         * rewritten after this row */
-        const int out_zero = out->unpainted[row / (size_t)nx];
         for (int q = 0; q < np; ++q) {
             const pass_t *p = &r.ps[q];
             const uint8_t *u = in->unpainted + p->row;
@@ -504,5 +505,9 @@ HBK_L16 void hbk_fluid_advect_row16(const hbk_fluid_t *h, const hbk_fluid_vols_t
         (f != F_LIFE && K == 3 ? field_all3 : f == F_LIFE ? field_all1 : field_allk)(
             h, in, out, off, r.l, fps, fn, row, f);
     }
+    /* Nothing sampled here, the out row clean, and its still vertices to copy from a clean
+     * row: the row stays clean, known without a look (2, for hbk_fluid_advect: a look would
+     * read the row back from memory, since nothing wrote it) */
+    if (out_zero && npp == 0 && in->unpainted[jk]) out->unpainted[jk] = 2;
     _mm256_zeroupper(); /* the caller is SSE code */
 }

@@ -29,7 +29,8 @@ typedef struct hbk_fluid_vols {
     float *paint;      /* nv x K: paint weights, sum = coverage in [0, 1] */
     float *life;       /* nv: seconds of paint left (duration + fade when painted) */
     uint8_t *unpainted; /* per vertex row: 1 if its paint and life are all +0, 0 if not or not
-                         * known (kept by the advection while paint is active) */
+                         * known (kept by the advection while paint is active; 2 within it:
+                         * clean, known by the sixteen-lane row) */
 } hbk_fluid_vols_t;
 
 struct hbk_fluid {
