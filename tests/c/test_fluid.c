@@ -1152,33 +1152,9 @@ void test_fluid_reload_every_frame(void)
     hbk_fluid_destroy(b);
 }
 
-/* Fluid rising at four cells a frame above y = 1/2 (vertex rows j >= 8), still air below it:
- * vertex (8, 10, 8) takes its paint and life from rows 6 and 7 of the air, whatever path. */
-static hbk_fluid_t *updraft(void)
-{
-    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
-    p.textures = 2;
-    p.max_flow = 8.0f;
-    hbk_fluid_t *h = make(&p);
-    if (!h) return NULL;
-    const size_t nv = hbk_fluid_grid_vertices(h, NULL);
-    float *v = calloc(3 * nv, sizeof *v), *surf = calloc(nv, sizeof *surf);
-    for (size_t i = 0; i < nv; ++i)
-        if (i / 17 % 17 >= 8) {
-            v[3 * i + 1] = 4.0f / 16.0f * 24.0f;
-            surf[i] = 1.0f;
-        }
-    const int ok = hbk_fluid_set_velocity_grid(h, v, surf) == HBK_OK;
-    free(v);
-    free(surf);
-    if (!ok) hbk_fluid_destroy(h);
-    return ok ? h : NULL;
-}
-
-/* Fluid from y = 10/16 up, rising at four cells a frame from y = 12/16: rows 10 and 11 hold
- * fluid that stands (no vertex of theirs moves, though they are not empty), and vertex
- * (4, 14, 8) rises from (4, 10, 8). */
-static hbk_fluid_t *standing_rows(void)
+/* A 16^3 velocity grid of two textures: fluid (a surface field of 1) in vertex rows y >= fluid,
+ * rising at four cells a frame in rows y >= rise, still elsewhere. */
+static hbk_fluid_t *rising(size_t fluid, size_t rise)
 {
     hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
     p.textures = 2;
@@ -1189,8 +1165,8 @@ static hbk_fluid_t *standing_rows(void)
     float *v = calloc(3 * nv, sizeof *v), *surf = calloc(nv, sizeof *surf);
     for (size_t i = 0; i < nv; ++i) {
         const size_t y = i / 17 % 17;
-        if (y >= 12) v[3 * i + 1] = 4.0f / 16.0f * 24.0f;
-        if (y >= 10) surf[i] = 1.0f;
+        if (y >= rise) v[3 * i + 1] = 4.0f / 16.0f * 24.0f;
+        if (y >= fluid) surf[i] = 1.0f;
     }
     const int ok = hbk_fluid_set_velocity_grid(h, v, surf) == HBK_OK;
     free(v);
@@ -1198,6 +1174,14 @@ static hbk_fluid_t *standing_rows(void)
     if (!ok) hbk_fluid_destroy(h);
     return ok ? h : NULL;
 }
+
+/* Fluid rising above y = 1/2 (rows 8 up), still air below it: vertex (8, 10, 8) takes its
+ * paint and life from rows 6 and 7 of the air, whatever path. */
+static hbk_fluid_t *updraft(void) { return rising(8, 8); }
+
+/* Fluid from row 10 up, rising from row 12: rows 10 and 11 hold fluid that stands (no vertex
+ * of theirs moves, though they are not empty), and vertex (4, 14, 8) rises from (4, 10, 8). */
+static hbk_fluid_t *standing_rows(void) { return rising(10, 12); }
 
 /* The weight of texture 1 at vertex (i, j, 8). */
 static float painted_at(hbk_fluid_t *h, int i, int j)
