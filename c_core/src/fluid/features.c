@@ -104,14 +104,16 @@ __attribute__((target("avx2"))) static inline __attribute__((always_inline)) voi
 store_records8(float *o, v8f d, v8f rate, v8f ang, v8f acc, v8f div)
 {
     const v8f zero = {0};
-    /* a: lanes 0 1 4 5, b: 2 3 6 7 (64-bit units of each 128-bit half) */
+    /* 64-bit units: A (d, rate), B (ang, acc) and C (div, 0) of lanes 0 1 4 5 (A0, B0, C0)
+     * and 2 3 6 7 (A1, B1, C1), as the 128-bit halves hold them */
     const v4d A0 = (v4d)__builtin_shufflevector(d, rate, 0, 8, 1, 9, 4, 12, 5, 13);
     const v4d A1 = (v4d)__builtin_shufflevector(d, rate, 2, 10, 3, 11, 6, 14, 7, 15);
     const v4d B0 = (v4d)__builtin_shufflevector(ang, acc, 0, 8, 1, 9, 4, 12, 5, 13);
     const v4d B1 = (v4d)__builtin_shufflevector(ang, acc, 2, 10, 3, 11, 6, 14, 7, 15);
     const v4d C0 = (v4d)__builtin_shufflevector(div, zero, 0, 8, 1, 9, 4, 12, 5, 13);
     const v4d C1 = (v4d)__builtin_shufflevector(div, zero, 2, 10, 3, 11, 6, 14, 7, 15);
-    /* units in order: lane l's A, B, C; lanes 0 1 in X0, 2 3 in X1 (low), 4 5 and 6 7 high */
+    /* in record order; two of the six are finished below (a two-step shuffle here compiled
+     * slower than this, by 1-1.5 ms of the pass) */
     const v4d AB0 = __builtin_shufflevector(A0, B0, 0, 4, 1, 5); /* A0 B0 A1 B1 */
     const v4d AB1 = __builtin_shufflevector(A1, B1, 0, 4, 1, 5); /* A2 B2 A3 B3 */
     const v4d AB4 = __builtin_shufflevector(A0, B0, 2, 6, 3, 7); /* A4 B4 A5 B5 */
