@@ -153,6 +153,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, reload_every_frame)         \
     X(fluid, state_no_stale_paint)       \
     X(fluid, paint_from_still_rows)      \
+    X(fluid, paint_cleared_any_textures) \
     X(fluid, cancel)                     \
     X(fluid, noise_tileable)
 

@@ -1152,12 +1152,12 @@ void test_fluid_reload_every_frame(void)
     hbk_fluid_destroy(b);
 }
 
-/* A 16^3 velocity grid of two textures: fluid (a surface field of 1) in vertex rows y >= fluid,
- * rising at four cells a frame in rows y >= rise, still elsewhere. */
-static hbk_fluid_t *rising(size_t fluid, size_t rise)
+/* A 16^3 velocity grid of `textures` textures: fluid (a surface field of 1) in vertex rows
+ * y >= fluid, rising at four cells a frame in rows y >= rise, still elsewhere. */
+static hbk_fluid_t *rising(size_t fluid, size_t rise, int32_t textures)
 {
     hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
-    p.textures = 2;
+    p.textures = textures;
     p.max_flow = 8.0f;
     hbk_fluid_t *h = make(&p);
     if (!h) return NULL;
@@ -1177,11 +1177,11 @@ static hbk_fluid_t *rising(size_t fluid, size_t rise)
 
 /* Fluid rising above y = 1/2 (rows 8 up), still air below it: vertex (8, 10, 8) takes its
  * paint and life from rows 6 and 7 of the air, whatever path. */
-static hbk_fluid_t *updraft(void) { return rising(8, 8); }
+static hbk_fluid_t *updraft(void) { return rising(8, 8, 2); }
 
 /* Fluid from row 10 up, rising from row 12: rows 10 and 11 hold fluid that stands (no vertex
  * of theirs moves, though they are not empty), and vertex (4, 14, 8) rises from (4, 10, 8). */
-static hbk_fluid_t *standing_rows(void) { return rising(10, 12); }
+static hbk_fluid_t *standing_rows(void) { return rising(10, 12, 2); }
 
 /* The weight of texture 1 at vertex (i, j, 8). */
 static float painted_at(hbk_fluid_t *h, int i, int j)
@@ -1258,6 +1258,29 @@ void test_fluid_paint_from_still_rows(void)
         hbk_fluid_destroy(c);
         hbk_fluid_destroy(d);
         hbk_fluid_destroy(e);
+    }
+}
+
+/* The +0 written for clean sources (advect_lanes.c's zero_records) at every texture count:
+ * painted fluid carried off, with the plain path's bytes. */
+void test_fluid_paint_cleared_any_textures(void)
+{
+    const float lifted[3] = {0.5f, 0.65f, 0.5f};
+    for (int32_t K = 1; K <= HBK_FLUID_MAX_TEXTURES; ++K) {
+        unsigned char *x[2] = {NULL, NULL};
+        size_t n[2] = {0, 0};
+        for (int w = 0; w < 2; ++w) {
+            if (!w) setenv("HBK_PATHS", "scalar", 1);
+            hbk_fluid_t *h = rising(8, 8, K);
+            CHECK(h && hbk_fluid_paint_sphere(h, K - 1, lifted, 0.1f, 0.0f) == HBK_OK);
+            for (int f = 0; f < 3 && h; ++f) CHECK_OK(hbk_fluid_step(h, NULL));
+            if (h) x[w] = snapshot(h, &n[w]);
+            unsetenv("HBK_PATHS");
+            hbk_fluid_destroy(h);
+        }
+        CHECK(x[0] && x[1] && n[0] == n[1] && !memcmp(x[0], x[1], n[0]));
+        free(x[0]);
+        free(x[1]);
     }
 }
 
