@@ -98,6 +98,12 @@ masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsi
     *x = (unsigned)__builtin_ia32_movmskps256((v8f)(whi - wlo < half)) & 0x77u & ~*d;
 }
 
+/* Row r's paint and life are known +0 in both buffers: a still row has none to copy. */
+static inline int both_unpainted(const hbk_fluid_vols_t *in, const hbk_fluid_vols_t *out, size_t r)
+{
+    return in->unpainted[r] && out->unpainted[r];
+}
+
 /* The per-vertex samples of the moving vertices of row (j, k), and the plain copies of the
  * still ones; UVW samples both uvw fields, BP the base blend and the paint. Each step of the
  * back-trace, then each field's samples, runs over the whole row before the next (see
@@ -112,7 +118,7 @@ masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsi
             copy_still(h, in, out, row, paint);                                              \
             h->rows_hot[jk] = 0xff; /* same again, but perhaps not one-hot */                \
         }                                                                                    \
-        else if (paint && !(in->unpainted[jk] && out->unpainted[jk]))                        \
+        else if (paint && !both_unpainted(in, out, jk))                                      \
             /* the life fades in both buffers: not part of "same" */                         \
             memcpy(out->life + row, in->life + row, (size_t)nx * sizeof(float));             \
         h->same_rows[jk] = 1;                                                                \
@@ -183,9 +189,8 @@ masks_pair(const float *ua, const float *ub, const size_t off[8], size_t b, unsi
 static void copy_still(const hbk_fluid_t *h, const hbk_fluid_vols_t *in, hbk_fluid_vols_t *out,
                        size_t row, int paint)
 {
-    /* both rows' paint and life +0 already (out's flag is rewritten after the row) */
-    const size_t r = row / (size_t)h->nv[0];
-    paint = paint && !(in->unpainted[r] && out->unpainted[r]);
+    /* out's flag is rewritten after the row */
+    paint = paint && !both_unpainted(in, out, row / (size_t)h->nv[0]);
     const int32_t nx = h->nv[0];
     for (int32_t i = 0; i < nx;) {
         if (h->moving[row + (size_t)i]) {

@@ -477,7 +477,6 @@ static inline float hbk_fluid_unwrap(float u, float rest) { return u + floorf(re
 /* A uvw volume (vertices x 3) unwrapped at every vertex into out. */
 void hbk_fluid_uvw_unwrapped(const hbk_fluid_t *h, const float *uvw, float *out, int threads);
 
-/* Anything but the advection that writes h->v or h->scratch makes them differ. */
 /* Every float of f[0 .. n) is +0, bit for bit. */
 static inline int hbk_fluid_all_zero(const float *f, size_t n)
 {
@@ -490,6 +489,7 @@ static inline int hbk_fluid_all_zero(const float *f, size_t n)
     return any == 0;
 }
 
+/* Anything but the advection that writes h->v or h->scratch makes them differ. */
 static inline void hbk_fluid_vols_differ(hbk_fluid_t *h)
 {
     memset(h->same_rows, 0, h->n_rows);
