@@ -155,7 +155,8 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, paint_from_still_rows)      \
     X(fluid, paint_cleared_any_textures) \
     X(fluid, cancel)                     \
-    X(fluid, noise_tileable)
+    X(fluid, noise_tileable)             \
+    X(fluid, sums_staggered)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

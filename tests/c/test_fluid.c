@@ -1569,3 +1569,26 @@ void test_fluid_stretch_fade(void)
         hbk_fluid_destroy(h);
     }
 }
+
+/* The splat's four sum arrays start at different offsets into a 4 KB page, at least 64 bytes
+ * apart (fluid.c, sums_alloc: where they all started alike, an Intel core held each row's
+ * load of one sum behind the store to the one before), and do not overlap. This fails with
+ * the arrays allocated apart again, or the stagger under a cache line. */
+void test_fluid_sums_staggered(void)
+{
+    static const int32_t res[] = {8, 32, 128};
+    for (size_t k = 0; k < sizeof res / sizeof res[0]; ++k) {
+        hbk_fluid_params_t p = params(res[k], HBK_FLUID_PARTICLES);
+        hbk_fluid_t *h = make(&p);
+        CHECK(h != NULL);
+        if (!h) continue;
+        const float *s[4] = {h->g_wsum, h->g_mp[0], h->g_mp[1], h->g_mp[2]};
+        for (int a = 0; a < 4; ++a)
+            for (int b = a + 1; b < 4; ++b) {
+                const uintptr_t d = ((uintptr_t)s[b] - (uintptr_t)s[a]) % 4096u;
+                CHECK(d >= 64 && 4096 - d >= 64);
+                CHECK(s[b] >= s[a] + h->n_vert); /* in order, apart */
+            }
+        hbk_fluid_destroy(h);
+    }
+}

@@ -14,7 +14,7 @@ typedef int32_t v8i __attribute__((vector_size(32)));
  * eight vertices of a row are eight floats in a row for the AVX2 path. */
 typedef struct feat {
     const hbk_fluid_t *h;
-    const float *mp[3]; /* V_m (g_mplanes, hbk_fluid_put_motion) */
+    const float *mp[3]; /* V_m (g_mp, hbk_fluid_put_motion) */
     float *np[3];       /* the outward unit normal (g_normal) */
     size_t st[3];       /* vertex strides */
     float inv_dt, gmin2;
@@ -253,7 +253,7 @@ void hbk_fluid_features(hbk_fluid_t *h, int threads)
     const float scale = h->p.source == HBK_FLUID_VELOCITY_GRID ? 1.0f : h->p.rest_density;
     const float gmin = 0.02f * scale / cmin;
     const feat_t f = {h,
-                      {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv},
+                      {h->g_mp[0], h->g_mp[1], h->g_mp[2]},
                       {h->g_normal, h->g_normal + nv, h->g_normal + 2 * nv},
                       {1, (size_t)nx, (size_t)nx * (size_t)ny},
                       1.0f / h->p.dt,

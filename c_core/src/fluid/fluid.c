@@ -50,8 +50,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->motion); free(h->density); free(h->surface); free(h->features);
     free(h->g_motion); free(h->g_density); free(h->g_surface); free(h->g_features);
     free(h->g_normal);
-    free(h->g_wsum);
-    free(h->g_mplanes);
+    free(h->g_sums);
     free(h->splat_ylo);
     free(h->splat_yhi);
     free(h->moving);
@@ -67,6 +66,22 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->mc_mask); free(h->mc_in); free(h->mc_row_in); free(h->mc_cfg);
     free(h->mc_first); free(h->mc_row_v); free(h->mc_row_t); free(h->mc_table);
     free(h);
+}
+
+/* The splat's four sums (g_wsum, g_mp) in one block, each array starting 64 bytes further
+ * into a 4 KB page than the one before. Apart, they all started 16 bytes into one (large
+ * mallocs are mapped pages). An Intel core first matches a load against the stores before it
+ * by address bits 0-11, so it held each row's load of one sum behind the store to another at
+ * the same index (4K aliasing): the splat was about a fifth slower (docs/fluid_performance.md). */
+static void sums_alloc(hbk_fluid_t *h, size_t nv)
+{
+    const size_t stagger = 64 / sizeof(float);
+    const size_t page = 4096 / sizeof(float), span = (nv + page - 1) / page * page;
+    const size_t n = 4 * span + (4 * stagger + page - 1) / page * page; /* whole pages */
+    h->g_sums = aligned_alloc(4096, n * sizeof(float));
+    if (!h->g_sums) return;
+    h->g_wsum = h->g_sums;
+    for (int a = 0; a < 3; ++a) h->g_mp[a] = h->g_sums + (size_t)(a + 1) * (span + stagger);
 }
 
 hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hbk_message_t *msg)
@@ -107,8 +122,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->g_surface = malloc(nv * sizeof(float));
     h->g_features = malloc((size_t)F * nv * sizeof(float));
     h->g_normal = malloc(3 * nv * sizeof(float));
-    h->g_wsum = malloc(nv * sizeof(float));
-    h->g_mplanes = malloc(3 * nv * sizeof(float));
+    sums_alloc(h, nv);
     h->splat_ylo = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->splat_yhi = malloc((size_t)h->nv[2] * sizeof(int32_t));
     h->moving = malloc(nv);
@@ -133,7 +147,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
     h->disp = h->g_normal; /* the features are done with it before the advection */
     if (!h->pos || !h->vel || !h->pos0 || !h->vel0 || !h->sorted || !h->soa || !h->motion ||
         !h->density || !h->surface || !h->features || !h->g_motion || !h->g_density ||
-        !h->g_surface || !h->g_features || !h->g_normal || !h->g_wsum || !h->g_mplanes ||
+        !h->g_surface || !h->g_features || !h->g_normal || !h->g_sums ||
         !h->splat_ylo || !h->splat_yhi || !h->row_flags ||
         !h->moving || !h->rule_tex || !h->same_vox || !vols_alloc(&h->v, nv, h->n_vox, rows, h->K) ||
         !vols_alloc(&h->scratch, nv, h->n_vox, rows, h->K)) {
@@ -152,7 +166,7 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
         {h->motion, 3 * nv}, {h->g_motion, 3 * nv}, {h->density, nv}, {h->g_density, nv},
         {h->surface, nv}, {h->g_surface, nv}, {h->features, (size_t)F * nv},
         {h->g_features, (size_t)F * nv}, {h->g_normal, 3 * nv}, {h->g_wsum, nv},
-        {h->g_mplanes, 3 * nv}};
+        {h->g_mp[0], nv}, {h->g_mp[1], nv}, {h->g_mp[2], nv}};
     for (size_t k = 0; k < sizeof fields / sizeof fields[0]; ++k)
         memset(fields[k].p, 0, fields[k].n * sizeof(float));
     hbk_fluid_reset_uvw(h, h->v.uvw[0], h->v.wrap[0], threads);

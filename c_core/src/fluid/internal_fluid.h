@@ -72,8 +72,9 @@ struct hbk_fluid {
     float *g_motion, *g_density, *g_surface, *g_features; /* fields under construction */
     float *g_normal;             /* vertices x 3: outward unit normal of the density (features) */
     float *g_wsum;              /* Shepard weight sums of the velocity gather */
-    float *g_mplanes;           /* 3 x nv, a plane per axis: the splat's velocity sums, then V_m */
-    int32_t *splat_ylo, *splat_yhi; /* per vertex layer: the rows of g_wsum and g_mplanes that
+    float *g_mp[3];             /* nv each, a plane per axis: the splat's velocity sums, then V_m */
+    float *g_sums;              /* the block g_wsum and g_mp are in (hbk_fluid_sums_alloc) */
+    int32_t *splat_ylo, *splat_yhi; /* per vertex layer: the rows of g_wsum and g_mp that
                                  * may be non-zero (metaballs.c clears only those) */
     uint8_t *moving;            /* nv: V_m is not zero there (advection) */
     uint8_t *rule_tex;          /* nv: the texture this step's feature rules set (0xff: none),
@@ -223,8 +224,8 @@ static inline float hbk_fluid_vmax(const hbk_fluid_t *h)
     cmin = cmin < h->cell[2] ? cmin : h->cell[2];
     return h->p.max_flow * cmin / h->p.dt;
 }
-/* V_m at vertex i from the flow v, clamped to vmax: into g_motion, and into the planes of
- * g_mplanes that the features read. */
+/* V_m at vertex i from the flow v, clamped to vmax: into g_motion, and into the planes
+ * g_mp that the features read. */
 static inline void hbk_fluid_put_motion(hbk_fluid_t *h, size_t i, float v[3], float vmax)
 {
     const float s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
@@ -234,11 +235,11 @@ static inline void hbk_fluid_put_motion(hbk_fluid_t *h, size_t i, float v[3], fl
     }
     for (int a = 0; a < 3; ++a) {
         h->g_motion[3 * i + (size_t)a] = v[a];
-        h->g_mplanes[(size_t)a * h->n_vert + i] = v[a];
+        h->g_mp[a][i] = v[a];
     }
 }
 
-/* Marks every row of g_wsum and g_mplanes as holding data (all = 1: after create, or after
+/* Marks every row of g_wsum and g_mp as holding data (all = 1: after create, or after
  * something else wrote them) or none (all = 0: they were just zeroed). */
 static inline void hbk_fluid_splat_rows(hbk_fluid_t *h, int all)
 {

@@ -251,10 +251,9 @@ __attribute__((target("avx2"))) static size_t normalise8(const hbk_fluid_t *h, s
                                                          float dens_k, float surf_k, float vmax,
                                                          int own_surf)
 {
-    const size_t nv = h->n_vert;
     const float *const ws = h->g_wsum;
     float *const dn = h->g_density, *const sf = h->g_surface, *const gm = h->g_motion;
-    float *const mp[3] = {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv};
+    float *const mp[3] = {h->g_mp[0], h->g_mp[1], h->g_mp[2]};
     const v8f zero = {0}, vm = zero + vmax, vm2 = zero + vmax * vmax;
     size_t i = i0;
     for (; i + 8 <= i1; i += 8) {
@@ -295,7 +294,7 @@ __attribute__((target("avx2"))) static size_t normalise8(const hbk_fluid_t *h, s
 /* Scatter by owner: vertex z-slabs are chunks of the loop; each chunk walks the particles
  * whose support reaches it (by rows of cells: y, then z, then x) and adds to its own vertices
  * only, so every vertex sums its particles in one fixed order, whatever thread runs the chunk
- * and however thick the slabs. The motion sums go to three planes (g_mplanes), so that eight
+ * and however thick the slabs. The motion sums go to three planes (g_mp), so that eight
  * vertices of a row are eight floats in a row; the Shepard normalisation writes them back
  * interleaved. */
 hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
@@ -307,7 +306,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
     const int32_t nx = h->nv[0], ny = h->nv[1], nz = h->nv[2];
     if (n == 0 || own_surf) memset(h->g_surface, 0, nv * sizeof(float));
     if (n == 0) {
-        memset(h->g_mplanes, 0, 3 * nv * sizeof(float));
+        for (int a = 0; a < 3; ++a) memset(h->g_mp[a], 0, nv * sizeof(float));
         memset(h->g_wsum, 0, nv * sizeof(float));
         memset(h->g_density, 0, nv * sizeof(float));
         memset(h->g_motion, 0, 3 * nv * sizeof(float));
@@ -330,7 +329,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
         memcpy(xv + 8 * (size_t)k + 3, h->vel + 3 * (size_t)id, 3 * sizeof(float));
     }
     const splat_t s = {h->g_wsum, h->g_surface,
-                       {h->g_mplanes, h->g_mplanes + nv, h->g_mplanes + 2 * nv},
+                       {h->g_mp[0], h->g_mp[1], h->g_mp[2]},
                        H * H, R * R, 1.0f / (R * R), own_surf,
                        h->splat_ylo, h->splat_yhi, xv};
     const float dens_k = (float)(h->mass * 315.0 / (64.0 * M_PI * pow(H, 9)));
@@ -395,7 +394,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
             const hbk_v4i pos = w > zero;
             for (int a = 0; a < 3; ++a) {
                 hbk_v4f sum;
-                memcpy(&sum, h->g_mplanes + (size_t)a * nv + i, sizeof sum);
+                memcpy(&sum, h->g_mp[a] + i, sizeof sum);
                 v[a] = (hbk_v4f)(((hbk_v4i)(sum / w) & pos) | ((hbk_v4i)sum & ~pos));
             }
             const hbk_v4f s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
@@ -406,7 +405,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
                     v[a] = (hbk_v4f)(((hbk_v4i)(v[a] * f) & over) | ((hbk_v4i)v[a] & ~over));
             }
             for (int a = 0; a < 3; ++a) {
-                memcpy(h->g_mplanes + (size_t)a * nv + i, &v[a], sizeof v[a]);
+                memcpy(h->g_mp[a] + i, &v[a], sizeof v[a]);
                 for (int l = 0; l < 4; ++l) h->g_motion[3 * (i + (size_t)l) + (size_t)a] = v[a][l];
             }
         }
@@ -416,7 +415,7 @@ hbk_result_t hbk_fluid_particles_to_grid(hbk_fluid_t *h, int threads)
             if (!own_surf) h->g_surface[i] = surf_k * w;
             float v[3];
             for (int a = 0; a < 3; ++a) {
-                const float sum = h->g_mplanes[(size_t)a * nv + i];
+                const float sum = h->g_mp[a][i];
                 v[a] = w > 0.0f ? sum / w : sum;
             }
             hbk_fluid_put_motion(h, i, v, vmax);
