@@ -3,15 +3,16 @@
  * with it failing alone and the failed call skipped, and with every allocation failing from
  * there on.
  *
- * The library's malloc, calloc and realloc are wrapped at link time (-Wl,--wrap), so only the
- * library's own calls are counted and failed; the scenarios allocate through af_buffer, which
- * the failures never reach. A call may only succeed or report HBK_ERR_OUT_OF_MEMORY, with a
- * message, and only when an allocation failed under it; a create that fails leaves no handle.
- * Retried, the call must succeed and the run end with the clean run's bytes: the failure left
- * the handle as it was. Skipped, the scenario goes on as a caller that carries on would (later
- * calls may then refuse); with every allocation failing, it stops at the first failure. In
- * every mode nothing may crash, and once the handles are destroyed nothing the library
- * allocated is left. Run in the sanitizer tree too, where a bad access fails the test. */
+ * The library's malloc, calloc, aligned_alloc and realloc are wrapped at link time
+ * (-Wl,--wrap), so only the library's own calls are counted and failed; the scenarios allocate
+ * through af_buffer, which the failures never reach. A call may only succeed or report
+ * HBK_ERR_OUT_OF_MEMORY, with a message, and only when an allocation failed under it; a create
+ * that fails leaves no handle. Retried, the call must succeed and the run end with the clean
+ * run's bytes: the failure left the handle as it was. Skipped, the scenario goes on as a
+ * caller that carries on would (later calls may then refuse); with every allocation failing,
+ * it stops at the first failure. In every mode nothing may crash, and once the handles are
+ * destroyed nothing the library allocated is left. Run in the sanitizer tree too, where a bad
+ * access fails the test. */
 #ifndef HBK_ALLOC_FAILURE_H
 #define HBK_ALLOC_FAILURE_H
 #include <stddef.h>

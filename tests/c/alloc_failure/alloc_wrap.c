@@ -7,6 +7,7 @@
 void *__real_malloc(size_t n);
 void *__real_calloc(size_t n, size_t size);
 void *__real_realloc(void *p, size_t n);
+void *__real_aligned_alloc(size_t align, size_t n);
 void __real_free(void *p);
 
 static long g_fail_at, g_count, g_injected, g_live;
@@ -44,6 +45,11 @@ void *__wrap_malloc(size_t n) { return should_fail() ? NULL : counted(__real_mal
 void *__wrap_calloc(size_t n, size_t size)
 {
     return should_fail() ? NULL : counted(__real_calloc(n, size));
+}
+
+void *__wrap_aligned_alloc(size_t align, size_t n)
+{
+    return should_fail() ? NULL : counted(__real_aligned_alloc(align, n));
 }
 
 void *__wrap_realloc(void *p, size_t n)
