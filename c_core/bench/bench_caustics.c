@@ -1,6 +1,7 @@
 /* Benchmark of the caustics effect: water steps, caustic maps, and the brute-force photon
  * tracer of the tests against a converged reference. Prints a markdown table.
  * Usage: bench_caustics [quick]   ("quick" shortens the photon runs). */
+#include "bench_args.h"
 #include "hydrobake.h"
 #include "../../tests/c/caustics_photons.h"
 #include <math.h>
@@ -153,7 +154,14 @@ static double l1(const double *a, const double *ref, int nb)
 
 int main(int argc, char **argv)
 {
-    const int quick = argc > 1 && !strcmp(argv[1], "quick");
+    const char *usage = "bench_caustics [quick]   (quick shortens the photon runs)";
+    bench_check_args(argc, argv, 1, usage);
+    if (argc > 1 && strcmp(argv[1], "quick")) {
+        fprintf(stderr, "%s: the only argument is \"quick\", got \"%s\"\nusage: %s\n", argv[0],
+                argv[1], usage);
+        return 2;
+    }
+    const int quick = argc > 1;
     const int cores = omp_get_num_procs();
     printf("Hydrobake caustics benchmark (%d cores available; -O2, no fast-math)\n\n", cores);
     printf("| what | size | 1 thread | 2 threads |\n|---|---|---|---|\n");

@@ -7,6 +7,7 @@
  * of one of them and how many a frame took. The first frames are not timed: the column must
  * have fallen and be running across the floor, as in most of a bake, not sitting at rest.
  * Usage: bench_fluid [frames]. Prints a markdown table. */
+#include "bench_args.h"
 #include "hydrobake.h"
 #include <float.h>
 #include <math.h>
@@ -16,7 +17,9 @@
 
 int main(int argc, char **argv)
 {
-    const int frames = argc > 1 ? atoi(argv[1]) : 5;
+    const char *usage = "bench_fluid [frames: 1-1000, default 5]";
+    bench_check_args(argc, argv, 1, usage);
+    const int frames = bench_int_arg(argc, argv, 1, "frames", 5, 1, 1000, usage);
     const struct { int res, particles; } cases[3] = {{32, 10000}, {64, 50000}, {128, 100000}};
     const int warm = 6; /* 0.25 s: the wave has crossed half the floor */
     printf("Fluid texturing: mean of %d frames of 1/24 s after %d untimed ones, %d cores "

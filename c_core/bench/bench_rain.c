@@ -12,6 +12,7 @@
  * (read + write). Usage: bench_rain [frames]. Prints a markdown table. */
 #include "hydrobake.h"
 #include <omp.h>
+#include "bench_args.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,7 +21,9 @@ static double now(void) { return omp_get_wtime(); }
 
 int main(int argc, char **argv)
 {
-    const int frames = argc > 1 ? atoi(argv[1]) : 24;
+    const char *usage = "bench_rain [frames: 1-10000, default 24]";
+    bench_check_args(argc, argv, 1, usage);
+    const int frames = bench_int_arg(argc, argv, 1, "frames", 24, 1, 10000, usage);
     const int sizes[2] = {1024, 2048}, counts[2] = {5000, 20000};
     printf("Windshield rain: 1 m x 1 m glass, %d frames of 1/24 s, rain 300 / m^2 s, %d cores "
            "available\n\n", frames, omp_get_num_procs());

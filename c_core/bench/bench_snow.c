@@ -2,6 +2,7 @@
  * threads, in an open scene (the volume much larger than the mesh, as in a real shot) and a
  * tight one (the volume hugging the mesh, so most flakes need the full BVH query).
  * Usage: bench_snow [flakes] [substeps]. Prints a markdown table. */
+#include "bench_args.h"
 #include "hydrobake.h"
 #include <math.h>
 #include <omp.h>
@@ -42,8 +43,11 @@ static void torus(float *pos, int32_t *tri, float *uv)
 
 int main(int argc, char **argv)
 {
-    const int32_t flakes = argc > 1 ? atoi(argv[1]) : 1000000;
-    const int32_t substeps = argc > 2 ? atoi(argv[2]) : 20;
+    const char *usage = "bench_snow [flakes: 1-100000000, default 1000000] "
+                        "[substeps: 1-100000, default 20]";
+    bench_check_args(argc, argv, 2, usage);
+    const int32_t flakes = bench_int_arg(argc, argv, 1, "flakes", 1000000, 1, 100000000, usage);
+    const int32_t substeps = bench_int_arg(argc, argv, 2, "substeps", 20, 1, 100000, usage);
     float *pos = malloc(sizeof(float) * 3 * U * V), *uv = malloc(sizeof(float) * 6 * 2 * U * V);
     int32_t *tri = malloc(sizeof(int32_t) * 3 * 2 * U * V);
     if (!pos || !uv || !tri) return 1;
