@@ -3,7 +3,6 @@
 #ifndef HBK_BENCH_ARGS_H
 #define HBK_BENCH_ARGS_H
 #include <errno.h>
-#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -10,9 +10,9 @@
  * Bytes/s count what a pass reads and writes once (height map: 4 B per texel written;
  * normals: 4 B read + 12 B written), against memcpy of a 16 B-per-texel buffer in the same run
  * (read + write). Usage: bench_rain [frames]. Prints a markdown table. */
+#include "bench_args.h"
 #include "hydrobake.h"
 #include <omp.h>
-#include "bench_args.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

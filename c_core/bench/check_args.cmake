@@ -1,5 +1,5 @@
 # Runs a benchmark with arguments that must be refused before any timing (ctest, via -P):
-# ARGS (a ;-list) must exit with CODE and print a line matching EXPECT.
+# ARGS (split as a shell would) must exit with CODE and print a line matching EXPECT.
 separate_arguments(args UNIX_COMMAND "${ARGS}")
 execute_process(COMMAND ${EXE} ${args} RESULT_VARIABLE rc OUTPUT_VARIABLE out
                 ERROR_VARIABLE err TIMEOUT 20)
