@@ -5,6 +5,7 @@ VDB, surface and checkpoint files included. A benchmark, not a test.
 Usage: /usr/bin/python3 build/bench_fluid_bake.py [frames] [resolution]
 (after build/build.sh; Blender's Python, with numpy and pyopenvdb).
 """
+import argparse
 import os
 import shutil
 import sys
@@ -16,11 +17,30 @@ sys.path.insert(0, os.path.join(ROOT, "blender_addon"))
 
 from hydrobake.core.bake import BakeRunner  # noqa: E402
 from hydrobake.core.effects import get  # noqa: E402
+from hydrobake.core.fluid import Fluid  # noqa: E402
+
+
+def int_in(lo, hi):
+    """An argparse type: an integer in [lo, hi], refused with the range otherwise."""
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be an integer in [{lo}, {hi}], got {text!r}")
+        return value
+    return parse
 
 
 def main():
-    frames = int(sys.argv[1]) if len(sys.argv) > 1 else 6
-    res = int(sys.argv[2]) if len(sys.argv) > 2 else 128
+    parser = argparse.ArgumentParser(description="A whole fluid bake, timed by stage.")
+    parser.add_argument("frames", nargs="?", type=int_in(1, 10000), default=6)
+    res_range = Fluid.spec().by_name["resolution"]  # the library's own range
+    parser.add_argument("resolution", nargs="?", default=128,
+                        type=int_in(int(res_range.min), int(res_range.max)))
+    args = parser.parse_args()
+    frames, res = args.frames, args.resolution
     params = {"fluid": {"resolution": (res,) * 3, "textures": 3, "threads": 2, "substeps": 1,
                         "max_particles": 100000, "particle_spacing": 0.015,
                         "smoothing_length": 0.03, "metaball_radius": 0.03, "dt": 1 / 24}}

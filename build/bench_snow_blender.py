@@ -1,9 +1,10 @@
 """Benchmark (not a test): a full snow bake of a 126k-face subdivided Suzanne with Hydrobake,
 next to Blender's bundled Real Snow addon on the same mesh, in the same run.
 
-    blender -b --factory-startup --python build/bench_snow_blender.py -- [FRAMES] [FLAKES]
+    BLENDER_USER_SCRIPTS=build/_work/blender_home/scripts blender -b --factory-startup \
+        --python-exit-code 1 --python build/bench_snow_blender.py -- [FRAMES] [FLAKES]
 
-(with the addon installed, as build/main.sh does; see README, Benchmarks)."""
+(the addon installed there by build/main.sh; see README, Benchmarks)."""
 import os
 import sys
 import tempfile
@@ -13,13 +14,39 @@ import addon_utils
 import bpy
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-frames = int(argv[0]) if argv else 48
-flakes = int(argv[1]) if len(argv) > 1 else 1000000
 
-tmp = tempfile.mkdtemp(prefix="hbk_bench_")
+
+def int_arg(i, name, default, lo, hi):
+    """argv[i] in [lo, hi]: a bad one stops the run before anything is timed."""
+    if len(argv) <= i:
+        return default
+    try:
+        value = int(argv[i])
+    except ValueError:
+        value = None
+    if value is None or not lo <= value <= hi:
+        print(f"bench_snow_blender: {name} must be an integer in [{lo}, {hi}], got {argv[i]!r}",
+              file=sys.stderr)
+        sys.exit(2)
+    return value
+
+
+if len(argv) > 2:
+    print(f"bench_snow_blender: at most 2 arguments (FRAMES FLAKES), got {len(argv)}",
+          file=sys.stderr)
+    sys.exit(2)
 bpy.ops.wm.read_factory_settings(use_empty=True)
-addon_utils.enable("hydrobake", default_set=False)
-addon_utils.enable("real_snow", default_set=False)
+for name in ("hydrobake", "real_snow"):
+    if addon_utils.enable(name, default_set=False) is None:
+        print(f"bench_snow_blender: the addon {name} is not installed for this Blender "
+              "(run build/main.sh, then set BLENDER_USER_SCRIPTS as the docstring shows)",
+              file=sys.stderr)
+        sys.exit(2)
+flake_rna = (bpy.types.Object.bl_rna.properties["hydrobake_snow"].fixed_type
+             .properties["snow"].fixed_type.properties["flake_count"])
+frames = int_arg(0, "FRAMES", 48, 1, 1048574)  # Blender's last frame
+flakes = int_arg(1, "FLAKES", 1000000, flake_rna.hard_min, flake_rna.hard_max)
+tmp = tempfile.mkdtemp(prefix="hbk_bench_")
 from hydrobake.blender import jobs  # noqa: E402
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "suzanne.blend"))
 bpy.ops.mesh.primitive_monkey_add(size=2.0, location=(0, 0, 1))
