@@ -3,6 +3,8 @@ import os
 
 from hydrobake_paths import ROOT
 
+from hydrobake.core.snow import Snow
+
 
 def test_bake_person_wire_free_on_examples(blender, tmp_path):
     r = blender.run("bake_snow.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
@@ -17,7 +19,6 @@ def test_box_mode_projects_the_atlas_back(blender, tmp_path):
 def test_bench_script_refuses_bad_arguments(blender):
     """build/bench_snow_blender.py stops before building its mesh: exit 2, naming the
     argument and the flake count's range as the addon's property has it."""
-    from hydrobake.core.snow import Snow
     flakes = Snow.spec().by_name["flake_count"]
     script = os.path.join(ROOT, "build", "bench_snow_blender.py")
     r = blender.run(script, 1, 0, check=False)
