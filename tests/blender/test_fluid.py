@@ -24,3 +24,8 @@ def test_mantaflow_time_scale_slows_the_textures_as_it_slows_the_liquid(blender,
 def test_builtin_samples_repeat_every_uvw_unit(blender, tmp_path):
     r = blender.run("tileable_period.py", tmp_path)
     assert "TILEABLE OK" in r.stdout, r.stdout
+
+
+def test_frames_without_fluid_and_bad_inputs_named(blender, tmp_path):
+    r = blender.run("fluid_edges.py", tmp_path)
+    assert "FLUID EMPTY FRAMES OK" in r.stdout and "FLUID REFUSALS OK" in r.stdout, r.stdout

@@ -55,7 +55,7 @@ def _surface(mesh, data):
         elif arr.ndim == 1:
             mesh.attributes.new(name, "FLOAT", "POINT").data.foreach_set("value", arr)
         else:
-            cols = arr.reshape(len(pos), -1)
+            cols = arr if arr.ndim == 2 else arr.reshape(len(pos), -1)  # (0, k) stays so
             for k in range(cols.shape[1]):
                 mesh.attributes.new(f"{name}_{k}", "FLOAT", "POINT").data.foreach_set(
                     "value", np.ascontiguousarray(cols[:, k]))
@@ -86,7 +86,12 @@ def _frame_of(obj, fallback):
 def on_frame(scene, *_args):
     for obj in bpy.data.objects:
         if PROP in obj and obj.type == "MESH":
-            load(obj, _frame_of(obj, scene))
+            frame = _frame_of(obj, scene)
+            try:
+                load(obj, frame)
+            except (OSError, ValueError, KeyError) as exc:
+                # A damaged file must not stop the other sequences from following the frame.
+                print(f"Hydrobake: {obj.name}: frame {frame}: {exc}")
 
 
 def ensure_handler():

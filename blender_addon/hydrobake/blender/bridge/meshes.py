@@ -58,6 +58,8 @@ def data_world_bounds(obj):
     """(min xyz, max xyz) of the object's own mesh (before modifiers) in world space: a fluid
     domain's box even while it shows its liquid."""
     n = len(obj.data.vertices)
+    if n == 0:
+        raise ValueError(f"{obj.name}: its mesh has no vertices, so no box")
     co = np.empty(n * 3, np.float64)
     obj.data.vertices.foreach_get("co", co)
     m = np.array(obj.matrix_world, np.float64)

@@ -118,6 +118,10 @@ class HYDROBAKE_OT_fluid_capture_rule(bpy.types.Operator):
             return {"CANCELLED"}
         if surf.mode == "EDIT":
             bpy.ops.object.mode_set(mode="OBJECT")  # writes the edit-mode selection back
+        ntex = domain.hydrobake_fluid.fluid.textures
+        if self.texture >= ntex:
+            self.report({"ERROR"}, f"Texture = {self.texture}: must be < textures = {ntex}")
+            return {"CANCELLED"}
         k = FEATURES.index(self.feature)
         attr = surf.data.attributes.get(f"features_{k}")
         sel = np.zeros(len(surf.data.vertices), bool)
@@ -242,8 +246,13 @@ class FluidBlender(BlenderEffect):
             if settings.fill_object is None:
                 raise ValueError("Fill: SIMULATE needs an object whose box the fluid fills")
             flo, fhi = meshes.world_bounds(settings.fill_object)
-            inputs["fill"] = (tuple(map(float, np.maximum(flo, lo))),
-                              tuple(map(float, np.minimum(fhi, hi))))
+            flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
+            if np.any(fhi - flo < fp["particle_spacing"]):
+                # The core would fill it with no particle at all: a bake of nothing.
+                raise ValueError(f"Fill: {settings.fill_object.name!r} must overlap the "
+                                 "domain's box by at least particle_spacing = "
+                                 f"{fp['particle_spacing']:g} m on every axis")
+            inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
             if settings.obstacles:
                 obs = []
                 for o in settings.obstacles.all_objects:
@@ -287,10 +296,13 @@ class FluidBlender(BlenderEffect):
                     (p.texture, tuple(e.matrix_world.translation), r, 0.2 * r))
             inputs["paint"] = strokes
         rules = []
-        for rule in settings.rules:
+        for i, rule in enumerate(settings.rules):
             if rule.texture >= ntex:
-                raise ValueError(f"Feature rule: texture = {rule.texture}: must be < textures "
-                                 f"= {ntex}")
+                raise ValueError(f"Feature rule {i + 1}: texture = {rule.texture}: must be < "
+                                 f"textures = {ntex}")
+            if not rule.low <= rule.high:
+                raise ValueError(f"Feature rule {i + 1}: Low = {rule.low:g} is above High = "
+                                 f"{rule.high:g}: a range needs Low <= High")
             lo, hi = [-OPEN] * len(FEATURES), [OPEN] * len(FEATURES)
             k = FEATURES.index(rule.feature)
             lo[k], hi[k] = rule.low, rule.high

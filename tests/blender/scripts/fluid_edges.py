@@ -1,0 +1,102 @@
+"""Fluid edge cases through the addon: a particle system that starts emitting after the first
+frame (frames with no fluid bake an empty surface, and the bake still wires its objects), and
+inputs refused with the setting named: a Fill outside the domain, a rule whose Low is above
+its High, a captured rule's texture out of range, a domain mesh with no vertices."""
+import os
+
+import bmesh
+import bpy
+import numpy as np
+
+import in_blender
+
+in_blender.enable()
+from hydrobake.blender.bridge import frame_meshes  # noqa: E402
+from hydrobake.core import vdb  # noqa: E402
+
+tmp = in_blender.args()[0]
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "edges.blend"))
+
+
+def box(name, scale, loc):
+    obj = in_blender.new_plane(name)
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.scale, obj.location = scale, loc
+    return obj
+
+
+def refused(op, **kw):
+    """The operator's error message (it must fail)."""
+    try:
+        op(**kw)
+    except RuntimeError as exc:
+        return str(exc)
+    raise AssertionError(f"{op} did not refuse")
+
+
+domain = box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
+emitter = box("Emitter", (0.3, 0.3, 0.05), (0.5, 0.25, 0.4))
+ps = emitter.modifiers.new("Drops", "PARTICLE_SYSTEM").particle_system.settings
+ps.count, ps.frame_start, ps.frame_end, ps.lifetime = 800, 3, 3, 100
+ps.emit_from = "VOLUME"
+s = domain.hydrobake_fluid
+s.enabled, s.particle_object = True, emitter
+s.fluid.source = "PARTICLES"
+s.fluid.resolution, s.fluid.substeps, s.fluid.textures = (16, 8, 8), 4, 2
+s.use_scene_range, s.frame_start, s.frame_end = False, 1, 4
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+surf = bpy.data.objects["HBK_Domain_surface"]
+assert surf.get("hydrobake_domain") == "Domain"  # wired, though frame 1 had no fluid
+for frame, wet in ((1, False), (2, False), (4, True)):
+    bpy.context.scene.frame_set(frame)
+    mesh = surf.data
+    assert (len(mesh.vertices) > 0) == wet, (frame, len(mesh.vertices))
+    assert "blend_0" in mesh.attributes and "features_0" in mesh.attributes, frame
+    density = vdb.read(os.path.join(s.bake_folder, f"fluid_{frame:04d}.vdb"))["density"]
+    assert (density.evalMinMax()[1] > 0) == wet, frame
+# A damaged file in one sequence (listed first) does not stop the others following the frame.
+broken = os.path.join(tmp, "broken")
+os.makedirs(broken)
+with open(os.path.join(broken, "surface_0004.npz"), "wb") as f:
+    f.write(b"not a zip")
+bpy.context.scene.frame_set(1)
+frame_meshes.attach("AAA broken", "surface", broken, "surface")
+bpy.context.scene.frame_set(4)
+assert len(surf.data.vertices) > 0
+frame_meshes.detach("AAA broken")
+print("FLUID EMPTY FRAMES OK")
+
+# Capture refuses a texture the domain does not have.
+sel = np.ones(len(surf.data.vertices), bool)
+surf.data.vertices.foreach_set("select", sel)
+bpy.context.view_layer.objects.active = surf
+msg = refused(bpy.ops.hydrobake.fluid_capture_rule, texture=5, feature="DENSITY")
+assert "Texture = 5: must be < textures = 2" in msg, msg
+assert len(s.rules) == 0
+
+# A rule whose range is empty is named, with its Low and High.
+bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain")
+rule = s.rules.add()
+rule.texture, rule.feature, rule.low, rule.high = 1, "DENSITY", 5.0, 1.0
+msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
+assert "Feature rule 1: Low = 5 is above High = 1" in msg, msg
+s.rules.remove(0)
+
+# A Fill box outside the domain would simulate nothing.
+fill = box("Column", (0.25, 0.45, 0.4), (5.0, 5.0, 5.0))
+s.fluid.source, s.fill_object = "SIMULATE", fill
+msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
+assert "Fill: 'Column' must overlap the domain's box by at least particle_spacing" in msg, msg
+
+# A domain whose mesh has no vertices has no box.
+fill.location = (0.15, 0.25, 0.21)
+bm = bmesh.new()
+bm.to_mesh(domain.data)
+bm.free()
+msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
+assert "Domain: its mesh has no vertices" in msg, msg
+assert not s.is_baked
+print("FLUID REFUSALS OK")
