@@ -222,6 +222,13 @@ HBK_EXPORT hbk_result_t hbk_fluid_paint_mask(hbk_fluid_t *h, int32_t texture, co
 HBK_EXPORT hbk_result_t hbk_fluid_paint_sphere(hbk_fluid_t *h, int32_t texture,
                                                const float center[3], float radius,
                                                float falloff);
+/* The same from points, such as the vertices of a surface painted in Blender: coverage
+ * coverage[i] (NULL: 1) inside `radius` m of pos[3 i..3 i + 2], a linear falloff over the
+ * last `falloff` m; where points' balls overlap the largest coverage counts. radius + falloff
+ * must lie within 16 cells, so that a stroke stays cheap. count = 0 paints nothing. */
+HBK_EXPORT hbk_result_t hbk_fluid_paint_points(hbk_fluid_t *h, int32_t texture, int32_t count,
+                                               const float *pos, const float *coverage,
+                                               float radius, float falloff);
 /* Removes all local paint. */
 HBK_EXPORT hbk_result_t hbk_fluid_clear_paint(hbk_fluid_t *h);
 

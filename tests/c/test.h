@@ -154,6 +154,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, state_no_stale_paint)       \
     X(fluid, paint_from_still_rows)      \
     X(fluid, paint_cleared_any_textures) \
+    X(fluid, paint_points)               \
     X(fluid, cancel)                     \
     X(fluid, noise_tileable)             \
     X(fluid, sums_staggered)

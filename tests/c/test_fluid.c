@@ -1592,3 +1592,68 @@ void test_fluid_sums_staggered(void)
         hbk_fluid_destroy(h);
     }
 }
+
+/* Paint from points (a surface painted in Blender): one point is the sphere stroke, bit for
+ * bit; overlapping points give the largest coverage whatever their order; nothing beyond the
+ * ball changes; no coverage paints nothing; bad arguments are refused by name. */
+void test_fluid_paint_points(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_SIMULATE);
+    const float c[3] = {0.4f, 0.5f, 0.45f};
+    hbk_fluid_t *h[4];
+    for (int k = 0; k < 4; ++k) CHECK((h[k] = make(&p)) != NULL);
+    float *before = volume(h[0], HBK_FLUID_VOL_BLEND);
+    const size_t n = hbk_fluid_volume_size(h[0], HBK_FLUID_VOL_BLEND);
+    const float none = 0.0f;
+    CHECK_OK(hbk_fluid_paint_points(h[0], 1, 1, c, &none, 0.1f, 0.05f));
+    CHECK_OK(hbk_fluid_paint_points(h[0], 1, 0, NULL, NULL, 0.1f, 0.05f));
+    size_t s0, s1;
+    unsigned char *a = snapshot(h[0], &s0), *b = snapshot(h[1], &s1);
+    CHECK(a && b && s0 == s1 && !memcmp(a, b, s0)); /* untouched, paint still off */
+    free(a);
+    free(b);
+    CHECK_OK(hbk_fluid_paint_sphere(h[0], 1, c, 0.1f, 0.05f));
+    CHECK_OK(hbk_fluid_paint_points(h[1], 1, 1, c, NULL, 0.1f, 0.05f));
+    const float two[6] = {c[0], c[1], c[2], c[0], c[1], c[2]};
+    const float up[2] = {0.3f, 0.8f}, down[2] = {0.8f, 0.3f};
+    CHECK_OK(hbk_fluid_paint_points(h[2], 2, 2, two, up, 0.1f, 0.05f));
+    CHECK_OK(hbk_fluid_paint_points(h[3], 2, 2, two, down, 0.1f, 0.05f));
+    float *v[4];
+    for (int k = 0; k < 4; ++k) CHECK((v[k] = volume(h[k], HBK_FLUID_VOL_BLEND)) != NULL);
+    CHECK(!memcmp(v[0], v[1], n * sizeof(float)));
+    CHECK(!memcmp(v[2], v[3], n * sizeof(float)));
+    const int K = p.textures, nx = p.resolution[0] + 1;
+    int inside = 0, outside = 0;
+    for (size_t i = 0; i < n / (size_t)K; ++i) {
+        const float x[3] = {(float)(i % (size_t)nx) / 16.0f, (float)(i / (size_t)nx % (size_t)nx) / 16.0f,
+                            (float)(i / ((size_t)nx * (size_t)nx)) / 16.0f};
+        const float d = sqrtf((x[0] - c[0]) * (x[0] - c[0]) + (x[1] - c[1]) * (x[1] - c[1]) +
+                              (x[2] - c[2]) * (x[2] - c[2]));
+        if (d < 0.09f) { /* inside the radius: texture 2 at the larger coverage */
+            CHECK_NEAR(v[2][K * i + 2], 0.8f + 0.2f * before[K * i + 2], 1e-6);
+            ++inside;
+        } else if (d > 0.16f) { /* beyond the ball: as before */
+            CHECK(!memcmp(v[2] + K * i, before + K * i, (size_t)K * sizeof(float)));
+            ++outside;
+        }
+    }
+    CHECK(inside > 8 && outside > 1000);
+    for (int k = 0; k < 4; ++k) free(v[k]);
+    free(before);
+    const float bad_cov[2] = {0.5f, 1.5f}, nan_pos[3] = {0.5f, 0.5f, NAN};
+    CHECK(hbk_fluid_paint_points(h[0], 3, 1, c, NULL, 0.1f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h[0]), "texture = 3"));
+    CHECK(hbk_fluid_paint_points(h[0], 1, -1, c, NULL, 0.1f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h[0]), "count = -1"));
+    CHECK(hbk_fluid_paint_points(h[0], 1, 1, NULL, NULL, 0.1f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h[0]), "pos"));
+    CHECK(hbk_fluid_paint_points(h[0], 1, 2, two, bad_cov, 0.1f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h[0]), "coverage[1] = 1.5"));
+    CHECK(hbk_fluid_paint_points(h[0], 1, 1, nan_pos, NULL, 0.1f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h[0]), "pos[0][2]"));
+    CHECK(hbk_fluid_paint_points(h[0], 1, 1, c, NULL, 1.01f, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h[0]), "radius = 1.01: must be in [0, 1] m (16 cells)"));
+    CHECK(hbk_fluid_paint_points(h[0], 1, 1, c, NULL, 0.5f, 0.6f) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_fluid_message(h[0]), "falloff = 0.6"));
+    for (int k = 0; k < 4; ++k) hbk_fluid_destroy(h[k]);
+}

@@ -210,3 +210,40 @@ def test_sph_takes_the_steps_stability_needs():
         assert f.substeps_taken < 100
         # A stable fluid only loses mechanical energy (an unstable one gains it and sprays).
         assert all(b <= a * 1.001 for a, b in zip(energy, energy[1:]))
+
+
+def test_paint_points_lays_the_largest_coverage_on_its_frame_after_the_step():
+    nx = ny = nz = 9
+    still = (np.zeros((nz, ny, nx, 3), np.float32), np.ones((nz, ny, nx), np.float32))
+    pts = np.array([[0.5, 0.5, 0.5], [0.5, 0.5, 0.5], [0.125, 0.125, 0.125]], np.float32)
+    e = get("fluid")({"fluid": dict(GRID, textures=3, default_texture=0)},
+                     {"velocity": {1: still},
+                      "paint_points": {2: [(2, pts, np.array([0.3, 0.7, 0.0]), 0.13, 0.0)]}})
+    try:
+        e.step(1, None)
+        assert e.fluid.volume("blend")[..., 2].max() == 0.0  # not before its frame
+        e.step(2, None)
+        b = e.fluid.volume("blend")
+        assert b[4, 4, 4, 2] == pytest.approx(0.7)  # the larger of the two, on the step's frame
+        assert b[4, 4, 3, 2] == pytest.approx(0.7)  # 0.125 m away: within the 0.13 m radius
+        assert b[4, 4, 2, 2] == 0.0 and b[1, 1, 1, 2] == 0.0  # beyond it, and no coverage
+        assert b[4, 4, 4, 0] == pytest.approx(0.3)  # the base shows through the rest
+        np.testing.assert_allclose(b.sum(axis=-1), 1.0, atol=1e-6)
+    finally:
+        e.close()
+
+
+def test_grid_sized_inputs_are_checked_before_the_library_reads_them():
+    with fluid.Fluid(dict(GRID, textures=2)) as f:
+        with pytest.raises(errors.InvalidArgument, match=r"mask: 5 values, must be 729"):
+            f.paint_mask(1, np.zeros(5))
+        with pytest.raises(errors.InvalidArgument, match=r"velocity: 3 values, must be 2187"):
+            f.set_velocity_grid(np.zeros(3))
+        with pytest.raises(errors.InvalidArgument, match=r"surface: 1 values, must be 729"):
+            f.set_velocity_grid(np.zeros((9, 9, 9, 3)), np.zeros(1))
+        with pytest.raises(errors.InvalidArgument, match=r"coverage: 1 values for 2 points"):
+            f.paint_points(1, np.zeros((2, 3)), [1.0], 0.1)
+        with pytest.raises(errors.InvalidArgument, match=r"radius = 5: must be in \[0, 2\] m"):
+            f.paint_points(1, np.zeros((2, 3)), None, 5.0)
+        f.paint_points(1, np.zeros((0, 3)), None, 0.1)  # no points: nothing painted
+        assert f.volume("blend")[..., 1].max() == 0.0

@@ -37,6 +37,8 @@ Handle.declare("fluid", [
     ("sample_uvw", [ctypes.c_int32, P(_V3), P(_V3)]),
     ("paint_mask", [ctypes.c_int32, _f32]),
     ("paint_sphere", [ctypes.c_int32, P(_V3), ctypes.c_float, ctypes.c_float]),
+    ("paint_points", [ctypes.c_int32, ctypes.c_int32, ctypes.c_void_p, ctypes.c_void_p,
+                      ctypes.c_float, ctypes.c_float]),
     ("clear_paint", []),
     ("set_feature_rule", [ctypes.c_int32, P(ctypes.c_float * len(FEATURES)),
                           P(ctypes.c_float * len(FEATURES))]),
@@ -94,9 +96,19 @@ class Fluid(Handle):
             arr[i] = Obstacle(0 if kind == "sphere" else 1, _V3(*c), _V3(*ext))
         self.call("set_obstacles", arr, len(obstacles))
 
+    def _per_vertex(self, name, values, components=1):
+        """values as a flat float32 array of one entry per grid vertex (the C side reads that
+        many, so a wrong size must stop here)."""
+        a = np.ascontiguousarray(values, np.float32).reshape(-1)
+        want = components * int(np.prod(self.vertices))
+        if a.size != want:
+            raise errors.InvalidArgument(f"{name}: {a.size} values, must be {want} (grid "
+                                         f"vertices {self.vertices} x {components})")
+        return a
+
     def set_velocity_grid(self, velocity, surface=None):
-        vel = np.ascontiguousarray(velocity, np.float32).reshape(-1)
-        s = None if surface is None else np.ascontiguousarray(surface, np.float32).reshape(-1)
+        vel = self._per_vertex("velocity", velocity, 3)
+        s = None if surface is None else self._per_vertex("surface", surface)
         self.call("set_velocity_grid", vel, None if s is None else s.ctypes.data)
 
     def step(self, progress=None):
@@ -128,7 +140,17 @@ class Fluid(Handle):
         self.call("paint_sphere", int(texture), _V3(*center), float(radius), float(falloff))
 
     def paint_mask(self, texture, mask):
-        self.call("paint_mask", int(texture), np.ascontiguousarray(mask, np.float32).reshape(-1))
+        self.call("paint_mask", int(texture), self._per_vertex("mask", mask))
+
+    def paint_points(self, texture, positions, coverage=None, radius=0.0, falloff=0.0):
+        """Paints texture around each point (n x 3, world space): coverage (n values in [0, 1],
+        None: 1) within radius m, fading to 0 over falloff m; the largest coverage wins."""
+        pos = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
+        cov = None if coverage is None else np.ascontiguousarray(coverage, np.float32).reshape(-1)
+        if cov is not None and len(cov) != len(pos):
+            raise errors.InvalidArgument(f"coverage: {len(cov)} values for {len(pos)} points")
+        self.call("paint_points", int(texture), len(pos), pos.ctypes.data if len(pos) else None,
+                  None if cov is None else cov.ctypes.data, float(radius), float(falloff))
 
     def set_feature_rule(self, texture, lo, hi):
         n = len(FEATURES)
@@ -136,8 +158,7 @@ class Fluid(Handle):
                   (ctypes.c_float * n)(*hi))
 
     def capture_feature_rule(self, texture, mask):
-        self.call("capture_feature_rule", int(texture),
-                  np.ascontiguousarray(mask, np.float32).reshape(-1))
+        self.call("capture_feature_rule", int(texture), self._per_vertex("mask", mask))
 
     def surface(self, progress=None):
         """The surface mesh: dict of positions, normals, triangles, uvw_a, uvw_b, blend,

@@ -210,6 +210,13 @@ static hbk_result_t check_texture(hbk_fluid_t *h, int32_t texture)
     return HBK_OK;
 }
 
+/* Coverage of a ball: 1 within radius, then linear to 0 over falloff. */
+static inline float ball(float d, float radius, float falloff)
+{
+    if (d <= radius) return 1.0f;
+    return falloff > 0.0f && d < radius + falloff ? 1.0f - (d - radius) / falloff : 0.0f;
+}
+
 /* Lays a stroke of coverage mask[i] (or the sphere's) over the paint. Old paint is first
  * baked to its current fade, so a refreshed life never revives faded paint. */
 static hbk_result_t stroke(hbk_fluid_t *h, int32_t texture, const float *mask,
@@ -231,8 +238,7 @@ static hbk_result_t stroke(hbk_fluid_t *h, int32_t texture, const float *mask,
             const float dx = h->p.box_min[0] + (float)ix * h->cell[0] - center[0];
             const float dy = h->p.box_min[1] + (float)iy * h->cell[1] - center[1];
             const float dz = h->p.box_min[2] + (float)iz * h->cell[2] - center[2];
-            const float d = sqrtf(dx * dx + dy * dy + dz * dz);
-            m = d <= radius ? 1.0f : falloff > 0.0f && d < radius + falloff ? 1.0f - (d - radius) / falloff : 0.0f;
+            m = ball(sqrtf(dx * dx + dy * dy + dz * dz), radius, falloff);
         }
         if (m <= 0.0f) continue;
         float *pw = h->v.paint + (size_t)K * i;
@@ -278,6 +284,69 @@ hbk_result_t hbk_fluid_paint_sphere(hbk_fluid_t *h, int32_t texture, const float
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "falloff = %g: must be in [0, 1e4] m",
                         (double)falloff);
     return stroke(h, texture, NULL, center, radius, falloff);
+}
+
+hbk_result_t hbk_fluid_paint_points(hbk_fluid_t *h, int32_t texture, int32_t count,
+                                    const float *pos, const float *coverage, float radius,
+                                    float falloff)
+{
+    ENTER(h);
+    hbk_result_t r = check_texture(h, texture);
+    if (r) return r;
+    if (count < 0)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "count = %d: must be >= 0", count);
+    if (count > 0 && !pos) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos: must not be NULL");
+    float cmin = h->cell[0] < h->cell[1] ? h->cell[0] : h->cell[1];
+    cmin = h->cell[2] < cmin ? h->cell[2] : cmin;
+    const float reach = 16.0f * cmin;
+    if (!(radius >= 0.0f && radius <= reach))
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "radius = %g: must be in [0, %g] m (16 cells)", (double)radius, (double)reach);
+    if (!(falloff >= 0.0f && radius + falloff <= reach))
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "falloff = %g: must be in [0, %g] m (radius + falloff within 16 cells)",
+                        (double)falloff, (double)(reach - radius));
+    for (int32_t i = 0; i < count; ++i) {
+        for (int a = 0; a < 3; ++a)
+            if (!isfinite(pos[3 * (size_t)i + (size_t)a]))
+                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos[%d][%d] = %g: must be finite",
+                                i, a, (double)pos[3 * (size_t)i + (size_t)a]);
+        if (coverage && !(coverage[i] >= 0.0f && coverage[i] <= 1.0f))
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                            "coverage[%d] = %g: must be in [0, 1]", i, (double)coverage[i]);
+    }
+    int32_t any = 0;
+    for (int32_t i = 0; i < count && !any; ++i) any = !coverage || coverage[i] > 0.0f;
+    if (!any) return HBK_OK; /* nothing to paint: the paint stays as it is, untouched */
+    float *mask = calloc(h->n_vert, sizeof(float));
+    if (!mask) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "paint points: out of memory");
+    const float R = radius + falloff;
+    for (int32_t i = 0; i < count; ++i) {
+        const float *x = pos + 3 * (size_t)i;
+        const float c = coverage ? coverage[i] : 1.0f;
+        if (c <= 0.0f) continue;
+        int32_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) { /* the grid vertices the ball may reach, clamped */
+            const double g0 = ((double)x[a] - R - h->p.box_min[a]) / h->cell[a];
+            const double g1 = ((double)x[a] + R - h->p.box_min[a]) / h->cell[a];
+            lo[a] = g0 < 0.0 ? 0 : g0 > h->nv[a] ? h->nv[a] : (int32_t)ceil(g0);
+            hi[a] = g1 < 0.0 ? -1 : g1 >= h->nv[a] - 1 ? h->nv[a] - 1 : (int32_t)floor(g1);
+        }
+        for (int32_t k = lo[2]; k <= hi[2]; ++k)
+            for (int32_t j = lo[1]; j <= hi[1]; ++j)
+                for (int32_t q = lo[0]; q <= hi[0]; ++q) {
+                    /* The vertex's position as the sphere stroke computes it. */
+                    const float dx = h->p.box_min[0] + (float)q * h->cell[0] - x[0];
+                    const float dy = h->p.box_min[1] + (float)j * h->cell[1] - x[1];
+                    const float dz = h->p.box_min[2] + (float)k * h->cell[2] - x[2];
+                    const float m = c * ball(sqrtf(dx * dx + dy * dy + dz * dz), radius, falloff);
+                    float *v = mask + (size_t)q + (size_t)h->nv[0] * ((size_t)j + (size_t)h->nv[1] * (size_t)k);
+                    *v = m > *v ? m : *v;
+                }
+    }
+    r = stroke(h, texture, mask, NULL, 0, 0);
+    free(mask);
+    return r;
 }
 
 /* No paint: both buffers' paint and life are zero, so that a saved state never holds stale

@@ -11,25 +11,12 @@ import numpy as np
 
 from ...core import mantaflow, solid_textures
 from ..bridge import animation, frame_meshes, meshes, tileable, volumes
-from . import register_effect
+from . import fluid_paint, register_effect
 from .base import BlenderEffect
+from .fluid_paint import FEATURES
 
 
-FEATURES = ("DENSITY", "DENSITY_RATE", "FLOW_ANGLE", "ACCELERATION", "DIVERGENCE",
-            "CURVATURE")
 OPEN = 3.0e38  # a feature bound that does not matter
-
-
-class HYDROBAKE_PG_fluid_paint(bpy.types.PropertyGroup):
-    """An Empty that paints a sample texture into the fluid (paper §3.1, local paint)."""
-    enabled: bpy.props.BoolProperty(
-        name="Paint Fluid", default=False,
-        description="Paint a texture into the fluid where this empty is, at its frame; the "
-                    "paint flows with the fluid and fades (Paint Duration, Paint Fade)")
-    texture: bpy.props.IntProperty(name="Texture", default=1, min=0, max=7,
-                                   description="Sample texture painted (0-based)")
-    frame: bpy.props.IntProperty(name="Frame", default=1, min=0, max=1048574,
-                                 description="Frame at which the stroke is applied")
 
 
 class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
@@ -75,68 +62,6 @@ class HYDROBAKE_PG_fluid_sample(bpy.types.PropertyGroup):
         description="A voxel solid texture: an OpenVDB file whose first grid (colour or grey) "
                     "is one tile over uvw [0, 1). Sampled at every surface vertex; wins over "
                     "the node group")
-
-
-class HYDROBAKE_PT_fluid_paint(bpy.types.Panel):
-    bl_label = "Hydrobake Fluid Paint"
-    bl_space_type, bl_region_type, bl_context = "PROPERTIES", "WINDOW", "object"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    @classmethod
-    def poll(cls, context):
-        return context.object is not None and context.object.type == "EMPTY"
-
-    def draw(self, context):
-        p = context.object.hydrobake_fluid_paint
-        col = self.layout.column()
-        col.use_property_split = True
-        col.prop(p, "enabled")
-        sub = col.column()
-        sub.active = p.enabled
-        sub.prop(p, "texture")
-        sub.prop(p, "frame")
-        col.label(text="Radius: the empty's display size x scale")
-
-
-class HYDROBAKE_OT_fluid_capture_rule(bpy.types.Operator):
-    """Feature paint from a selection: the chosen feature's range over the selected vertices of
-    the baked fluid surface becomes a rule giving the texture (re-bake to apply it)"""
-    bl_idname = "hydrobake.fluid_capture_rule"
-    bl_label = "Capture Feature Rule"
-    bl_options = {"REGISTER", "UNDO"}
-
-    texture: bpy.props.IntProperty(name="Texture", default=1, min=0, max=7)
-    feature: bpy.props.EnumProperty(name="Feature", default="DENSITY_RATE",
-                                    items=[(f, f.replace("_", " ").title(), "")
-                                           for f in FEATURES])
-
-    def execute(self, context):
-        surf = context.object
-        domain = bpy.data.objects.get(surf.get("hydrobake_domain", "")) if surf else None
-        if domain is None:
-            self.report({"ERROR"}, "Select the baked fluid surface (HBK_<domain>_surface)")
-            return {"CANCELLED"}
-        if surf.mode == "EDIT":
-            bpy.ops.object.mode_set(mode="OBJECT")  # writes the edit-mode selection back
-        ntex = domain.hydrobake_fluid.fluid.textures
-        if self.texture >= ntex:
-            self.report({"ERROR"}, f"Texture = {self.texture}: must be < textures = {ntex}")
-            return {"CANCELLED"}
-        k = FEATURES.index(self.feature)
-        attr = surf.data.attributes.get(f"features_{k}")
-        sel = np.zeros(len(surf.data.vertices), bool)
-        surf.data.vertices.foreach_get("select", sel)
-        if attr is None or not sel.any():
-            self.report({"ERROR"}, "Select some vertices of the surface first (Edit Mode)")
-            return {"CANCELLED"}
-        vals = np.empty(len(surf.data.vertices), np.float32)
-        attr.data.foreach_get("value", vals)
-        rule = domain.hydrobake_fluid.rules.add()
-        rule.texture, rule.feature = self.texture, self.feature
-        rule.low, rule.high = float(vals[sel].min()), float(vals[sel].max())
-        self.report({"INFO"}, f"Texture {self.texture} where {self.feature.lower()} is in "
-                              f"[{rule.low:.4g}, {rule.high:.4g}]; re-bake to apply")
-        return {"FINISHED"}
 
 
 class HYDROBAKE_OT_fluid_sample(bpy.types.Operator):
@@ -283,18 +208,9 @@ class FluidBlender(BlenderEffect):
                                  "needs a Vector input and a Color output")
         inputs["voxel_textures"] = voxel
         if settings.paint_collection:
-            strokes = {}
-            for e in settings.paint_collection.all_objects:
-                p = getattr(e, "hydrobake_fluid_paint", None)
-                if p is None or not p.enabled or e.type != "EMPTY":
-                    continue
-                if p.texture >= ntex:
-                    raise ValueError(f"{e.name}: texture = {p.texture}: must be < textures "
-                                     f"= {ntex}")
-                r = e.empty_display_size * max(e.matrix_world.to_scale())
-                strokes.setdefault(p.frame, []).append(
-                    (p.texture, tuple(e.matrix_world.translation), r, 0.2 * r))
-            inputs["paint"] = strokes
+            cell = float(np.min((hi - lo) / np.array(fp["resolution"], np.float64)))
+            inputs["paint"], inputs["paint_points"] = fluid_paint.strokes(
+                settings.paint_collection, ntex, cell)
         rules = []
         for i, rule in enumerate(settings.rules):
             if rule.texture >= ntex:
@@ -518,20 +434,18 @@ class FluidBlender(BlenderEffect):
     @classmethod
     def register_extra(cls):
         frame_meshes.ensure_handler()
-        for c in (HYDROBAKE_PG_fluid_paint, HYDROBAKE_PT_fluid_paint,
-                  HYDROBAKE_OT_fluid_capture_rule, HYDROBAKE_OT_fluid_sample,
+        for c in (*fluid_paint.CLASSES, HYDROBAKE_OT_fluid_sample,
                   HYDROBAKE_OT_fluid_noise_texture):
             bpy.utils.register_class(c)
         bpy.types.Object.hydrobake_fluid_paint = bpy.props.PointerProperty(
-            type=HYDROBAKE_PG_fluid_paint)
+            type=fluid_paint.HYDROBAKE_PG_fluid_paint)
 
     @classmethod
     def unregister_extra(cls):
         frame_meshes.unregister()
         del bpy.types.Object.hydrobake_fluid_paint
         for c in (HYDROBAKE_OT_fluid_noise_texture, HYDROBAKE_OT_fluid_sample,
-                  HYDROBAKE_OT_fluid_capture_rule,
-                  HYDROBAKE_PT_fluid_paint, HYDROBAKE_PG_fluid_paint):
+                  *reversed(fluid_paint.CLASSES)):
             bpy.utils.unregister_class(c)
 
     @staticmethod

@@ -7,7 +7,11 @@ Inputs:
     obstacles    [("sphere"|"box", centre, size)] (SIMULATE)
     particles    {frame: (positions (N, 3), velocities (N, 3))} (PARTICLES)
     velocity     {frame: (V_m (nz+1, ny+1, nx+1, 3), surface field or None)} (VELOCITY_GRID)
-    paint        {frame: [(texture, centre, radius, falloff)]}: local paint strokes
+    paint        {frame: [(texture, centre, radius, falloff)]}: local paint strokes, laid
+                 before the frame's step
+    paint_points {frame: [(texture, positions (N, 3), coverage (N,) or None, radius,
+                 falloff)]}: local paint from points (a surface painted at that frame), laid
+                 after the frame's step
     rules        [(texture, lo[6], hi[6])]: feature paint (one bound per feature)
     voxel_textures {texture: (X, Y, Z, 3) tile}: voxel solid textures, sampled at every
                  surface vertex's advected uvw (see solid_textures)
@@ -64,6 +68,7 @@ class FluidEffect(Effect):
         self.particles = inp.get("particles") or {}
         self.velocity = inp.get("velocity") or {}
         self.paint = inp.get("paint") or {}
+        self.paint_points = inp.get("paint_points") or {}
         self.voxel_textures = inp.get("voxel_textures") or {}
         p = self.params["fluid"]
         lo, hi = np.array(p.box_min[:]), np.array(p.box_max[:])
@@ -80,6 +85,10 @@ class FluidEffect(Effect):
         for texture, centre, radius, falloff in self.paint.get(frame, []):
             self.fluid.paint_sphere(texture, centre, radius, falloff)
         self.fluid.step(progress)
+        # Points are painted on the frame's own surface (as the artist saw it), so they land
+        # after its step.
+        for texture, positions, coverage, radius, falloff in self.paint_points.get(frame, []):
+            self.fluid.paint_points(texture, positions, coverage, radius, falloff)
         self.mesh = self.fluid.surface(progress)
 
     def outputs(self, frame):
