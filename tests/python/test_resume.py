@@ -142,3 +142,24 @@ def test_a_costly_checkpoint_is_written_less_often_and_on_cancel(reference, tmp_
     r.run()
     e.close()
     assert r.resumed_from == 7 and files(folder) == files(reference)
+
+
+def test_resume_removes_what_the_killed_bake_was_writing(reference, tmp_path):
+    folder = tmp_path / "bake"
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4,
+                   on_frame=lambda s: s.frame == 7 and r.cancel())
+    with pytest.raises(errors.Cancelled):
+        r.run()
+    e.close()
+    # What a SIGKILL during frame 8 leaves: its files and checkpoint half written.
+    left = [".caustics_0008.exr.tmp-4242-17", ".checkpoint_0008.bin.tmp-4242-18",
+            ".manifest.json.tmp-4242-19"]
+    for name in left + ["notes.txt", ".notes.txt.tmp-4242-20"]:
+        (folder / name).write_bytes(b"partial")
+    e = effect()
+    BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True).run()
+    e.close()
+    assert not any((folder / n).exists() for n in left)
+    assert (folder / "notes.txt").exists() and (folder / ".notes.txt.tmp-4242-20").exists()
+    assert files(folder) == files(reference)

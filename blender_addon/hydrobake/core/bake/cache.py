@@ -145,6 +145,23 @@ class BakeCache:
         with contextlib.suppress(FileNotFoundError):
             os.remove(self.path(name))
 
+    def _temporaries(self, manifest):
+        """Leftovers of interrupted writes here: ".<final name>.tmp-<pid>-<n>", ours when the
+        final name is the manifest's or one of its streams'."""
+        names, streams = _names(manifest), _streams(manifest)
+        out = []
+        for entry in os.listdir(self.folder):
+            mt = re.match(r"^\.(.+)" + re.escape(_TMP_MARK) + r"\d+-\d+$", entry)
+            if mt and (mt.group(1) in names or mt.group(1) == MANIFEST or
+                       _stream_of(mt.group(1)) in streams):
+                out.append(entry)
+        return out
+
+    def remove_temporaries(self, manifest):
+        """Removes what a killed bake was writing (a bake resumed here writes them anew)."""
+        for name in self._temporaries(manifest):
+            self.remove(name)
+
     # --- free -----------------------------------------------------------------------------
     def free(self):
         """Removes the bake's files (those in the manifest, leftovers of interrupted writes of
@@ -156,19 +173,10 @@ class BakeCache:
             m = self.read_manifest()
         except ValueError:
             m = None
-        names = set()
-        streams = set((m or {}).get("streams", [])) | {"checkpoint"}
-        for files in (m or {}).get("frames", {}).values():
-            names.update(files)
-        names.update(c["file"] for c in (m or {}).get("checkpoints", {}).values())
-        for entry in os.listdir(self.folder):
-            # Temporaries: ".<final name>.tmp-<pid>-<n>", ours when the final name is ours.
-            mt = re.match(r"^\.(.+)" + re.escape(_TMP_MARK) + r"\d+-\d+$", entry)
-            if mt and (mt.group(1) in names or mt.group(1) == MANIFEST or
-                       _stream_of(mt.group(1)) in streams):
-                names.add(entry)
-            elif _stream_of(entry) in streams:
-                names.add(entry)
+        names = _names(m)
+        streams = _streams(m)
+        names.update(self._temporaries(m))
+        names.update(e for e in os.listdir(self.folder) if _stream_of(e) in streams)
         for name in sorted(names):
             with contextlib.suppress(FileNotFoundError):
                 os.remove(os.path.join(self.folder, name))
@@ -179,6 +187,19 @@ class BakeCache:
         with contextlib.suppress(OSError):
             os.rmdir(self.folder)  # only if empty: never remove what is not ours
         return removed
+
+
+def _names(manifest):
+    """The files a manifest lists: its frames' and its checkpoints'."""
+    names = set()
+    for files in (manifest or {}).get("frames", {}).values():
+        names.update(files)
+    names.update(c["file"] for c in (manifest or {}).get("checkpoints", {}).values())
+    return names
+
+
+def _streams(manifest):
+    return set((manifest or {}).get("streams", [])) | {"checkpoint"}
 
 
 def _stream_of(name):

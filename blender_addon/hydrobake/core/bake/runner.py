@@ -189,6 +189,7 @@ class BakeRunner:
                 raise errors.StateError(
                     f"cannot resume: {key} differs from the bake in {self.cache.folder} "
                     f"({_normal(m.get(key))!r} there); free it or bake anew")
+        self.cache.remove_temporaries(m)
         bad = set(self.cache.verify())
         last = s.frame_start - 1  # last frame of the unbroken run of good frames
         while str(last + 1) in m["frames"] and last + 1 not in bad and last + 1 <= s.frame_end:
