@@ -37,6 +37,14 @@ def test_errors_exit_non_zero_with_the_message_on_stderr(blender, tmp_path):
     assert r.returncode == 1 and "--objects Missing" in r.stderr
     r = blender.run("cli_fixture.py", "bake", "--frames", "9-2", blend=blend, check=False)
     assert r.returncode != 0 and "--frames" in r.stderr
+    # Overrides of the wrong shape or type are named, without a traceback.
+    for table, want in (([1, 2], "must be a JSON object of objects"),
+                        ({"*/testwave": {"frame_start": "soon"}},
+                         "*/testwave: frame_start: ")):
+        path = tmp_path / "overrides.json"
+        path.write_text(json.dumps(table))
+        r = blender.run("cli_fixture.py", "bake", "--overrides", path, blend=blend, check=False)
+        assert r.returncode == 1 and want in r.stderr and "Traceback" not in r.stderr, r.stderr
 
 
 def test_killed_bake_leaves_complete_frames_only(blender, tmp_path):

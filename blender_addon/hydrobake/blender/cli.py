@@ -112,18 +112,30 @@ def apply_overrides(pairs, path):
         return
     with open(path) as f:
         table = json.load(f)
+    if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
+        raise ValueError(f"--overrides {path}: must be a JSON object of objects "
+                         '{"Object/effect": {"setting": value, ...}, ...}')
+
+    def put(target, attr, value, where):
+        try:
+            setattr(target, attr, value)
+        except (TypeError, ValueError) as exc:  # Blender's: the type or length is wrong
+            raise ValueError(f"--overrides {where}: {exc}") from None
+
     for obj, name in pairs:
         for key in (f"*/{name}", f"{obj.name}/{name}"):  # the object's own entry wins
             for attr, value in table.get(key, {}).items():
                 settings = jobs.settings_of(obj, name)
                 if isinstance(value, dict):
-                    group = getattr(settings, attr)
+                    group = getattr(settings, attr, None)
+                    if group is None:
+                        raise KeyError(f"--overrides {key}: {attr} is not a setting")
                     for k, v in value.items():
                         if not hasattr(group, k):
                             raise KeyError(f"--overrides {key}: {attr}.{k} is not a parameter")
-                        setattr(group, k, v)
+                        put(group, k, v, f"{key}: {attr}.{k}")
                 elif hasattr(settings, attr):
-                    setattr(settings, attr, value)
+                    put(settings, attr, value, f"{key}: {attr}")
                 else:
                     raise KeyError(f"--overrides {key}: {attr} is not a setting")
 
