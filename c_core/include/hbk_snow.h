@@ -62,7 +62,8 @@
  * Texture layout (hbk_image.h: row 0 = bottom = v 0, x grows with u):
  *  TRIANGLES: texture_width x texture_height over UV [0, 1]^2; texels outside get nothing.
  *  BOX: one block of texture_width x texture_height per material slot b, stacked upwards
- *    (rows b*texture_height ..), so the image is texture_width x (texture_height * slots).
+ *    (rows b*texture_height ..), so the image is texture_width x (texture_height * slots),
+ *    at most 65536 texels high (hbk_snow_set_materials refuses more slots).
  *    A block holds six tiles of floor(width / 3) x floor(height / 2) texels:
  *      bottom row: -X, -Y, -Z   top row: +X, +Y, +Z   (columns x, y, z)
  *    Each face is seen from outside with (u, v) axes: +X (+Y, +Z), -X (-Y, +Z), +Y (-X, +Z),

@@ -114,6 +114,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(snow, cancel)                      \
     X(snow, mesh_rejects)                \
     X(snow, box_mode)                    \
+    X(snow, box_slots_fit_the_image)     \
     X(snow, bvh_brute_force)             \
     X(rain, params_rejects)              \
     X(rain, kernel_formula)              \

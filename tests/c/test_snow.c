@@ -887,3 +887,25 @@ void test_snow_bvh_brute_force(void)
     free(pos);
     free(tri);
 }
+
+/* BOX mode stacks a block per slot: no more slots than the image the outputs take (65536
+ * texels high) holds, refused by name with the count allowed. */
+void test_snow_box_slots_fit_the_image(void)
+{
+    hbk_snow_params_t p = small_params();
+    p.contact_mode = HBK_SNOW_CONTACT_BOX;
+    p.texture_width = 4;
+    p.texture_height = 8192;
+    hbk_snow_t *h;
+    CHECK_OK(hbk_snow_create(&h, &p, NULL));
+    hbk_snow_material_t mat[9];
+    for (int i = 0; i < 9; ++i) mat[i] = (hbk_snow_material_t){0.1f, 0, 0};
+    CHECK(hbk_snow_set_materials(h, mat, 9) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(hbk_snow_message(h), "count = 9") &&
+          strstr(hbk_snow_message(h), "must be in [1, 8] at this texture_height"));
+    CHECK_OK(hbk_snow_set_materials(h, mat, 8));
+    int32_t w, ht;
+    hbk_snow_texture_size(h, &w, &ht);
+    CHECK(w == 4 && ht == 65536);
+    hbk_snow_destroy(h);
+}

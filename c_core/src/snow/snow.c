@@ -126,6 +126,12 @@ hbk_result_t hbk_snow_set_materials(hbk_snow_t *h, const hbk_snow_material_t *m,
     if (h->mesh.tri_count > 0 && count <= h->mesh.max_material)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "count = %d: the mesh uses material slot %d", count, h->mesh.max_material);
+    if (h->p.contact_mode == HBK_SNOW_CONTACT_BOX &&
+        (int64_t)count * h->p.texture_height > 65536) /* the largest image the outputs take */
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "count = %d: BOX mode stacks one %d-texel-high block per slot, and %d "
+                        "of them pass 65536 texels; must be in [1, %d] at this texture_height",
+                        count, h->p.texture_height, count, 65536 / h->p.texture_height);
     if (h->p.contact_mode == HBK_SNOW_CONTACT_BOX && count != h->blocks) {
         if (h->step > 0)
             return hbk_fail(&h->msg, HBK_ERR_STATE,
