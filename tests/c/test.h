@@ -85,6 +85,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(water, sources)                    \
     X(water, footprint_displaces)        \
     X(water, cancel)                     \
+    X(water, cancel_during_rain)         \
     X(caustics, params_rejects)          \
     X(caustics, flat_uniform)            \
     X(caustics, energy_conserved)        \

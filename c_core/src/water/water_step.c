@@ -233,10 +233,10 @@ static void rain_drop(hbk_water_t *h, double cx, double cy)
     }
 }
 
-static void rain(hbk_water_t *h, double dt)
+static hbk_result_t rain(hbk_water_t *h, double dt, const hbk_progress_t *progress)
 {
     const hbk_water_params_t *p = &h->p;
-    if (!(p->rain_rate > 0.0f) || !(p->rain_depth > 0.0f)) return;
+    if (!(p->rain_rate > 0.0f) || !(p->rain_depth > 0.0f)) return HBK_OK;
     const double area = (double)p->width * p->height * (double)p->cell_size * p->cell_size;
     const double expected = (double)p->rain_rate * area * dt;
     /* Rounding the expected count up or down at random keeps the mean exact. */
@@ -244,12 +244,15 @@ static void rain(hbk_water_t *h, double dt)
                                                             h->steps, 0));
     if (count > 1048575.0) count = 1048575.0;
     for (uint32_t k = 0; k < (uint32_t)count; ++k) {
+        /* Up to a million drops of up to 1000^2 cells each: a cancel must not wait for them. */
+        if ((k & 63) == 0 && hbk_cancelled(progress)) return HBK_ERR_CANCELLED;
         uint32_t r[4];
         hbk_philox(p->seed, HBK_WATER_STREAM_RAIN_DROP, (h->steps << 20) | k, r);
         const double cx = (double)hbk_u32_to_unit(r[0]) * p->width;
         const double cy = (double)hbk_u32_to_unit(r[1]) * p->height;
         rain_drop(h, cx, cy);
     }
+    return HBK_OK;
 }
 
 hbk_result_t hbk_water_substep(hbk_water_t *h, double dt, int threads, hbk_progress_t *progress)
@@ -261,7 +264,7 @@ hbk_result_t hbk_water_substep(hbk_water_t *h, double dt, int threads, hbk_progr
             h->depth[i] = d > 0.0 ? d : 0.0; /* a drain takes what is there, no more */
         }
     }
-    rain(h, dt);
+    if (rain(h, dt, progress)) return HBK_ERR_CANCELLED;
     const double dx = p->cell_size, g = p->gravity, th = p->implicitness;
     line_coef_t C = {dt, g * dt / dx, th * th * g * dt * dt / (dx * dx), dt / dx, th,
                      1.0 / (1.0 + (double)p->damping * dt), 0.0, p->periodic,
