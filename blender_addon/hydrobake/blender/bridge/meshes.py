@@ -54,16 +54,20 @@ def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=No
     return out
 
 
+def world_vertices(obj):
+    """The object's own mesh vertices (before modifiers) in world space, (n, 3) float64."""
+    co = np.empty(len(obj.data.vertices) * 3, np.float64)
+    obj.data.vertices.foreach_get("co", co)
+    m = np.array(obj.matrix_world, np.float64)
+    return co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+
+
 def data_world_bounds(obj):
     """(min xyz, max xyz) of the object's own mesh (before modifiers) in world space: a fluid
     domain's box even while it shows its liquid."""
-    n = len(obj.data.vertices)
-    if n == 0:
+    if not obj.data.vertices:
         raise ValueError(f"{obj.name}: its mesh has no vertices, so no box")
-    co = np.empty(n * 3, np.float64)
-    obj.data.vertices.foreach_get("co", co)
-    m = np.array(obj.matrix_world, np.float64)
-    pts = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    pts = world_vertices(obj)
     return pts.min(axis=0), pts.max(axis=0)
 
 

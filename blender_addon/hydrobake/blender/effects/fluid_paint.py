@@ -5,6 +5,7 @@ import bpy
 import numpy as np
 
 from ...core import fluid as core_fluid
+from ..bridge import meshes
 
 FEATURES = tuple(f.upper() for f in core_fluid.FEATURES)  # enum items: DENSITY, ...
 
@@ -156,10 +157,7 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
             self.report({"ERROR"}, f"From = {self.source}: nothing painted or selected on the "
                                    "surface at this frame")
             return {"CANCELLED"}
-        co = np.empty(len(mesh.vertices) * 3, np.float32)
-        mesh.vertices.foreach_get("co", co)
-        m = np.array(surf.matrix_world, np.float32)
-        pts = co.reshape(-1, 3)[keep] @ m[:3, :3].T + m[:3, 3]
+        pts = meshes.world_vertices(surf)[keep].astype(np.float32)
         frame = context.scene.frame_current
         name = f"HBK_{domain.name}_paint_{frame}"
         stroke_mesh = bpy.data.meshes.new(name)
@@ -232,18 +230,14 @@ def strokes(collection, ntex, cell):
         if 1.5 * p.reach > 16.0 * cell:  # the core's bound on a point's ball and fade
             raise ValueError(f"{e.name}: Reach = {p.reach:g} m: must be at most "
                              f"{16.0 * cell / 1.5:g} m (with its fade, 16 voxels)")
-        n = len(e.data.vertices)
-        co = np.empty(n * 3, np.float32)
-        e.data.vertices.foreach_get("co", co)
-        m = np.array(e.matrix_world, np.float32)
         cov = None
         attr = e.data.attributes.get("coverage")
         if attr is not None and attr.domain == "POINT" and attr.data_type == "FLOAT":
-            cov = np.empty(n, np.float32)
+            cov = np.empty(len(e.data.vertices), np.float32)
             attr.data.foreach_get("value", cov)
             cov = np.clip(cov, 0.0, 1.0)
         points.setdefault(p.frame, []).append(
-            (p.texture, co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3], cov, p.reach,
+            (p.texture, meshes.world_vertices(e).astype(np.float32), cov, p.reach,
              0.5 * p.reach))
     return balls, points
 
