@@ -38,8 +38,8 @@ def _argv():
 
 def _frames(text):
     try:
-        a, _, b = text.partition("-")
-        start, end = int(a), int(b or a)
+        a, dash, b = text.partition("-")
+        start, end = int(a), int(b) if dash else int(a)  # "5" is one frame; "5-" is a typo
     except ValueError:
         raise argparse.ArgumentTypeError(f"--frames {text!r}: must be START-END, e.g. 1-48")
     if start < 0 or end < start:
