@@ -97,6 +97,16 @@ for source in ("WEIGHTS", "COLOR"):
     cov = np.empty(len(new.data.vertices), np.float32)
     new.data.attributes["coverage"].data.foreach_get("value", cov)
     np.testing.assert_allclose(np.sort(cov), np.sort(want[want > 0]), atol=1e-6)
+# Black paint over a white colour attribute, inverted: the same coverage.
+rgba[:, :3] = 1.0 - rgba[:, :3]
+colour.data.foreach_set("color", rgba.ravel())
+before = set(s.paint_collection.objects)
+assert bpy.ops.hydrobake.fluid_capture_paint(texture=1, source="COLOR", invert=True) == {
+    "FINISHED"}
+(new,) = set(s.paint_collection.objects) - before
+cov = np.empty(len(new.data.vertices), np.float32)
+new.data.attributes["coverage"].data.foreach_get("value", cov)
+np.testing.assert_allclose(np.sort(cov), np.sort(want[want > 0]), atol=1e-6)
 surf.vertex_groups.clear()
 try:
     bpy.ops.hydrobake.fluid_capture_paint(texture=1, source="WEIGHTS")

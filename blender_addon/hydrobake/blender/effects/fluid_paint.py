@@ -138,7 +138,11 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
         items=[("SELECTION", "Selection", "The selected vertices (Edit Mode)"),
                ("WEIGHTS", "Weights", "The active vertex group's weights (Weight Paint)"),
                ("COLOR", "Colour", "The active colour attribute's brightness (Vertex Paint; "
-                                   "paint white over black)")])
+                                   "paint white over black, or tick Invert)")])
+    invert: bpy.props.BoolProperty(
+        name="Invert", default=False,
+        description="One minus the value: paint black over a white colour attribute (Vertex "
+                    "Paint starts one white), or capture what is not selected or weighted")
 
     def execute(self, context):
         surf, domain = _surface_and_domain(self, context)
@@ -152,6 +156,8 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
                                    f"{'vertex group' if self.source == 'WEIGHTS' else 'colour attribute'}")
             return {"CANCELLED"}
         cov = np.clip(cov, 0.0, 1.0)
+        if self.invert:
+            cov = 1.0 - cov
         keep = cov > 0.0
         if not keep.any():
             self.report({"ERROR"}, f"From = {self.source}: nothing painted or selected on the "
