@@ -8,6 +8,9 @@
  *    a handle (create, stateless kernels) take an optional hbk_message_t* for the detail.
  *  - Output buffers are owned by the caller; sizes and row strides are passed in.
  *  - No global state: the random seed and the thread count come in through the params.
+ *    Results never depend on the thread count; at most four threads per processor are
+ *    started, whatever it asks (more only cost stacks, and OpenMP ends the process when it
+ *    cannot make them).
  */
 #ifndef HBK_BASE_H
 #define HBK_BASE_H

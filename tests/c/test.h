@@ -86,6 +86,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(water, footprint_displaces)        \
     X(water, cancel)                     \
     X(water, cancel_during_rain)         \
+    X(water, many_threads_under_a_memory_limit) \
     X(caustics, params_rejects)          \
     X(caustics, flat_uniform)            \
     X(caustics, energy_conserved)        \

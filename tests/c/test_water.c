@@ -2,6 +2,9 @@
  * checkpoints and refusals. */
 #include "test.h"
 #include <pthread.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <time.h>
@@ -612,4 +615,29 @@ void test_water_cancel_during_rain(void)
     hbk_water_destroy(h);
     free(before);
     free(after);
+}
+
+/* threads = 1024 is in range: under a 1 GB address-space limit, where 1024 thread stacks do
+ * not fit, the step still runs (libgomp would end the process if asked for them all). */
+void test_water_many_threads_under_a_memory_limit(void)
+{
+#if defined(__SANITIZE_ADDRESS__)
+    return; /* the sanitizer reserves terabytes of address space: no limit can be set */
+#else
+    fflush(NULL);
+    const pid_t pid = fork();
+    CHECK(pid >= 0);
+    if (pid == 0) {
+        struct rlimit lim = {1u << 30, 1u << 30};
+        if (setrlimit(RLIMIT_AS, &lim)) _exit(3);
+        hbk_water_params_t p = params(128, 128, 0.1f);
+        p.threads = 1024;
+        p.rain_rate = 10.0f;
+        hbk_water_t *h = make(&p, NULL, 0.3f);
+        _exit(h && hbk_water_step(h, NULL) == HBK_OK ? 0 : 2);
+    }
+    int status = 0;
+    CHECK(waitpid(pid, &status, 0) == pid);
+    CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+#endif
 }

@@ -22,7 +22,7 @@ hbk_result_t hbk_grid_to_xyz(const float *src, float *dst, int32_t nx, int32_t n
     if (threads < 0 || threads > 256)
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "threads = %d: must be in [0, 256]",
                         threads);
-    const int t = threads ? threads : 1;
+    const int t = threads ? hbk_threads(threads) : 1;
     const size_t c = (size_t)comps, sy = (size_t)nx, sz = (size_t)nx * (size_t)ny;
     enum { TILE = 16 };
     const int32_t tx = (nx + TILE - 1) / TILE;

@@ -2,6 +2,7 @@
 #ifndef HBK_INTERNAL_BASE_H
 #define HBK_INTERNAL_BASE_H
 #include "hbk_base.h"
+#include <omp.h>
 #include <stdarg.h>
 
 /* printf into a message buffer (NULL is allowed); returns `code` so callers can
@@ -14,6 +15,15 @@ void hbk_message_clear(hbk_message_t *msg);
  * call of a kernel, not per item (it reads the environment). */
 enum { HBK_PATHS_SCALAR, HBK_PATHS_SSE, HBK_PATHS_AVX2, HBK_PATHS_AVX512 };
 int hbk_paths(void);
+
+/* The OpenMP team for a `threads` parameter (0 = all): at most four per processor. More only
+ * cost stacks, and libgomp ends the process when it cannot make them. Results never depend on
+ * the team. */
+static inline int hbk_threads(int32_t requested)
+{
+    const int cap = 4 * omp_get_num_procs();
+    return requested <= 0 ? omp_get_max_threads() : requested < cap ? requested : cap;
+}
 
 static inline int hbk_cancelled(const hbk_progress_t *p)
 {

@@ -61,7 +61,7 @@ void hbk_caustics_init(hbk_caustics_ctx_t *c, hbk_caustics_workspace_t *ws,
     c->inv_dx = 1.0 / c->dx;
     c->wet_depth = p->wet_depth;
     c->periodic = p->periodic;
-    c->threads = p->threads > 0 ? p->threads : omp_get_max_threads();
+    c->threads = hbk_threads(p->threads);
     c->point = p->light_type == HBK_LIGHT_POINT;
     const double len = sqrt((double)p->light_direction[0] * p->light_direction[0] +
                             (double)p->light_direction[1] * p->light_direction[1] +

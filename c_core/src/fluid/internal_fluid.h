@@ -122,7 +122,7 @@ struct hbk_fluid {
     int32_t substeps_taken;     /* by the last step */
 };
 
-#define HBK_OMP_THREADS(h) ((h)->p.threads > 0 ? (h)->p.threads : omp_get_max_threads())
+#define HBK_OMP_THREADS(h) hbk_threads((h)->p.threads)
 
 /* SPH kernels (Mueller et al. 2003, as Harada et al. 2007 use them). */
 static inline double hbk_poly6(double r2, double h)

@@ -273,7 +273,7 @@ static hbk_result_t render(hbk_rain_t *h, hbk_image_t *img, int disc)
 {
     const hbk_rain_params_t *p = &h->p;
     const int32_t W = img->width, H = img->height, nbands = (H + BAND - 1) / BAND;
-    const int threads = p->threads > 0 ? p->threads : omp_get_max_threads();
+    const int threads = hbk_threads(p->threads);
     /* Room for a last 16-lane group of the splat, and whole 16-texel groups for finalize_row. */
     const size_t stride = ((size_t)W + 15 + 15) & ~(size_t)15;
     const size_t per = stride * BAND;

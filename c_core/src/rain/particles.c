@@ -116,7 +116,7 @@ int rain_particles_repel(hbk_rain_t *h, const int64_t *act, int64_t np)
     start[0] = 0;
     /* Jacobi: every displacement from the positions at the start of the pass, so the result
      * does not depend on the order or the threads. */
-    const int threads = h->p.threads > 0 ? h->p.threads : omp_get_max_threads();
+    const int threads = hbk_threads(h->p.threads);
 #pragma omp parallel for num_threads(threads) schedule(static) if (np > 4096)
     for (int64_t t = 0; t < np; ++t) {
         float sx = 0.0f, sy = 0.0f;

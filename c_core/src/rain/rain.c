@@ -39,7 +39,7 @@ hbk_result_t hbk_rain_create(hbk_rain_t **out, const hbk_rain_params_t *p, hbk_m
     }
     /* Affinity of cell c from the block for c / 4, word c % 4: the glass is the same for any
      * thread count. */
-    const int threads = p->threads > 0 ? p->threads : omp_get_max_threads();
+    const int threads = hbk_threads(p->threads);
     const int64_t n = (int64_t)h->n;
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (int64_t b = 0; b < (n + 3) / 4; ++b) {

@@ -115,7 +115,7 @@ void snow_flakes_init(hbk_snow_t *h)
     ctx_t c;
     ctx_init(&c, h);
     const int32_t n = h->p.flake_count;
-    const int nt = h->p.threads > 0 ? h->p.threads : omp_get_max_threads();
+    const int nt = hbk_threads(h->p.threads);
 #pragma omp parallel for schedule(static) num_threads(nt)
     for (int32_t i = 0; i < n; ++i) spawn(&c, (uint32_t)i, 0, SPAWN_INIT, &h->flakes[i]);
 }
@@ -326,7 +326,7 @@ hbk_result_t snow_flakes_step(hbk_snow_t *h, int32_t substeps, hbk_progress_t *p
     ctx_t c;
     ctx_init(&c, h);
     const int32_t n = h->p.flake_count;
-    const int nt = h->p.threads > 0 ? h->p.threads : omp_get_max_threads();
+    const int nt = hbk_threads(h->p.threads);
     if (h->tev_count < nt) {
         snow_events_t *t = realloc(h->tev, sizeof *t * (size_t)nt);
         if (!t) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "out of memory for events");

@@ -286,7 +286,7 @@ hbk_result_t hbk_water_step(hbk_water_t *h, hbk_progress_t *progress)
     if (!h) return HBK_ERR_INVALID_ARGUMENT;
     hbk_message_clear(&h->msg);
     /* Small grids are not worth waking threads for (the result is the same either way). */
-    const int threads = h->n < 16384 ? 1 : h->p.threads > 0 ? h->p.threads : omp_get_max_threads();
+    const int threads = h->n < 16384 ? 1 : hbk_threads(h->p.threads);
     if (threads > h->scratch_threads) {
         const int32_t n = h->p.width > h->p.height ? h->p.width : h->p.height;
         double *s = realloc(h->scratch, (size_t)threads * hbk_water_line_scratch(n) * sizeof *s);
