@@ -34,3 +34,8 @@ def test_frames_without_fluid_and_bad_inputs_named(blender, tmp_path):
 def test_paint_captured_from_the_surface_lands_where_it_was_painted(blender, tmp_path):
     r = blender.run("fluid_capture_paint.py", tmp_path)
     assert "FLUID CAPTURE SELECTION OK" in r.stdout and "FLUID CAPTURE WEIGHTS OK" in r.stdout
+
+
+def test_ui_capture_paint_asks_in_a_dialog(blender, tmp_path):
+    r = blender.run_ui("ui_fluid_capture.py", tmp_path)
+    assert "UI FLUID CAPTURE OK" in r.stdout

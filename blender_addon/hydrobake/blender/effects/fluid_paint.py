@@ -87,6 +87,12 @@ def _surface_and_domain(op, context):
     return surf, domain
 
 
+def _dialog(op, context, _event):
+    """From a button: ask for the texture and the source first (a script's call runs
+    execute with its arguments directly)."""
+    return context.window_manager.invoke_props_dialog(op)
+
+
 def _selection(mesh):
     sel = np.zeros(len(mesh.vertices), bool)
     mesh.vertices.foreach_get("select", sel)
@@ -144,6 +150,8 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
         description="One minus the value: paint black over a white colour attribute (Vertex "
                     "Paint starts one white), or capture what is not selected or weighted")
 
+    invoke = _dialog
+
     def execute(self, context):
         surf, domain = _surface_and_domain(self, context)
         if surf is None:
@@ -196,6 +204,8 @@ class HYDROBAKE_OT_fluid_capture_rule(bpy.types.Operator):
     feature: bpy.props.EnumProperty(name="Feature", default="DENSITY_RATE",
                                     items=[(f, f.replace("_", " ").title(), "")
                                            for f in FEATURES])
+
+    invoke = _dialog
 
     def execute(self, context):
         surf, domain = _surface_and_domain(self, context)

@@ -1,0 +1,83 @@
+"""In the real Blender UI (under Xvfb, events simulated): Capture Paint from the surface's
+panel asks for the texture and source in a dialog, and Return captures the stroke."""
+import os
+import time
+import traceback
+
+import bmesh
+import bpy
+import numpy as np
+
+import in_blender
+
+in_blender.enable()
+tmp = in_blender.args()[0]
+state = {"phase": "start"}
+
+
+def fail(msg):
+    print("UI TEST FAILED:", msg, flush=True)
+    os._exit(1)
+
+
+def box(name, scale, loc):
+    obj = in_blender.new_plane(name)
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.scale, obj.location = scale, loc
+    return obj
+
+
+def tick():
+    try:
+        return step()
+    except Exception:
+        traceback.print_exc()
+        os._exit(1)
+
+
+def step():
+    win = bpy.context.window_manager.windows[0]
+    if state["phase"] == "start":
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "ui_capture.blend"))
+        domain = box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
+        fill = box("Column", (0.25, 0.45, 0.4), (0.15, 0.25, 0.21))
+        s = domain.hydrobake_fluid
+        s.enabled, s.fill_object = True, fill
+        s.fluid.resolution, s.fluid.substeps, s.fluid.textures = (16, 8, 8), 4, 2
+        s.use_scene_range, s.frame_start, s.frame_end = False, 1, 2
+        if bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") != {"FINISHED"}:
+            fail("bake")
+        bpy.context.scene.frame_set(2)
+        surf = bpy.data.objects["HBK_Domain_surface"]
+        surf.data.vertices.foreach_set("select", np.ones(len(surf.data.vertices), bool))
+        bpy.context.view_layer.objects.active = surf
+        area = next(a for a in win.screen.areas if a.type == "VIEW_3D")
+        with bpy.context.temp_override(window=win, area=area, object=surf):
+            r = bpy.ops.hydrobake.fluid_capture_paint("INVOKE_DEFAULT")
+        if r != {"RUNNING_MODAL"}:
+            fail(f"invoke returned {r}, not a dialog")
+        if bpy.data.objects.get("HBK_Domain_paint_2") is not None:
+            fail("captured before the dialog was confirmed")
+        state["phase"], state["t0"] = "dialog", time.monotonic()
+        return 0.3
+    if state["phase"] == "dialog":
+        win.event_simulate(type="RET", value="PRESS")
+        win.event_simulate(type="RET", value="RELEASE")
+        state["phase"] = "confirmed"
+        return 0.3
+    stroke = bpy.data.objects.get("HBK_Domain_paint_2")
+    if stroke is None:
+        if time.monotonic() - state["t0"] > 10:
+            fail("Return did not capture")
+        return 0.2
+    p = stroke.hydrobake_fluid_paint
+    if not (p.enabled and p.texture == 1 and p.frame == 2 and len(stroke.data.vertices) > 0):
+        fail(f"stroke {p.enabled} {p.texture} {p.frame} {len(stroke.data.vertices)}")
+    print("UI FLUID CAPTURE OK", flush=True)
+    os._exit(0)
+
+
+bpy.app.timers.register(tick, first_interval=0.5)
