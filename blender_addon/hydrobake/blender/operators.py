@@ -59,10 +59,10 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         jobs.ACTIVE[job.key] = job
         try:
             job.runner.run()
-        except errors.HydrobakeError:
-            pass  # the runner's state carries the message; _report shows it
+        except (errors.HydrobakeError, OSError):
+            pass  # the runner's state carries the message (a disk's too); _report shows it
         except Exception:
-            traceback.print_exc()
+            traceback.print_exc()  # a bug: its place matters more than its message
         finally:
             job.finalize(context)
         return self._report(job)
