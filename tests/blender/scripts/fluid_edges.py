@@ -91,6 +91,15 @@ s.fluid.source, s.fill_object = "SIMULATE", fill
 msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
 assert "Fill: 'Column' must overlap the domain's box by at least particle_spacing" in msg, msg
 
+# A cache folder that cannot be made (a file is in its way): the disk's message, no traceback.
+with open(os.path.join(tmp, "a_file"), "w") as f:
+    f.write("in the way")
+fill.location = (0.15, 0.25, 0.21)
+s.cache_dir = os.path.join(tmp, "a_file", "cache")
+msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
+assert "Not a directory" in msg and "Traceback" not in msg, msg
+s.cache_dir = "//hydrobake_cache/"
+
 # A domain whose mesh has no vertices has no box.
 fill.location = (0.15, 0.25, 0.21)
 bm = bmesh.new()

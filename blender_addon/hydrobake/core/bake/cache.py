@@ -81,7 +81,7 @@ class BakeCache:
         try:
             with open(self.manifest_path, "rb") as f:
                 m = json.loads(f.read())
-        except FileNotFoundError:
+        except (FileNotFoundError, NotADirectoryError):  # no folder can be there either
             return None
         except (OSError, ValueError) as exc:
             raise ValueError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
