@@ -4,7 +4,6 @@ texture there at frame 2, not before, and carries it on. Weights and colours pai
 surface give a stroke whose coverage is theirs."""
 import os
 
-import bmesh
 import bpy
 import numpy as np
 
@@ -17,15 +16,6 @@ tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "capture.blend"))
 
 
-def box(name, scale, loc):
-    obj = in_blender.new_plane(name)
-    bm = bmesh.new()
-    bmesh.ops.create_cube(bm, size=1.0)
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.scale, obj.location = scale, loc
-    return obj
-
 
 def blend1(frame):
     """(grid of blend_1, its index -> world transform)."""
@@ -33,13 +23,8 @@ def blend1(frame):
     return g, g.transform
 
 
-domain = box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
-fill = box("Column", (0.25, 0.45, 0.4), (0.15, 0.25, 0.21))
-s = domain.hydrobake_fluid
-s.enabled, s.fill_object = True, fill
-s.fluid.resolution, s.fluid.substeps, s.fluid.textures = (32, 16, 16), 4, 2
+domain, fill, s = in_blender.dam_break((32, 16, 16), frames=(1, 3))
 s.fluid.paint_duration = 10.0
-s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 surf = bpy.data.objects["HBK_Domain_surface"]
 bpy.context.scene.frame_set(2)

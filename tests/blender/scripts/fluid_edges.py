@@ -18,15 +18,6 @@ tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "edges.blend"))
 
 
-def box(name, scale, loc):
-    obj = in_blender.new_plane(name)
-    bm = bmesh.new()
-    bmesh.ops.create_cube(bm, size=1.0)
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.scale, obj.location = scale, loc
-    return obj
-
 
 def refused(op, **kw):
     """The operator's error message (it must fail)."""
@@ -37,8 +28,8 @@ def refused(op, **kw):
     raise AssertionError(f"{op} did not refuse")
 
 
-domain = box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
-emitter = box("Emitter", (0.3, 0.3, 0.05), (0.5, 0.25, 0.4))
+domain = in_blender.new_box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
+emitter = in_blender.new_box("Emitter", (0.3, 0.3, 0.05), (0.5, 0.25, 0.4))
 ps = emitter.modifiers.new("Drops", "PARTICLE_SYSTEM").particle_system.settings
 ps.count, ps.frame_start, ps.frame_end, ps.lifetime = 800, 3, 3, 100
 ps.emit_from = "VOLUME"
@@ -86,7 +77,7 @@ assert "Feature rule 1: Low = 5 is above High = 1" in msg, msg
 s.rules.remove(0)
 
 # A Fill box outside the domain would simulate nothing.
-fill = box("Column", (0.25, 0.45, 0.4), (5.0, 5.0, 5.0))
+fill = in_blender.new_box("Column", (0.25, 0.45, 0.4), (5.0, 5.0, 5.0))
 s.fluid.source, s.fill_object = "SIMULATE", fill
 msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
 assert "Fill: 'Column' must overlap the domain's box by at least particle_spacing" in msg, msg

@@ -2,7 +2,6 @@
 paint flows on; a feature rule captured from a selection of the baked surface is stored."""
 import os
 
-import bmesh
 import bpy
 import numpy as np
 
@@ -15,18 +14,9 @@ tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "paint.blend"))
 
 
-def box(name, scale, loc):
-    obj = in_blender.new_plane(name)
-    bm = bmesh.new()
-    bmesh.ops.create_cube(bm, size=1.0)
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.scale, obj.location = scale, loc
-    return obj
 
-
-domain = box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
-fill = box("Column", (0.25, 0.45, 0.4), (0.15, 0.25, 0.21))
+domain = in_blender.new_box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
+fill = in_blender.new_box("Column", (0.25, 0.45, 0.4), (0.15, 0.25, 0.21))
 brush = bpy.data.objects.new("Brush", None)
 brush.empty_display_size, brush.location = 0.12, (0.15, 0.25, 0.2)
 strokes = bpy.data.collections.new("Strokes")

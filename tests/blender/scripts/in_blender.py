@@ -25,3 +25,26 @@ def new_plane(name="Glass"):
     obj = bpy.data.objects.new(name, mesh)
     bpy.context.scene.collection.objects.link(obj)
     return obj
+
+
+def new_box(name, scale, location):
+    """A unit cube scaled and placed (the fluid tests' domains and fills)."""
+    import bmesh
+    obj = new_plane(name)
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.scale, obj.location = scale, location
+    return obj
+
+
+def dam_break(resolution, textures=2, frames=(1, 2), substeps=4):
+    """The fluid tests' scene: a 1 x 0.5 x 0.5 m domain, a water column at its left end."""
+    domain = new_box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
+    fill = new_box("Column", (0.25, 0.45, 0.4), (0.15, 0.25, 0.21))
+    s = domain.hydrobake_fluid
+    s.enabled, s.fill_object = True, fill
+    s.fluid.resolution, s.fluid.substeps, s.fluid.textures = resolution, substeps, textures
+    s.use_scene_range, s.frame_start, s.frame_end = False, frames[0], frames[1]
+    return domain, fill, s

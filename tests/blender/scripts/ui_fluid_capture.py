@@ -4,7 +4,6 @@ import os
 import time
 import traceback
 
-import bmesh
 import bpy
 import numpy as np
 
@@ -20,15 +19,6 @@ def fail(msg):
     os._exit(1)
 
 
-def box(name, scale, loc):
-    obj = in_blender.new_plane(name)
-    bm = bmesh.new()
-    bmesh.ops.create_cube(bm, size=1.0)
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.scale, obj.location = scale, loc
-    return obj
-
 
 def tick():
     try:
@@ -42,12 +32,7 @@ def step():
     win = bpy.context.window_manager.windows[0]
     if state["phase"] == "start":
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "ui_capture.blend"))
-        domain = box("Domain", (1.0, 0.5, 0.5), (0.5, 0.25, 0.25))
-        fill = box("Column", (0.25, 0.45, 0.4), (0.15, 0.25, 0.21))
-        s = domain.hydrobake_fluid
-        s.enabled, s.fill_object = True, fill
-        s.fluid.resolution, s.fluid.substeps, s.fluid.textures = (16, 8, 8), 4, 2
-        s.use_scene_range, s.frame_start, s.frame_end = False, 1, 2
+        in_blender.dam_break((16, 8, 8))
         if bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") != {"FINISHED"}:
             fail("bake")
         bpy.context.scene.frame_set(2)
