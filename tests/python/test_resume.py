@@ -24,6 +24,24 @@ def files(folder):
             if n.endswith(".exr")}
 
 
+def bake_until_cancel(folder, frame):
+    """Frames 1..12 into folder, cancelled after ``frame``."""
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4,
+                   on_frame=lambda s: s.frame == frame and r.cancel())
+    with pytest.raises(errors.Cancelled):
+        r.run()
+    e.close()
+
+
+def resume(folder):
+    e = effect()
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
+    r.run()
+    e.close()
+    return r
+
+
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
     folder = tmp_path_factory.mktemp("ref") / "bake"
@@ -43,17 +61,9 @@ def test_checkpoints_kept_every_n_frames_and_the_latest(reference):
 
 def test_cancelled_bake_resumes_bit_identical(reference, tmp_path):
     folder = tmp_path / "bake"
-    e = effect()
-    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4,
-                   on_frame=lambda s: s.frame == 7 and r.cancel())
-    with pytest.raises(errors.Cancelled):
-        r.run()
-    e.close()
+    bake_until_cancel(folder, 7)
     assert BakeCache(folder).frames() == list(range(1, 8))
-    e = effect()
-    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
-    r.run()
-    e.close()
+    r = resume(folder)
     assert r.resumed_from == 7 and r.state.status == "FINISHED"
     assert files(folder) == files(reference)
     assert BakeCache(folder).read_manifest()["complete"]
@@ -65,10 +75,7 @@ def test_a_damaged_frame_is_baked_again(reference, tmp_path):
     damaged = folder / "caustics_0007.exr"
     damaged.write_bytes(damaged.read_bytes()[:-20] + b"\0" * 20)
     (folder / "water_0010.exr").unlink()
-    e = effect()
-    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
-    r.run()
-    e.close()
+    r = resume(folder)
     assert r.resumed_from == 5  # the last checkpoint before the first bad frame
     assert files(folder) == files(reference)
     assert BakeCache(folder).verify() == []
@@ -79,10 +86,7 @@ def test_resume_extends_a_finished_bake(reference, tmp_path):
     e = effect()
     BakeRunner(e, folder, 1, 9, checkpoint_every=4).run()
     e.close()
-    e = effect()
-    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
-    r.run()
-    e.close()
+    r = resume(folder)
     assert r.resumed_from == 9 and files(folder) == files(reference)
 
 
@@ -137,21 +141,13 @@ def test_a_costly_checkpoint_is_written_less_often_and_on_cancel(reference, tmp_
         r.run()
     e.close()
     assert sorted(map(int, BakeCache(folder).read_manifest()["checkpoints"])) == [1, 5, 7]
-    e = effect()
-    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
-    r.run()
-    e.close()
+    r = resume(folder)
     assert r.resumed_from == 7 and files(folder) == files(reference)
 
 
 def test_resume_removes_what_the_killed_bake_was_writing(reference, tmp_path):
     folder = tmp_path / "bake"
-    e = effect()
-    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4,
-                   on_frame=lambda s: s.frame == 7 and r.cancel())
-    with pytest.raises(errors.Cancelled):
-        r.run()
-    e.close()
+    bake_until_cancel(folder, 7)
     # What a SIGKILL during frame 8 leaves: its files and checkpoint half written.
     left = [".caustics_0008.exr.tmp-4242-17", ".checkpoint_0008.bin.tmp-4242-18",
             ".manifest.json.tmp-4242-19"]
