@@ -34,11 +34,19 @@ surf.data.vertices.foreach_get("co", co)
 co = co.reshape(-1, 3)
 top = co[:, 2] > np.percentile(co[:, 2], 80)  # the top fifth of the fluid at frame 2
 surf.data.vertices.foreach_set("select", top)
+for items in (surf.data.edges, surf.data.polygons):  # else Edit Mode selects their vertices
+    items.foreach_set("select", np.zeros(len(items), bool))
+# Selected in Edit Mode, then the scene moved on: the mesh keeps frame 2, and so does the stroke.
+bpy.ops.object.mode_set(mode="EDIT")
+bpy.context.scene.frame_set(3)
 assert bpy.ops.hydrobake.fluid_capture_paint(texture=1, source="SELECTION") == {"FINISHED"}
+with np.load(os.path.join(s.bake_folder, "surface_0003.npz")) as f3:
+    assert len(surf.data.vertices) == len(f3["positions"]) != len(top)  # frame 3 shown again
+bpy.context.scene.frame_set(2)
 stroke = bpy.data.objects["HBK_Domain_paint_2"]
 assert stroke in s.paint_collection.objects[:] and stroke.hydrobake_fluid_paint.enabled
 assert stroke.hydrobake_fluid_paint.frame == 2 and stroke.hydrobake_fluid_paint.texture == 1
-assert len(stroke.data.vertices) == top.sum()
+assert len(stroke.data.vertices) == top.sum(), (len(stroke.data.vertices), top.sum())
 
 # Re-baked: texture 1 appears at frame 2 on the painted top, not low in the fluid, not before.
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
@@ -98,4 +106,15 @@ try:
     raise AssertionError("captured weights with no vertex group")
 except RuntimeError as exc:
     assert "From = WEIGHTS: the surface has no active vertex group" in str(exc), exc
+# Reach beyond the grid's limit is refused with the limit, which can then be typed in.
+stroke.hydrobake_fluid_paint.reach = 10.0
+try:
+    bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain")
+    raise AssertionError("baked with Reach = 10 m")
+except RuntimeError as exc:
+    msg = str(exc)
+assert "HBK_Domain_paint_2: Reach = 10 m: must be at most " in msg, msg
+stroke.hydrobake_fluid_paint.reach = float(msg.split("at most ")[1].split(" m")[0])
+assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 print("FLUID CAPTURE WEIGHTS OK")

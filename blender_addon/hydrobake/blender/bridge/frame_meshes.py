@@ -6,6 +6,7 @@ import bpy
 import numpy as np
 
 PROP = "hydrobake_sequence"  # on the object: "kind|folder|stream"
+FRAME = "hydrobake_frame"  # on the object: the frame its mesh holds
 
 
 def _points(mesh, data):
@@ -65,11 +66,16 @@ LOADERS = {"points": _points, "surface": _surface}
 
 
 def load(obj, frame):
-    """Rebuilds the object's mesh from the file baked for ``frame`` (empty if there is none)."""
+    """Rebuilds the object's mesh from the file baked for ``frame`` (empty if there is none).
+    In Edit Mode the mesh is left as it is (Blender allows no new geometry there, and the
+    edits would be written back over it): the frame it holds stays in FRAME."""
+    if obj.mode == "EDIT":
+        return
     kind, folder, stream = obj[PROP].split("|", 2)
     path = os.path.join(folder, f"{stream}_{frame:04d}.npz")
     mesh = obj.data
     mesh.clear_geometry()
+    obj[FRAME] = frame
     if os.path.isfile(path):
         with np.load(path) as data:
             LOADERS[kind](mesh, data)
@@ -89,7 +95,7 @@ def on_frame(scene, *_args):
             frame = _frame_of(obj, scene)
             try:
                 load(obj, frame)
-            except (OSError, ValueError, KeyError) as exc:
+            except Exception as exc:  # noqa: BLE001
                 # A damaged file must not stop the other sequences from following the frame.
                 print(f"Hydrobake: {obj.name}: frame {frame}: {exc}")
 

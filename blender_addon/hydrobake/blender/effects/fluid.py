@@ -208,9 +208,8 @@ class FluidBlender(BlenderEffect):
                                  "needs a Vector input and a Color output")
         inputs["voxel_textures"] = voxel
         if settings.paint_collection:
-            cell = float(np.min((hi - lo) / np.array(fp["resolution"], np.float64)))
             inputs["paint"], inputs["paint_points"] = fluid_paint.strokes(
-                settings.paint_collection, ntex, cell)
+                settings.paint_collection, ntex, fluid_paint.smallest_cell(obj))
         rules = []
         for i, rule in enumerate(settings.rules):
             if rule.texture >= ntex:

@@ -5,7 +5,7 @@ import bpy
 import numpy as np
 
 from ...core import fluid as core_fluid
-from ..bridge import meshes
+from ..bridge import frame_meshes, meshes
 
 FEATURES = tuple(f.upper() for f in core_fluid.FEATURES)  # enum items: DENSITY, ...
 
@@ -69,6 +69,11 @@ class HYDROBAKE_PT_fluid_surface(bpy.types.Panel):
                        f"{context.scene.frame_current}")
         col.operator("hydrobake.fluid_capture_paint", icon="BRUSH_DATA")
         col.operator("hydrobake.fluid_capture_rule", icon="EYEDROPPER")
+
+
+def _on_surface(_cls, context):
+    """The capture buttons: active only on a baked surface."""
+    return context.object is not None and "hydrobake_domain" in context.object
 
 
 def _surface_and_domain(op, context):
@@ -151,6 +156,7 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
                     "Paint starts one white), or capture what is not selected or weighted")
 
     invoke = _dialog
+    poll = classmethod(_on_surface)
 
     def execute(self, context):
         surf, domain = _surface_and_domain(self, context)
@@ -172,7 +178,8 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
                                    "surface at this frame")
             return {"CANCELLED"}
         pts = meshes.world_vertices(surf)[keep].astype(np.float32)
-        frame = context.scene.frame_current
+        # The frame the mesh holds: the scene may have moved on while it was in Edit Mode.
+        frame = int(surf.get(frame_meshes.FRAME, context.scene.frame_current))
         name = f"HBK_{domain.name}_paint_{frame}"
         stroke_mesh = bpy.data.meshes.new(name)
         stroke_mesh.vertices.add(len(pts))
@@ -188,6 +195,9 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
         s.paint_collection.objects.link(stroke)
         p = stroke.hydrobake_fluid_paint
         p.enabled, p.texture, p.frame = True, self.texture, frame
+        p.reach = min(p.reach, 8.0 * smallest_cell(domain))  # within a small domain's limit
+        if frame != context.scene.frame_current:  # show the scene's frame again
+            frame_meshes.load(surf, context.scene.frame_current)
         self.report({"INFO"}, f"Texture {self.texture} painted at {int(keep.sum())} vertices "
                               f"at frame {frame} ({stroke.name}); re-bake to apply")
         return {"FINISHED"}
@@ -206,6 +216,7 @@ class HYDROBAKE_OT_fluid_capture_rule(bpy.types.Operator):
                                            for f in FEATURES])
 
     invoke = _dialog
+    poll = classmethod(_on_surface)
 
     def execute(self, context):
         surf, domain = _surface_and_domain(self, context)
@@ -227,6 +238,14 @@ class HYDROBAKE_OT_fluid_capture_rule(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def smallest_cell(domain):
+    """The domain's smallest grid cell (m): its own mesh's box (a liquid domain's bounds would
+    be its liquid's) over its resolution."""
+    lo, hi = (meshes.data_world_bounds(domain) if domain.type == "MESH"
+              else meshes.world_bounds(domain))
+    return float(np.min((hi - lo) / np.array(domain.hydrobake_fluid.fluid.resolution[:])))
+
+
 def strokes(collection, ntex, cell):
     """The enabled strokes of a paint collection as the core's inputs: ({frame: [(texture,
     centre, radius, falloff)]} from Empties, {frame: [(texture, positions, coverage, radius,
@@ -243,9 +262,10 @@ def strokes(collection, ntex, cell):
             balls.setdefault(p.frame, []).append(
                 (p.texture, tuple(e.matrix_world.translation), r, 0.2 * r))
             continue
-        if 1.5 * p.reach > 16.0 * cell:  # the core's bound on a point's ball and fade
-            raise ValueError(f"{e.name}: Reach = {p.reach:g} m: must be at most "
-                             f"{16.0 * cell / 1.5:g} m (with its fade, 16 voxels)")
+        most = float(f"{16.0 * cell / 1.5 * 0.9999:.4g}")  # quoted so that it can be typed
+        if p.reach > most * (1.0 + 1e-6):  # the core's bound on a ball and fade (float32 Reach)
+            raise ValueError(f"{e.name}: Reach = {p.reach:g} m: must be at most {most:g} m "
+                             "(with its fade, 16 voxels)")
         cov = None
         attr = e.data.attributes.get("coverage")
         if attr is not None and attr.domain == "POINT" and attr.data_type == "FLOAT":
