@@ -1,10 +1,11 @@
 """The batch command line in background mode: bake, progress lines, exit codes, kill safety."""
 import json
 import os
+import shutil
 import signal
 import time
 
-from hydrobake_paths import frames_in
+from hydrobake_paths import ROOT, frames_in
 
 
 def _blend(blender, tmp_path):
@@ -74,3 +75,21 @@ def test_killed_bake_leaves_complete_frames_only(blender, tmp_path):
     from hydrobake.core import exr
     for name in visible[1:]:
         assert exr.Reader(folder / name).size == (32, 32)
+
+
+def test_overrides_are_for_the_run_not_saved_into_the_file(blender, tmp_path):
+    blend = str(tmp_path / "examples.blend")
+    shutil.copy(os.path.join(ROOT, "examples.blend"), blend)
+    before = blender.run("show_setting.py", "Tank", "fluid", "fluid.resolution", blend=blend)
+    overrides = tmp_path / "preview.json"
+    overrides.write_text(json.dumps({"Tank/fluid": {"fluid": {"resolution": [32, 16, 16],
+                                                              "substeps": 4}}}))
+    blender.run("cli.py", "bake", "--objects", "Tank", "--effects", "fluid", "--frames", "1-2",
+                "--overrides", overrides, "--output", tmp_path / "cache", blend=blend)
+    after = blender.run("show_setting.py", "Tank", "fluid", "fluid.resolution", blend=blend)
+    assert "(32, 16, 16)" not in before.stdout
+    assert after.stdout.count("SETTING") == 1 and "BAKED True" in after.stdout
+    assert before.stdout.split("SETTING")[1].split("BAKED")[0] == \
+        after.stdout.split("SETTING")[1].split("BAKED")[0]  # the file's own resolution
+    m = json.loads((tmp_path / "cache" / "examples" / "Tank_fluid" / "manifest.json").read_text())
+    assert m["params"]["fluid"]["resolution"] == [32, 16, 16]  # the bake's

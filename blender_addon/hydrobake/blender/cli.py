@@ -107,9 +107,11 @@ def _print_frame(job, t0):
 
 
 def apply_overrides(pairs, path):
-    """Sets parameters from a JSON file {"Object/effect" or "*/effect": {...}} (in memory)."""
+    """Sets parameters from a JSON file {"Object/effect" or "*/effect": {...}} (in memory);
+    returns what they were, [(target, name, value)] in the order set (restore_overrides)."""
+    undo = []
     if not path:
-        return
+        return undo
     with open(path) as f:
         table = json.load(f)
     if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
@@ -117,6 +119,9 @@ def apply_overrides(pairs, path):
                          '{"Object/effect": {"setting": value, ...}, ...}')
 
     def put(target, attr, value, where):
+        was = getattr(target, attr)
+        undo.append((target, attr, tuple(was) if hasattr(was, "__len__") and
+                     not isinstance(was, str) else was))
         try:
             setattr(target, attr, value)
         except (TypeError, ValueError) as exc:  # Blender's: the type or length is wrong
@@ -138,12 +143,18 @@ def apply_overrides(pairs, path):
                     put(settings, attr, value, f"{key}: {attr}")
                 else:
                     raise KeyError(f"--overrides {key}: {attr} is not a setting")
+    return undo
+
+
+def restore_overrides(undo):
+    for target, attr, value in reversed(undo):
+        setattr(target, attr, value)
 
 
 def bake(args, resume=False):
     failures = 0
     pairs = targets(args.objects, args.effects)
-    apply_overrides(pairs, getattr(args, "overrides", None))
+    undo = apply_overrides(pairs, getattr(args, "overrides", None))
     if not pairs:
         raise KeyError("nothing to bake: no object has an enabled Hydrobake effect "
                        "(use --objects and --effects)")
@@ -166,6 +177,8 @@ def bake(args, resume=False):
                   flush=True)
         print(f"hydrobake: {obj.name}/{name} {job.runner.state.status.lower()} in "
               f"{time.monotonic() - t0:.1f}s -> {job.folder}", flush=True)
+    # Overrides are for this run: the file keeps its own settings (and the bake's wiring).
+    restore_overrides(undo)
     if bpy.data.filepath and not failures and not getattr(args, "no_save", False):
         bpy.ops.wm.save_mainfile()  # keeps is_baked and the wiring for renders
     return 1 if failures else 0
