@@ -76,17 +76,13 @@ const SAVE_COPY = [
 ].join("\n");
 
 // The wiring stores absolute paths as the worker saw them; relative ones ('//...') also resolve
-// on workers of other platforms. Only files under the cache folder (last argument) change.
+// on workers of other platforms and mounts. Only paths under the cache folder (last argument)
+// change: images, volumes, baked mesh sequences and bake folders (the addon's
+// paths.make_relative).
 const PATHS_RELATIVE = [
-    "import bpy, os, sys",
-    "root = os.path.normcase(os.path.abspath(sys.argv[-1])) + os.sep",
-    "for d in [*bpy.data.images, *bpy.data.volumes]:",
-    "    p = os.path.abspath(bpy.path.abspath(d.filepath))",
-    "    if d.filepath and d.library is None and os.path.normcase(p).startswith(root):",
-    "        try:",
-    "            d.filepath = bpy.path.relpath(p)",
-    "        except ValueError:  # another drive (Windows): keep it absolute",
-    "            pass",
+    "import bpy, sys",
+    "from hydrobake.blender import paths",
+    "paths.make_relative(sys.argv[-1])",
     "bpy.ops.wm.save_mainfile()",
 ].join("\n");
 

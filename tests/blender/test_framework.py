@@ -1,5 +1,6 @@
 """The bake framework inside real Blender, with the addon installed from its zip."""
 import os
+import shutil
 
 from hydrobake_paths import ROOT
 
@@ -29,3 +30,13 @@ def test_ui_bake_is_modal_and_esc_cancels(blender, tmp_path):
 def test_a_bake_in_another_scene_reads_that_scene_animation(blender, tmp_path):
     r = blender.run("other_scene.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
     assert "OTHER SCENE OK" in r.stdout
+
+
+def test_a_project_moved_with_its_bakes_still_finds_them(blender, tmp_path):
+    first, moved = tmp_path / "first", tmp_path / "moved"
+    first.mkdir()
+    assert "MOVED PROJECT BAKED" in blender.run("moved_project.py", "bake", first).stdout
+    shutil.copytree(first, moved)
+    shutil.rmtree(first)
+    r = blender.run("moved_project.py", "check", moved, blend=str(moved / "project.blend"))
+    assert "MOVED PROJECT OK" in r.stdout

@@ -52,6 +52,7 @@ class Job:
         effect = self.beffect.core_class()(params, inputs)
         if resume and settings.bake_folder and not folder_override:
             self.folder = settings.bake_folder  # continue where the bake actually is
+        self.recorded = paths.stored(self.folder, settings, folder_override)  # in the file
         self.runner = BakeRunner(effect, self.folder, start, end, resume=resume,
                                  header={"object": obj.name, "blend": bpy.data.filepath})
 
@@ -70,10 +71,11 @@ class Job:
         manifest = BakeCache(self.folder).read_manifest()
         if manifest and manifest["frames"]:
             settings.is_baked = True
-            settings.bake_folder = self.folder
+            settings.bake_folder = self.recorded
             scene = bpy.data.scenes.get(self.scene_name) or context.scene
             with scene_context(context, scene):
                 self.beffect.apply(context, obj, settings, self.folder, manifest)
+            paths.relink(self.folder, self.recorded)
 
 
 def bake_state(obj, effect_name):

@@ -2,6 +2,8 @@
 
 Each effect's settings live on the object it applies to (``obj.hydrobake_<effect>``), beside
 the framework's own: enabled, cache folder, frame range and bake state."""
+import os
+
 import bpy
 
 from ..core import params as P
@@ -98,6 +100,17 @@ def from_params(groups, settings, values):
             setattr(pg, name, v)
 
 
+def _bake_folder_get(self):
+    # Scripts read an absolute folder; the file keeps it as it was set, '//' ones relative
+    # (paths.stored), so a project moved with its bakes still finds them.
+    raw = self.get("bake_folder", "")
+    return os.path.normpath(bpy.path.abspath(raw)) if raw else ""
+
+
+def _bake_folder_set(self, value):
+    self["bake_folder"] = value
+
+
 def make_settings_classes(effect_name, groups, extra=None):
     """PropertyGroup classes for an effect, in registration order: one per parameter group
     (built from its C table), then the effect's settings holding them plus the framework's
@@ -129,8 +142,10 @@ def make_settings_classes(effect_name, groups, extra=None):
             name="Baked", default=False,
             description="A bake exists; settings are locked until it is freed"),
         bake_folder=bpy.props.StringProperty(
-            name="Bake Folder", subtype="DIR_PATH", default="",
-            description="Where the current bake was written"),
+            name="Bake Folder", subtype="DIR_PATH", default="", get=_bake_folder_get,
+            set=_bake_folder_set,
+            description="Where the current bake was written (kept relative to the .blend "
+                        "when the cache folder is, read as an absolute path)"),
     )
     ann.update(extra or {})  # the effect's own scene links (ground object, sun, ...)
     classes.append(type(f"HYDROBAKE_PG_{effect_name}", (bpy.types.PropertyGroup,),

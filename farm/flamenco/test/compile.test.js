@@ -214,7 +214,7 @@ test("the wiring task copies the .blend, resumes each finished bake into it, rel
     });
     const last = rest[3];
     assert.equal(last.parameters.blendfile, copy);
-    assert.match(last.parameters.args[3], /bpy\.path\.relpath/);
+    assert.match(last.parameters.args[3], /paths\.make_relative\(sys\.argv\[-1\]\)/);
     assert.deepEqual(cliArgs(last), [cache]);
 });
 

@@ -72,7 +72,7 @@ def load(obj, frame):
     if obj.mode == "EDIT":
         return
     kind, folder, stream = obj[PROP].split("|", 2)
-    path = os.path.join(folder, f"{stream}_{frame:04d}.npz")
+    path = os.path.join(bpy.path.abspath(folder), f"{stream}_{frame:04d}.npz")  # may be '//
     mesh = obj.data
     mesh.clear_geometry()
     obj[FRAME] = frame
