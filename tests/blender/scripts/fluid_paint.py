@@ -33,6 +33,14 @@ b1 = [vdb.read(os.path.join(s.bake_folder, f"fluid_{f:04d}.vdb"))["blend_1"] for
 assert b1[0].activeVoxelCount() == 0 or b1[0].evalMinMax()[1] < 1e-6  # nothing before frame 2
 assert b1[1].evalMinMax()[1] > 0.5  # painted at frame 2, still there at frame 3
 
+def roughness():
+    mat = bpy.data.materials["HBK_Domain_textured"]
+    return next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs[
+        "Roughness"]
+
+
+roughness().default_value = 0.9  # the artist's edit
+
 # Capture a feature rule from a selection of the baked surface.
 surf = bpy.data.objects["HBK_Domain_surface"]
 sel = np.zeros(len(surf.data.vertices), bool)
@@ -51,4 +59,9 @@ brush.hydrobake_fluid_paint.enabled = False
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 first = vdb.read(os.path.join(s.bake_folder, "fluid_0001.vdb"))["blend_1"]
 assert first.evalMinMax()[1] > 0.5
+assert abs(roughness().default_value - 0.9) < 1e-6  # the same textures: the edit is kept
+assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+s.fluid.textures = 3
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+assert abs(roughness().default_value - 0.25) < 1e-6  # three textures: rebuilt
 print("FLUID PAINT OK")

@@ -311,14 +311,22 @@ class FluidBlender(BlenderEffect):
 
     @staticmethod
     def _material(name, count, scales, groups, volume=False):
-        """The textured fluid's material, rebuilt on every bake: sample texture k (its node
-        group, or a built-in noise, waves or cells) at the advected uvw times its scale, cross-
-        faded between fields A and B by uvw_weight, tinted, and summed with the baked blend
-        weights (they sum to one, so the sum is the blend). The surface reads the mesh's
-        attributes; ``volume``: the Volume's shader reads the same grids (uvw_unwrapped,
+        """The textured fluid's material, rebuilt when what it samples changes: sample texture
+        k (its node group, or a built-in noise, waves or cells) at the advected uvw times its
+        scale, cross-faded between fields A and B by uvw_weight, tinted, and summed with the
+        baked blend weights (they sum to one, so the sum is the blend). The surface reads the
+        mesh's attributes; ``volume``: the Volume's shader reads the same grids (uvw_unwrapped,
         uvw_b_unwrapped, uvw_weight, blend_k; density for the fog), voxel textures falling back
         to built-ins as Cycles cannot sample 3D images."""
-        mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+        # Kept as it is while what it samples is the same: an artist's edits (roughness,
+        # transmission, colour) survive a re-bake.
+        sig = repr((count, [float(x) for x in scales[:count]],
+                    [g if isinstance(g, str) or g is None else g.name for g in groups], volume))
+        mat = bpy.data.materials.get(name)
+        if mat is not None and mat.get("hydrobake_signature") == sig and mat.node_tree:
+            return mat
+        mat = mat or bpy.data.materials.new(name)
+        mat["hydrobake_signature"] = sig
         mat.use_nodes = True
         tree = mat.node_tree
         tree.nodes.clear()
