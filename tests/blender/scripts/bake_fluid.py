@@ -1,6 +1,7 @@
 """Fluid texturing through the addon: SPH fills a box inside a domain; the bake becomes a
 Volume object with the VDB grids and a textured surface mesh that follows the frame."""
 import os
+import time
 
 import bpy
 import numpy as np
@@ -101,10 +102,32 @@ assert len(surf.data.vertices) > 0
 mat = surf.data.materials[0]
 assert mat.name == "HBK_Domain_textured"
 nodes = mat.node_tree.nodes
-groups = [n for n in nodes if n.type == "GROUP" and n.node_tree == grp]  # fields A and B
+
+def upstream(node, seen=None):
+    """The nodes a node reads from, itself included."""
+    seen = set() if seen is None else seen
+    if node.name not in seen:
+        seen.add(node.name)
+        for sock in node.inputs:
+            for link in sock.links:
+                upstream(link.from_node, seen)
+    return seen
+
+
+outputs = {n.target: n for n in nodes if n.type == "OUTPUT_MATERIAL"}
+assert set(outputs) == {"CYCLES", "EEVEE"}
+cycles = [nodes[n] for n in upstream(outputs["CYCLES"])]
+eevee = [nodes[n] for n in upstream(outputs["EEVEE"])]
+groups = [n for n in cycles if n.type == "GROUP" and n.node_tree == grp]  # fields A and B
 assert len(groups) == 2
-builtin = [n.node_tree.name for n in nodes if n.type == "GROUP" and n.node_tree != grp]
+builtin = [n.node_tree.name for n in cycles if n.type == "GROUP" and n.node_tree != grp]
 assert builtin == ["HBK Tileable Voronoi"] * 2, builtin  # texture 2; 1 is the voxel texture
+# The viewport's EEVEE preview: the plain built-ins (the tileable ones took minutes to
+# compile without a GPU), the user's group as it is, the same weights.
+assert [n.node_tree.name for n in eevee if n.type == "GROUP"] == [grp.name] * 2
+assert sum(n.type == "TEX_VORONOI" for n in eevee) == 2
+assert {"blend_0", "blend_1", "blend_2"} <= {n.attribute_name for n in eevee
+                                             if n.type == "ATTRIBUTE"}
 for n in groups:  # fed uvw_a or uvw_b times texture 0's scale
     sc = n.inputs["UVW"].links[0].from_node
     assert sc.operation == "SCALE" and sc.inputs["Scale"].default_value == 2.0
@@ -126,6 +149,15 @@ col.data.foreach_get("vector", vals)
 assert 0.0 <= vals.min() and vals.max() <= 1.0 and vals.std() > 0.01  # noise, per vertex
 bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
 assert bsdf.inputs["Base Color"].is_linked
+# EEVEE renders it (the viewport plays it back), in seconds.
+scene.render.engine = "BLENDER_EEVEE"
+scene.eevee.taa_render_samples = 1
+scene.render.resolution_x, scene.render.resolution_y = 64, 36
+scene.render.filepath = os.path.join(tmp, "eevee.png")
+t0 = time.monotonic()
+bpy.ops.render.render(write_still=True)
+assert os.path.isfile(scene.render.filepath)
+print(f"EEVEE render {time.monotonic() - t0:.1f} s")
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 assert "HBK_Domain_volume" not in bpy.data.objects and "HBK_Domain_surface" not in bpy.data.objects
 print("FLUID BLENDER OK", n2)

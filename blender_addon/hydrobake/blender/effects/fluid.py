@@ -321,7 +321,8 @@ class FluidBlender(BlenderEffect):
         # Kept as it is while what it samples is the same: an artist's edits (roughness,
         # transmission, colour) survive a re-bake.
         sig = repr((count, [float(x) for x in scales[:count]],
-                    [g if isinstance(g, str) or g is None else g.name for g in groups], volume))
+                    [g if isinstance(g, str) or g is None else g.name for g in groups], volume,
+                    "eevee preview"))
         mat = bpy.data.materials.get(name)
         if mat is not None and mat.get("hydrobake_signature") == sig and mat.node_tree:
             return mat
@@ -362,7 +363,7 @@ class FluidBlender(BlenderEffect):
                 n.inputs[key].default_value = value
             return n
 
-        def sample(k, uvw, x, y):
+        def sample(k, uvw, x, y, plain):
             group = groups[k] if k < len(groups) else None
             if group == "VOXEL":  # sampled per vertex by the bake, already cross-faded
                 return attr(f"sample_{k}", x, y, "Color")
@@ -372,9 +373,9 @@ class FluidBlender(BlenderEffect):
                 tree.links.new(uvw, t.inputs[_group_socket(group, "INPUT")])
                 return t.outputs[_group_socket(group, "OUTPUT")]
             kind = ("noise", "wave", "voronoi")[k % 3]
-            if volume:  # the plain texture (eight copies per step of a volume ray cost
-                # minutes), at uvw unwrapped near the rest mapping: no tile seams where the
-                # fluid moved less than half a tile
+            if plain:  # the plain texture: in a volume (eight copies per step of a volume ray
+                # cost minutes), at uvw unwrapped near the rest mapping, so no tile seams
+                # where the fluid moved less than half a tile; in EEVEE's preview
                 idname, settings = tileable.KINDS[kind]
                 t = node(idname, x, y, **settings)
             else:  # Blender's own textures do not repeat: wrapped in a tileable group
@@ -390,40 +391,56 @@ class FluidBlender(BlenderEffect):
         tints = ((0.15, 0.45, 0.9, 1), (0.95, 0.97, 1.0, 1), (1.0, 0.45, 0.1, 1),
                  (0.3, 0.8, 0.35, 1), (0.8, 0.3, 0.75, 1), (0.9, 0.85, 0.3, 1),
                  (0.4, 0.4, 0.45, 1), (0.3, 0.8, 0.8, 1))
-        total = None
-        for k in range(int(count)):
-            y = 600 - 320 * k
-            scaled = []
-            for field, dy in ((ua, 0), (ub, -140)):
-                sc = node("ShaderNodeVectorMath", -1350, y + dy)
-                sc.operation = "SCALE"
-                sc.inputs["Scale"].default_value = float(scales[k])
-                tree.links.new(field, sc.inputs[0])
-                scaled.append(sc.outputs["Vector"])
-            a, b = sample(k, scaled[0], -1100, y), sample(k, scaled[1], -1100, y - 140)
-            fade = node("ShaderNodeMixRGB", -850, y)  # fac = weight of A
-            tree.links.new(w, fade.inputs["Fac"])
-            tree.links.new(b, fade.inputs["Color1"])
-            tree.links.new(a, fade.inputs["Color2"])
-            colour = fade.outputs["Color"]
-            if k >= len(groups) or groups[k] is None:  # a built-in: give it its own colour
-                tint = node("ShaderNodeMixRGB", -650, y, Fac=1.0, Color2=tints[k % len(tints)])
-                tint.blend_type = "MULTIPLY"
-                tree.links.new(colour, tint.inputs["Color1"])
-                colour = tint.outputs["Color"]
-            part = node("ShaderNodeVectorMath", -400, y)
-            part.operation = "SCALE"
-            tree.links.new(colour, part.inputs[0])
-            tree.links.new(attr(f"blend_{k}", -650, y + 120, "Fac"), part.inputs["Scale"])
-            if total is None:
-                total = part.outputs["Vector"]
-            else:
-                add = node("ShaderNodeVectorMath", -150, y + 60)
-                add.operation = "ADD"
-                tree.links.new(total, add.inputs[0])
-                tree.links.new(part.outputs["Vector"], add.inputs[1])
-                total = add.outputs["Vector"]
-        tree.links.new(total, bsdf.inputs["Color" if volume else "Base Color"])
+        def blend(plain, y0):
+            """The sample textures summed by their blend weights (laid out from y0)."""
+            total = None
+            for k in range(int(count)):
+                y = y0 + 600 - 320 * k
+                scaled = []
+                for field, dy in ((ua, 0), (ub, -140)):
+                    sc = node("ShaderNodeVectorMath", -1350, y + dy)
+                    sc.operation = "SCALE"
+                    sc.inputs["Scale"].default_value = float(scales[k])
+                    tree.links.new(field, sc.inputs[0])
+                    scaled.append(sc.outputs["Vector"])
+                a = sample(k, scaled[0], -1100, y, plain)
+                b = sample(k, scaled[1], -1100, y - 140, plain)
+                fade = node("ShaderNodeMixRGB", -850, y)  # fac = weight of A
+                tree.links.new(w, fade.inputs["Fac"])
+                tree.links.new(b, fade.inputs["Color1"])
+                tree.links.new(a, fade.inputs["Color2"])
+                colour = fade.outputs["Color"]
+                if k >= len(groups) or groups[k] is None:  # a built-in: give it its own colour
+                    tint = node("ShaderNodeMixRGB", -650, y, Fac=1.0, Color2=tints[k % len(tints)])
+                    tint.blend_type = "MULTIPLY"
+                    tree.links.new(colour, tint.inputs["Color1"])
+                    colour = tint.outputs["Color"]
+                part = node("ShaderNodeVectorMath", -400, y)
+                part.operation = "SCALE"
+                tree.links.new(colour, part.inputs[0])
+                tree.links.new(attr(f"blend_{k}", -650, y + 120, "Fac"), part.inputs["Scale"])
+                if total is None:
+                    total = part.outputs["Vector"]
+                else:
+                    add = node("ShaderNodeVectorMath", -150, y + 60)
+                    add.operation = "ADD"
+                    tree.links.new(total, add.inputs[0])
+                    tree.links.new(part.outputs["Vector"], add.inputs[1])
+                    total = add.outputs["Vector"]
+            return total
+
+        tree.links.new(blend(volume, 0), bsdf.inputs["Color" if volume else "Base Color"])
+        if not volume:
+            # EEVEE (the viewport's Material Preview, playback) gets the plain textures: the
+            # tileable groups' eight evaluations per texture and field made a shader that took
+            # minutes to compile without a GPU. Tile seams may show there, never in Cycles.
+            out_node.target = "CYCLES"
+            preview_out = node("ShaderNodeOutputMaterial", 900, -2900)
+            preview_out.target = "EEVEE"
+            preview = node("ShaderNodeBsdfPrincipled", 600, -2900, Roughness=0.25)
+            preview.label = "EEVEE preview"
+            tree.links.new(preview.outputs["BSDF"], preview_out.inputs["Surface"])
+            tree.links.new(blend(True, -3000), preview.inputs["Base Color"])
         return mat
 
     @classmethod
