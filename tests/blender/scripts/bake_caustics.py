@@ -38,6 +38,7 @@ assert names == sorted(["manifest.json", "checkpoint_0001.bin", "checkpoint_0003
                       [f"{st}_{i:04d}.exr" for i in (1, 2, 3)
                        for st in ("caustics", "surface", "height", "water", "view")]), names
 assert bpy.data.images["HBK_Water_view"].source == "SEQUENCE"  # the paper's own rendering
+assert bpy.data.images["HBK_Water_view"].use_fake_user  # no node shows it: kept when saved
 
 # Wired: floor base colour = original texture x caustic sequence; water has the normal map.
 link = bsdf.inputs["Base Color"].links[0]
@@ -86,4 +87,5 @@ assert not any(n.get("hydrobake") for n in wtree.nodes)
 assert water.visible_shadow and not s.is_baked
 assert "HBK Displace" not in water.modifiers and "HBK_UV" not in water.data.uv_layers
 assert "HBK_Water_projector" not in bpy.data.objects
+assert "HBK_Water_view" not in bpy.data.images
 print("CAUSTICS BLENDER OK")

@@ -32,6 +32,7 @@ assert set(data) == {"height", "normal.x", "normal.y", "normal.z", "wetness"}
 assert data["height"].max() > 0  # drops landed and were drawn
 assert os.path.isfile(os.path.join(s.bake_folder, "preview_0003.exr"))  # cheap refraction
 assert bpy.data.images["HBK_Windshield_rain_preview"].source == "SEQUENCE"
+assert bpy.data.images["HBK_Windshield_rain_preview"].use_fake_user  # kept when saved
 
 tree = glass.data.materials[0].node_tree
 bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
@@ -61,4 +62,5 @@ assert all(m.show_viewport for m in glass.modifiers)
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Windshield") == {"FINISHED"}
 assert not any(n.get("hydrobake") for n in tree.nodes)
 assert [m.name for m in glass.modifiers] == ["User Thickness"]
+assert "HBK_Windshield_rain_preview" not in bpy.data.images
 print("RAIN BLENDER OK")

@@ -22,6 +22,21 @@ def load_sequence(folder, stream, frame_start, frame_count, name=None, colorspac
     return img
 
 
+def load_unused_sequence(folder, stream, frame_start, frame_count, name, colorspace="Linear"):
+    """load_sequence for an image no node shows (a preview to look at in the Image Editor): a
+    fake user keeps it in the saved file, where Blender drops datablocks without users."""
+    img = load_sequence(folder, stream, frame_start, frame_count, name, colorspace)
+    img.use_fake_user = True
+    return img
+
+
+def remove(name):
+    """Removes the image ``name`` (one of ours) if nothing but its fake user holds it."""
+    img = bpy.data.images.get(name)
+    if img is not None and img.users <= int(img.use_fake_user):
+        bpy.data.images.remove(img)
+
+
 def configure_user(image_user, frame_start, frame_count):
     """Makes a node's image user play the sequence in step with the scene."""
     image_user.frame_start = frame_start

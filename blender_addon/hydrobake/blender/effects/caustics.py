@@ -237,8 +237,8 @@ class CausticsBlender(BlenderEffect):
         if settings.projector:
             cls._projector(context, obj, settings, folder, frames, width)
         if "view" in manifest.get("streams", []):
-            images.load_sequence(folder, "view", frames[0], len(frames),
-                                 name=f"HBK_{obj.name}_view", colorspace="Linear")
+            images.load_unused_sequence(folder, "view", frames[0], len(frames),
+                                        f"HBK_{obj.name}_view")
         # Light reaches the floor through the caustic map, not through the glass: the water
         # casts no shadow (restored by Free Bake).
         if "hydrobake_shadow" not in obj:
@@ -363,6 +363,7 @@ class CausticsBlender(BlenderEffect):
         if "hydrobake_shadow" in obj:
             obj.visible_shadow = bool(obj["hydrobake_shadow"])
             del obj["hydrobake_shadow"]
+        images.remove(f"HBK_{obj.name}_view")
 
     @classmethod
     def draw_settings(cls, layout, settings):

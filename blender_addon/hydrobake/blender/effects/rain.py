@@ -165,8 +165,8 @@ class RainBlender(BlenderEffect):
         tree.links.new(nm.outputs["Normal"], side.inputs["Color2"])
         tree.links.new(side.outputs["Color"], bsdf.inputs["Normal"])
         if "preview" in manifest.get("streams", []) and settings.background_image is not None:
-            images.load_sequence(folder, "preview", frames[0], len(frames),
-                                 name=f"HBK_{obj.name}_rain_preview", colorspace="Linear")
+            images.load_unused_sequence(folder, "preview", frames[0], len(frames),
+                                        f"HBK_{obj.name}_rain_preview")
 
     @classmethod
     def remove(cls, context, obj, settings):
@@ -176,9 +176,7 @@ class RainBlender(BlenderEffect):
         for slot in obj.material_slots:
             if slot.material and slot.material.node_tree:
                 materials.remove_tagged(slot.material.node_tree, "rain.")
-        img = bpy.data.images.get(f"HBK_{obj.name}_rain_preview")
-        if img is not None and img.users == 0:
-            bpy.data.images.remove(img)
+        images.remove(f"HBK_{obj.name}_rain_preview")
 
     @classmethod
     def draw_settings(cls, layout, settings):
