@@ -40,7 +40,7 @@ assert sorted(os.listdir(folder)) == ["manifest.json"] + [f"wave_{i:04d}.exr" fo
 # Wired: an image sequence that Blender itself reads, frame by frame.
 mat = obj.data.materials[0]
 tex = next(n for n in mat.node_tree.nodes if n.get("hydrobake") == "testwave.normal")
-assert tex.image.source == "SEQUENCE" and tex.image_user.frame_duration == 6
+assert tex.image.source == "SEQUENCE"
 scene.frame_set(4)
 tex.image_user.frame_current = 4
 img = bpy.data.images.load(os.path.join(folder, "wave_0004.exr"))

@@ -16,7 +16,7 @@ def load_sequence(folder, stream, frame_start, frame_count, name=None, colorspac
         img.name = name
     else:
         img.filepath = first
-    img.source = "SEQUENCE"
+    img.source = "SEQUENCE" if frame_count > 1 else "FILE"  # one frame: every frame shows it
     img.colorspace_settings.name = colorspace
     img.reload()
     return img
@@ -38,10 +38,13 @@ def remove(name):
 
 
 def configure_user(image_user, frame_start, frame_count):
-    """Makes a node's image user play the sequence in step with the scene."""
-    image_user.frame_start = frame_start
-    image_user.frame_offset = frame_start - 1
-    image_user.frame_duration = frame_count
+    """Makes a node's image user play the sequence in step with the scene, holding the first
+    file before it and the last after. (Blender clamps the frame into [0, duration] and adds
+    the offset: starting one frame later with one frame less makes 0 the first file, where
+    the plain start = first, offset = first - 1 asked for the missing file first - 1.)"""
+    image_user.frame_start = frame_start + 1
+    image_user.frame_offset = frame_start
+    image_user.frame_duration = max(frame_count - 1, 1)  # one frame: a FILE, not a sequence
     image_user.use_auto_refresh = True
     image_user.use_cyclic = False
 
