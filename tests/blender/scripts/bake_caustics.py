@@ -47,6 +47,8 @@ mix = link.from_node
 assert mix.inputs["Color1"].links[0].from_node.name == orig_from
 tex = mix.inputs["Color2"].links[0].from_node
 assert tex.image.source == "SEQUENCE"
+# Clipped at the water's edge, where the floor keeps its own colour (alpha 0: no multiply).
+assert tex.extension == "CLIP" and mix.inputs["Fac"].links[0].from_socket.name == "Alpha"
 wtree = water.data.materials[0].node_tree
 wbsdf = next(n for n in wtree.nodes if n.type == "BSDF_PRINCIPLED")
 assert wbsdf.inputs["Normal"].links[0].from_node.get("hydrobake") == "caustics.normal"

@@ -207,7 +207,10 @@ class CausticsBlender(BlenderEffect):
                 mix = materials.add_node(tree, "ShaderNodeMixRGB", "caustics.multiply",
                                          (bsdf.location.x - 250, 200))
                 mix.blend_type = "MULTIPLY"
-                mix.inputs["Fac"].default_value = 1.0
+                # Beyond the water the floor keeps its colour: the map is clipped there (alpha
+                # 0, no multiply), not its edge smeared across the rest of the floor.
+                tex.extension = "CLIP"
+                tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
                 base = bsdf.inputs["Base Color"]
                 if base.is_linked and base.links[0].from_node is not mix:
                     tree.links.new(base.links[0].from_socket, mix.inputs["Color1"])
