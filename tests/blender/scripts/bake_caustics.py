@@ -4,6 +4,7 @@ materials are as they were."""
 import json
 import os
 
+import bmesh
 import bpy
 
 import in_blender
@@ -60,6 +61,15 @@ scene.frame_set(3)
 dg = bpy.context.evaluated_depsgraph_get()
 zs = [v.co.z for v in water.evaluated_get(dg).to_mesh().vertices]
 assert len(zs) > 1000 and max(zs) - min(zs) > 1e-4, (len(zs), max(zs) - min(zs))
+
+def faces_per_cell():
+    """The displaced water's faces over the grid's cells (about one, at most four)."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    grid = m["params"]["water"]  # the plane's cells (height follows its aspect)
+    return len(water.evaluated_get(dg).data.polygons) / (grid["width"] * grid["height"])
+
+
+assert 1 <= faces_per_cell() < 4, faces_per_cell()
 water.evaluated_get(dg).to_mesh_clear()
 
 # The projector: a spot light whose emission is the caustic sequence, aimed at the pool.
@@ -93,4 +103,14 @@ assert water.visible_shadow and not s.is_baked
 assert "HBK Displace" not in water.modifiers and "HBK_UV" not in water.data.uv_layers
 assert "HBK_Water_projector" not in bpy.data.objects
 assert "HBK_Water_view" not in bpy.data.images
+# A dense water mesh is subdivided less: still about a face per cell, not 4^6 per face.
+bm = bmesh.new()
+bm.from_mesh(water.data)
+bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=15, use_grid_fill=True)
+bm.to_mesh(water.data)
+bm.free()
+assert len(water.data.polygons) >= 256
+with bpy.context.temp_override(scene=scene):
+    assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Water") == {"FINISHED"}
+assert 1 <= faces_per_cell() < 4, faces_per_cell()
 print("CAUSTICS BLENDER OK")

@@ -269,7 +269,12 @@ class CausticsBlender(BlenderEffect):
         sub = obj.modifiers.get("HBK Subdivision") or obj.modifiers.new("HBK Subdivision",
                                                                         "SUBSURF")
         sub.subdivision_type = "SIMPLE"
-        sub.levels = sub.render_levels = max(1, min(6, int(np.log2(max(width, 2)))))
+        # Enough levels for about a face per grid cell from the faces the mesh already has
+        # (each level makes four of one): a dense mesh subdivided as a plane was tens of
+        # millions of faces.
+        need = shape[0] * shape[1] / max(len(mesh.polygons), 1)
+        sub.levels = sub.render_levels = min(6, max(0, int(np.ceil(np.log(max(need, 1.0)) /
+                                                                  np.log(4.0)))))
         disp = obj.modifiers.get("HBK Displace") or obj.modifiers.new("HBK Displace", "DISPLACE")
         disp.texture = tex
         disp.texture_coords = "UV"
