@@ -70,11 +70,14 @@ class Job:
         settings = settings_of(obj, self.effect_name)
         manifest = BakeCache(self.folder).read_manifest()
         if manifest and manifest["frames"]:
+            if settings.get("baked_as", obj.name) != obj.name:  # renamed: unwire the old
+                self.beffect.remove(context, obj, settings)
             settings.is_baked = True
             settings.bake_folder = self.recorded
             scene = bpy.data.scenes.get(self.scene_name) or context.scene
             with scene_context(context, scene):
                 self.beffect.apply(context, obj, settings, self.folder, manifest)
+            settings["baked_as"] = obj.name
             paths.relink(self.folder, self.recorded)
 
 
@@ -101,6 +104,7 @@ def free(context, obj, effect_name):
     beffect.remove(context, obj, settings)
     settings.is_baked = False
     settings.bake_folder = ""
+    settings.pop("baked_as", None)
     return removed
 
 

@@ -64,4 +64,17 @@ assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FI
 s.fluid.textures = 3
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 assert abs(roughness().default_value - 0.25) < 1e-6  # three textures: rebuilt
+
+def made(prefix):
+    return sorted(o.name for o in bpy.data.objects if o.name.startswith(prefix))
+
+
+# Renamed after its bake: a re-bake replaces the old objects, and Free Bake finds them.
+assert made("HBK_Domain_") == ["HBK_Domain_surface", "HBK_Domain_volume"]
+domain.name = "Tank"
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Tank") == {"FINISHED"}
+assert made("HBK_Domain_") == [] and made("HBK_Tank_") == ["HBK_Tank_surface", "HBK_Tank_volume"]
+domain.name = "Pool"
+assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Pool") == {"FINISHED"}
+assert made("HBK_") == [], made("HBK_")
 print("FLUID PAINT OK")

@@ -49,7 +49,13 @@ class BlenderEffect:
 
     @classmethod
     def remove(cls, context, obj, settings):
-        """Undoes ``apply`` (Free Bake). Main thread."""
+        """Undoes ``apply`` (Free Bake). Main thread. What apply named after the object is
+        found under baked_name: the object may have been renamed since."""
+
+    @staticmethod
+    def baked_name(obj, settings):
+        """The object's name when its bake was wired (jobs.finalize records it)."""
+        return settings.get("baked_as") or obj.name
 
     @classmethod
     def draw_settings(cls, layout, settings):

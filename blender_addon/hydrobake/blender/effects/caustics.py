@@ -341,7 +341,8 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        name = f"HBK_{obj.name}_projector"
+        prefix = f"HBK_{cls.baked_name(obj, settings)}"
+        name = f"{prefix}_projector"
         if name in bpy.data.objects:
             bpy.data.objects.remove(bpy.data.objects[name])
         if name in bpy.data.lights and bpy.data.lights[name].users == 0:
@@ -371,7 +372,7 @@ class CausticsBlender(BlenderEffect):
         if "hydrobake_shadow" in obj:
             obj.visible_shadow = bool(obj["hydrobake_shadow"])
             del obj["hydrobake_shadow"]
-        images.remove(f"HBK_{obj.name}_view")
+        images.remove(f"{prefix}_view")
 
     @classmethod
     def draw_settings(cls, layout, settings):

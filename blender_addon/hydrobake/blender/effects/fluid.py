@@ -445,8 +445,9 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        frame_meshes.detach(f"HBK_{obj.name}_surface")
-        vol = bpy.data.objects.get(f"HBK_{obj.name}_volume")
+        prefix = f"HBK_{cls.baked_name(obj, settings)}"
+        frame_meshes.detach(f"{prefix}_surface")
+        vol = bpy.data.objects.get(f"{prefix}_volume")
         if vol is not None:
             data = vol.data
             bpy.data.objects.remove(vol)

@@ -176,7 +176,7 @@ class RainBlender(BlenderEffect):
         for slot in obj.material_slots:
             if slot.material and slot.material.node_tree:
                 materials.remove_tagged(slot.material.node_tree, "rain.")
-        images.remove(f"HBK_{obj.name}_rain_preview")
+        images.remove(f"HBK_{cls.baked_name(obj, settings)}_rain_preview")
 
     @classmethod
     def draw_settings(cls, layout, settings):

@@ -275,7 +275,7 @@ class SnowBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        frame_meshes.detach(f"HBK_{obj.name}_flakes")
+        frame_meshes.detach(f"HBK_{cls.baked_name(obj, settings)}_flakes")
         if obj.type == "MESH" and cls.BOX_UV in obj.data.uv_layers:
             obj.data.uv_layers.remove(obj.data.uv_layers[cls.BOX_UV])
         for slot in obj.material_slots:
