@@ -103,6 +103,7 @@ assert water.visible_shadow and not s.is_baked
 assert "HBK Displace" not in water.modifiers and "HBK_UV" not in water.data.uv_layers
 assert "HBK_Water_projector" not in bpy.data.objects
 assert "HBK_Water_view" not in bpy.data.images
+assert "HBK_Water_height" not in bpy.data.textures  # the Displace's texture
 # A dense water mesh is subdivided less: still about a face per cell, not 4^6 per face.
 bm = bmesh.new()
 bm.from_mesh(water.data)

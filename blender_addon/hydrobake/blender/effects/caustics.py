@@ -351,6 +351,9 @@ class CausticsBlender(BlenderEffect):
             mod = obj.modifiers.get(name)
             if mod is not None:
                 obj.modifiers.remove(mod)
+        height = bpy.data.textures.get(f"{prefix}_height")  # the Displace's, now unused
+        if height is not None and height.users == 0:
+            bpy.data.textures.remove(height)
         if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
         mats = [s.material for s in obj.material_slots if s.material]
