@@ -295,7 +295,8 @@ hbk_result_t hbk_fluid_paint_points(hbk_fluid_t *h, int32_t texture, int32_t cou
     if (r) return r;
     if (count < 0)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "count = %d: must be >= 0", count);
-    if (count > 0 && !pos) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos: must not be NULL");
+    if (count > 0 && !pos)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos: must not be NULL");
     float cmin = h->cell[0] < h->cell[1] ? h->cell[0] : h->cell[1];
     cmin = h->cell[2] < cmin ? h->cell[2] : cmin;
     const float reach = 16.0f * cmin;
@@ -340,7 +341,8 @@ hbk_result_t hbk_fluid_paint_points(hbk_fluid_t *h, int32_t texture, int32_t cou
                     const float dy = h->p.box_min[1] + (float)j * h->cell[1] - x[1];
                     const float dz = h->p.box_min[2] + (float)k * h->cell[2] - x[2];
                     const float m = c * ball(sqrtf(dx * dx + dy * dy + dz * dz), radius, falloff);
-                    float *v = mask + (size_t)q + (size_t)h->nv[0] * ((size_t)j + (size_t)h->nv[1] * (size_t)k);
+                    float *v = mask + (size_t)q +
+                               (size_t)h->nv[0] * ((size_t)j + (size_t)h->nv[1] * (size_t)k);
                     *v = m > *v ? m : *v;
                 }
     }

@@ -166,8 +166,8 @@ class HYDROBAKE_OT_fluid_capture_paint(bpy.types.Operator):
         cov = {"SELECTION": lambda: _selection(mesh).astype(np.float32),
                "WEIGHTS": lambda: _weights(surf), "COLOR": lambda: _colours(mesh)}[self.source]()
         if cov is None:
-            self.report({"ERROR"}, f"From = {self.source}: the surface has no active "
-                                   f"{'vertex group' if self.source == 'WEIGHTS' else 'colour attribute'}")
+            what = "vertex group" if self.source == "WEIGHTS" else "colour attribute"
+            self.report({"ERROR"}, f"From = {self.source}: the surface has no active {what}")
             return {"CANCELLED"}
         cov = np.clip(cov, 0.0, 1.0)
         if self.invert:
