@@ -16,6 +16,44 @@ def ensure_material(obj, name):
     return mat
 
 
+COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
+
+
+def own(obj, index, unwire):
+    """The material in the object's slot ``index``, made the object's own first if another
+    object uses it too: a bake wires the object's own images into it, and two objects'
+    bakes in one material overwrote each other. The copy, '<name> (<object>)', records the
+    shared material, which restore() puts back. unwire(node_tree) takes another object's
+    wiring of the effect out of the copy."""
+    mat = obj.material_slots[index].material if index < len(obj.material_slots) else None
+    if mat is None or COPY_OF in mat:
+        return mat
+    if not any(o is not obj and any(s.material == mat for s in o.material_slots)
+               for o in bpy.data.objects):
+        return mat
+    copy = mat.copy()
+    copy.name = f"{mat.name} ({obj.name})"
+    copy[COPY_OF] = mat.name
+    unwire(copy.node_tree)  # another object's, if the shared material had it
+    obj.material_slots[index].material = copy
+    return copy
+
+
+def restore(obj, prefix):
+    """Undoes own() in the object's slots (Free Bake), unless the shared material holds
+    another object's wiring of the same effect (then the object keeps its clean copy)."""
+    for slot in obj.material_slots:
+        mat = slot.material
+        shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
+            else None
+        if shared is None or (shared.node_tree and any(
+                str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
+            continue
+        slot.material = shared
+        if mat.users == 0:
+            bpy.data.materials.remove(mat)
+
+
 def tagged(node_tree, role):
     """Hydrobake's node with ``role`` in this tree, or None."""
     for node in node_tree.nodes:

@@ -133,6 +133,7 @@ class RainBlender(BlenderEffect):
             mod.thickness = 0.004
             mod.offset = 0.0
             mod.use_even_offset = True
+        materials.own(obj, 0, lambda tree: materials.remove_tagged(tree, "rain."))
         mat = materials.ensure_material(obj, f"HBK_{obj.name}_glass")
         tree = mat.node_tree
         bsdf = materials.principled(tree)
@@ -176,6 +177,7 @@ class RainBlender(BlenderEffect):
         for slot in obj.material_slots:
             if slot.material and slot.material.node_tree:
                 materials.remove_tagged(slot.material.node_tree, "rain.")
+        materials.restore(obj, "rain.")
         images.remove(f"HBK_{cls.baked_name(obj, settings)}_rain_preview")
 
     @classmethod

@@ -85,6 +85,16 @@ def _flake_material():
     return mat
 
 
+def _unwire(tree):
+    """Takes the snow out of a material: its surface shader back where the mix was."""
+    mix = materials.tagged(tree, "snow.mix")
+    if mix is not None and mix.inputs[1].is_linked:
+        src = mix.inputs[1].links[0].from_socket
+        for link in list(mix.outputs["Shader"].links):
+            tree.links.new(src, link.to_socket)
+    materials.remove_tagged(tree, "snow.")
+
+
 @register_effect
 class SnowBlender(BlenderEffect):
     name = "snow"
@@ -217,11 +227,12 @@ class SnowBlender(BlenderEffect):
         if manifest["params"]["snow"]["contact_mode"] == 1:  # BOX: the atlas, not the UVs
             slots = len(obj.material_slots) + (1 if settings.colliders else 0)
             uv = cls._box_uvs(obj, settings.snow, max(slots, 1))
-        for slot in obj.material_slots:
-            mat = slot.material
+        for index in range(len(obj.material_slots)):
+            mat = obj.material_slots[index].material
             if mat is None or not mat.use_nodes or mat.hydrobake_snow.melts or \
                     mat.hydrobake_snow.sheds:
                 continue
+            mat = materials.own(obj, index, _unwire)
             tree = mat.node_tree
             out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and
                         n.is_active_output), None)
@@ -279,16 +290,9 @@ class SnowBlender(BlenderEffect):
         if obj.type == "MESH" and cls.BOX_UV in obj.data.uv_layers:
             obj.data.uv_layers.remove(obj.data.uv_layers[cls.BOX_UV])
         for slot in obj.material_slots:
-            mat = slot.material
-            if mat is None or not mat.node_tree:
-                continue
-            tree = mat.node_tree
-            mix = materials.tagged(tree, "snow.mix")
-            if mix is not None and mix.inputs[1].is_linked:
-                src = mix.inputs[1].links[0].from_socket
-                for link in list(mix.outputs["Shader"].links):
-                    tree.links.new(src, link.to_socket)
-            materials.remove_tagged(tree, "snow.")
+            if slot.material is not None and slot.material.node_tree:
+                _unwire(slot.material.node_tree)
+        materials.restore(obj, "snow.")
 
     @classmethod
     def draw_settings(cls, layout, settings):
