@@ -106,10 +106,10 @@ typedef struct hbk_rain_params {
     uint32_t size;            /* sizeof(hbk_rain_params_t), set by hbk_rain_params_default */
     /* The glass and its maps. */
     int32_t width;            /* cells along x (u), 8..16384; default 1024 */
-    int32_t height;           /* cells along y (v), 8..16384; default 512 */
+    int32_t height;           /* cells along y (v), 8..16384; 512; width x height <= 4096^2 */
     float cell_size;          /* m, 1e-4..0.05, edge of one cell, about a small drop; 0.001 */
     int32_t map_width;        /* height map texels along x, 8..16384; default 2048 */
-    int32_t map_height;       /* height map texels along y, 8..16384; default 1024 */
+    int32_t map_height;       /* texels along y, 8..16384; 1024; product <= 8192^2 */
     /* Forces. */
     float gravity;            /* m/s^2, 0..100; 9.81 */
     float gravity_dir[2];     /* in-plane part of the unit down vector, |.| <= 1 (a pane

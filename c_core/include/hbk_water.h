@@ -34,7 +34,7 @@ extern "C" {
 typedef struct hbk_water_params {
     uint32_t size;        /* sizeof(hbk_water_params_t), set by hbk_water_params_default */
     int32_t width;        /* cells along x, 4..16384 (paper: 16..256, 128 shown) */
-    int32_t height;       /* cells along y, 4..16384 */
+    int32_t height;       /* cells along y, 4..16384; width x height <= 4096^2 */
     float cell_size;      /* m, edge of one cell; 0.005..1 for pools and ponds */
     float gravity;        /* m/s^2, 9.81 */
     float dt;             /* s, time advanced by one hbk_water_step (one frame), e.g. 1/24 */

@@ -105,6 +105,7 @@ void test_rain_params_rejects(void)
     } rules[] = {
         {"gravity_dir", NULL}, {"airflow_dir", NULL}, {"map_width", NULL},
         {"map_height", NULL}, {"particle_radius", NULL}, {"blade_width", NULL},
+        {"width x height = 4097 x 4096", NULL}, {"map_width x map_height = 16384 x 4097", NULL},
     };
     for (size_t k = 0; k < sizeof rules / sizeof rules[0]; ++k) {
         hbk_rain_params_t p = params(64, 48);
@@ -115,6 +116,8 @@ void test_rain_params_rejects(void)
         case 3: p.map_height = 0 + 8, p.height = 8 * 64 + 8; break;
         case 4: p.particle_radius = 0.02f; break;
         case 5: p.wiper_count = 1, p.blade_width = 0.02f; break;
+        case 6: p.width = 4097, p.height = 4096, p.map_width = p.map_height = 4096; break;
+        case 7: p.width = p.height = 4096, p.map_width = 16384, p.map_height = 4097; break;
         }
         CHECK(hbk_rain_create(&h, &p, &m) == HBK_ERR_INVALID_ARGUMENT);
         if (strncmp(m.text, rules[k].name, strlen(rules[k].name))) {
@@ -122,7 +125,12 @@ void test_rain_params_rejects(void)
             CHECK(0);
         }
     }
+    /* The largest glass and map the limits let through. */
     hbk_rain_params_t p = p0;
+    p.width = p.height = 4096;
+    p.map_width = 16384, p.map_height = 4096;
+    CHECK_OK(hbk_rain_params_check(&p, &m));
+    p = p0;
     p.size = 12;
     CHECK(hbk_rain_create(&h, &p, &m) == HBK_ERR_VERSION);
     CHECK(hbk_rain_create(NULL, &p0, &m) == HBK_ERR_INVALID_ARGUMENT);

@@ -519,3 +519,32 @@ def test_the_sph_grid_the_checks_allow_fits_in_memory():
         first, _, rest = out.partition("\n")
         assert first.startswith("particles: ") and int(first.split()[1]) > 0, out
         assert rest.strip() == "ok", out
+
+
+@pytest.mark.parametrize("kind, params, message", [
+    ("water", dict(width=4097, height=4096),
+     "width x height = 4097 x 4096: must be at most 16777216 cells (4096 x 4096)"),
+    ("water", dict(width=16384, height=16384),
+     "width x height = 16384 x 16384: must be at most 16777216 cells"),
+    ("rain", dict(width=4096, height=4097, map_width=4096, map_height=4096),
+     "width x height = 4096 x 4097: must be at most 16777216 cells (4096 x 4096)"),
+    ("rain", dict(width=4096, height=4096, map_width=8192, map_height=8193),
+     "map_width x map_height = 8192 x 8193: must be at most 67108864 texels (8192 x 8192)"),
+])
+def test_grids_past_a_workstations_memory_are_refused_before_allocating(kind, params, message):
+    """Each side is within the table, but the product would need more memory than a
+    workstation has (a 16384^2 caustics bake needs about 100 GB), and the system kills the
+    process rather than let an allocation fail: create refuses it, naming both sides."""
+    handle = HANDLES[kind]
+    with pytest.raises(errors.InvalidArgument) as exc:
+        handle(params)
+    assert str(exc.value).startswith(message), str(exc.value)
+
+
+def test_the_largest_rain_glass_is_created():
+    """core.rain.MAX_CELLS (which the addon quotes for Grid From Mesh) is the C limit."""
+    side = int(math.isqrt(rain.MAX_CELLS))
+    r = rain.Rain(dict(width=side, height=side, map_width=side, map_height=side))
+    r.close()
+    with pytest.raises(errors.InvalidArgument, match=f"at most {rain.MAX_CELLS} cells"):
+        rain.Rain(dict(width=side + 1, height=side, map_width=side, map_height=side))

@@ -9,6 +9,9 @@ from . import _lib, arrays
 from ._lib import Image, Message, P, Progress, check_message
 from .handle import Handle
 
+# hbk_rain_params_check's limit on width x height: past it a bake outgrows a workstation.
+MAX_CELLS = 4096 * 4096
+
 
 class Water(ctypes.Structure):
     """hbk_rain_water_t, in mg: rain_in = on_glass + wiped + run_off."""

@@ -2,6 +2,10 @@
 #include "internal_rain.h"
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
+
+#define RAIN_MAX_CELLS (4096 * 4096)
+#define RAIN_MAX_TEXELS (8192 * 8192)
 
 void hbk_rain_params_default(hbk_rain_params_t *p)
 {
@@ -173,6 +177,16 @@ hbk_result_t hbk_rain_params_check(const hbk_rain_params_t *p, hbk_message_t *ms
     if (hypotf(p->airflow_dir[0], p->airflow_dir[1]) > 1.0001f)
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "airflow_dir = (%g, %g): its length must "
                         "be at most 1", (double)p->airflow_dir[0], (double)p->airflow_dir[1]);
+    /* Past these a bake needs more memory than a workstation has (about 15 bytes a cell and
+     * 30 a texel), and the system kills the process rather than let an allocation fail. */
+    if ((int64_t)p->width * p->height > RAIN_MAX_CELLS)
+        return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
+                        "width x height = %d x %d: must be at most %d cells (4096 x 4096)",
+                        p->width, p->height, RAIN_MAX_CELLS);
+    if ((int64_t)p->map_width * p->map_height > RAIN_MAX_TEXELS)
+        return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
+                        "map_width x map_height = %d x %d: must be at most %d texels "
+                        "(8192 x 8192)", p->map_width, p->map_height, RAIN_MAX_TEXELS);
     /* Metaballs are splatted per texel and drops move per cell: keep the two scales within
      * reach of each other so neither degenerates. */
     if ((double)p->map_width > 64.0 * p->width || 64.0 * p->map_width < (double)p->width)

@@ -2,6 +2,9 @@
 #include "internal_water.h"
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
+
+#define WATER_MAX_CELLS (4096 * 4096)
 
 void hbk_water_params_default(hbk_water_params_t *p)
 {
@@ -64,6 +67,13 @@ hbk_result_t hbk_water_params_check(const hbk_water_params_t *p, hbk_message_t *
     hbk_result_t r = hbk_params_validate(p, sizeof *p, k_info, sizeof k_info / sizeof k_info[0],
                                          msg);
     if (r) return r;
+    /* About 400 bytes a cell by the time a frame's caustic map is written (4 texels a cell):
+     * past 4096 x 4096 a bake needs more memory than a workstation has, and the system kills
+     * the process rather than let an allocation fail. */
+    if ((int64_t)p->width * p->height > WATER_MAX_CELLS)
+        return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
+                        "width x height = %d x %d: must be at most %d cells (4096 x 4096)",
+                        p->width, p->height, WATER_MAX_CELLS);
     if (p->rain_radius > 256.0f * p->cell_size)
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "rain_radius = %g: must be at most 256 cells (%g m)",

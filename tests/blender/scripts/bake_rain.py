@@ -63,4 +63,17 @@ assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Windshield") == {
 assert not any(n.get("hydrobake") for n in tree.nodes)
 assert [m.name for m in glass.modifiers] == ["User Thickness"]
 assert "HBK_Windshield_rain_preview" not in bpy.data.images
+
+# Grid From Mesh with cells too fine for memory: refused naming Cell Size and what would do,
+# before anything is baked (1.4 x 0.75 m in 0.1 mm cells is 14000 x 7500).
+s.rain.cell_size = 1e-4
+with bpy.context.temp_override(scene=scene):
+    try:
+        bpy.ops.hydrobake.bake(effect="rain", object_name="Windshield")
+        raise AssertionError("a 14000 x 7500 glass was not refused")
+    except RuntimeError as exc:
+        msg = str(exc)
+assert "Cell Size = 0.0001 m: gives 1" in msg and "16777216 allowed; use at least 0.00025" \
+    in msg, msg
+assert not os.path.isfile(os.path.join(s.bake_folder, "rain_0001.exr"))
 print("RAIN BLENDER OK")

@@ -7,6 +7,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
+from ...core.rain import MAX_CELLS
 from ..bridge import animation, images, materials, mesh_data, uv_grid
 from . import register_effect
 from .base import BlenderEffect
@@ -77,6 +78,13 @@ class RainBlender(BlenderEffect):
             mu, mv = uv_grid.physical_size(pos, tris, uvs)
             rp["width"] = int(np.clip(round(mu / rp["cell_size"]), 8, 16384))
             rp["height"] = int(np.clip(round(mv / rp["cell_size"]), 8, 16384))
+            if rp["width"] * rp["height"] > MAX_CELLS:
+                # The kernel's limit, said in the setting the user chose (not width x height).
+                smallest = float(np.sqrt(mu * mv / MAX_CELLS)) * 1.001
+                raise ValueError(
+                    f"Cell Size = {rp['cell_size']:g} m: gives {rp['width']} x "
+                    f"{rp['height']} cells on this {mu:.3g} x {mv:.3g} m glass, past the "
+                    f"{MAX_CELLS} allowed; use at least {smallest:.3g} m")
             rp["map_width"] = int(min(2 * rp["width"], 16384))
             rp["map_height"] = int(min(2 * rp["height"], 16384))
         carrier = settings.car_object or obj
