@@ -12,3 +12,8 @@ def test_bake_wire_render_free_on_examples(blender, tmp_path):
 def test_ground_image_and_a_pouring_source(blender, tmp_path):
     r = blender.run("caustics_sources.py", tmp_path)
     assert "CAUSTICS SOURCES OK" in r.stdout
+
+
+def test_a_pool_turned_about_z_gets_its_own_grid_and_wiring(blender, tmp_path):
+    r = blender.run("caustics_turned.py", tmp_path)
+    assert "CAUSTICS TURNED OK" in r.stdout

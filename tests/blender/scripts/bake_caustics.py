@@ -52,7 +52,9 @@ assert tex.image.source == "SEQUENCE"
 assert tex.extension == "CLIP" and mix.inputs["Fac"].links[0].from_socket.name == "Alpha"
 wtree = water.data.materials[0].node_tree
 wbsdf = next(n for n in wtree.nodes if n.type == "BSDF_PRINCIPLED")
-assert wbsdf.inputs["Normal"].links[0].from_node.get("hydrobake") == "caustics.normal"
+turn = wbsdf.inputs["Normal"].links[0].from_node
+assert turn.get("hydrobake") == "caustics.normal_turn" and turn.inputs["Angle"].default_value == 0
+assert turn.inputs["Vector"].links[0].from_node.get("hydrobake") == "caustics.normal"
 assert not water.visible_shadow
 
 # The surface moves: Displace by the baked heights over a UV map spanning the grid.

@@ -24,21 +24,26 @@ def _world_tree(obj, depsgraph):
 
 
 def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=None,
-                   miss=np.nan):
+                   miss=np.nan, angle=0.0):
     """Heights (world z) where vertical rays through cell centres hit ``obj``.
 
-    Cell (i, j) has its centre at origin + ((i + 0.5) cell, (j + 0.5) cell). DOWN: the
-    topmost surface (ground); UP: the lowest surface (an object's underside). Rows are j."""
+    Cell (i, j) has its centre at origin + R(angle) ((i + 0.5) cell, (j + 0.5) cell), R a turn
+    about z (a grid turned with its object). DOWN: the topmost surface (ground); UP: the
+    lowest surface (an object's underside). Rows are j."""
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     tree = _world_tree(obj, depsgraph)
     lo, hi = world_bounds(obj)
     h, w = shape
     out = np.full(shape, miss, np.float32)
-    # Only cells inside the object's footprint can hit it.
-    i0 = max(int(np.floor((lo[0] - origin[0]) / cell_size - 0.5)), 0)
-    i1 = min(int(np.ceil((hi[0] - origin[0]) / cell_size + 0.5)), w - 1)
-    j0 = max(int(np.floor((lo[1] - origin[1]) / cell_size - 0.5)), 0)
-    j1 = min(int(np.ceil((hi[1] - origin[1]) / cell_size + 0.5)), h - 1)
+    c, s = float(np.cos(angle)), float(np.sin(angle))
+    # Only cells inside the object's footprint can hit it: its box's corners in the grid.
+    xs, ys = np.array([lo[0], hi[0]]) - origin[0], np.array([lo[1], hi[1]]) - origin[1]
+    us = [c * x + s * y for x in xs for y in ys]
+    vs = [-s * x + c * y for x in xs for y in ys]
+    i0 = max(int(np.floor(min(us) / cell_size - 0.5)), 0)
+    i1 = min(int(np.ceil(max(us) / cell_size + 0.5)), w - 1)
+    j0 = max(int(np.floor(min(vs) / cell_size - 0.5)), 0)
+    j1 = min(int(np.ceil(max(vs) / cell_size + 0.5)), h - 1)
     if i1 < i0 or j1 < j0:
         return out
     down = direction == "DOWN"
@@ -46,9 +51,11 @@ def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=No
     ray = Vector((0.0, 0.0, -1.0 if down else 1.0))
     dist = (hi[2] - lo[2]) + 2.0
     for j in range(j0, j1 + 1):
-        y = origin[1] + (j + 0.5) * cell_size
+        v = (j + 0.5) * cell_size
         for i in range(i0, i1 + 1):
-            hit = tree.ray_cast(Vector((origin[0] + (i + 0.5) * cell_size, y, z0)), ray, dist)
+            u = (i + 0.5) * cell_size
+            start = Vector((origin[0] + c * u - s * v, origin[1] + s * u + c * v, z0))
+            hit = tree.ray_cast(start, ray, dist)
             if hit[0] is not None:
                 out[j, i] = hit[0].z
     return out

@@ -2,6 +2,9 @@
 a mesh; an object moving through the surface disturbs it; the caustic sequence is multiplied
 into the ground's material and the surface normals drive the water's material."""
 
+import math
+from collections import namedtuple
+
 import bpy
 import numpy as np
 from mathutils import Vector
@@ -9,6 +12,30 @@ from mathutils import Vector
 from ..bridge import animation, images, materials, meshes
 from . import register_effect
 from .base import BlenderEffect
+
+
+class Grid(namedtuple("Grid", "origin angle cell shape level")):
+    """The water grid: ``origin`` the world (x, y) of its corner, ``angle`` its u axis's
+    heading from world x (radians, about z), ``shape`` (rows, columns), ``level`` world z."""
+
+    def to_grid(self, x, y):
+        """World (x, y) to metres along the grid's u and v from its corner."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        dx, dy = x - self.origin[0], y - self.origin[1]
+        return c * dx + s * dy, -s * dx + c * dy
+
+    def to_world(self, u, v):
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        return self.origin[0] + c * u - s * v, self.origin[1] + s * u + c * v
+
+    def direction(self, d):
+        """A world direction in the grid's frame (the kernels' height-field frame)."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        return c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]
+
+    @property
+    def size(self):
+        return self.shape[1] * self.cell, self.shape[0] * self.cell
 
 
 @register_effect
@@ -99,25 +126,37 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def grid(cls, obj, width):
-        """World origin, cell size and (rows, columns) of the water grid over ``obj``."""
-        lo, hi = meshes.world_bounds(obj)
-        ex, ey = float(hi[0] - lo[0]), float(hi[1] - lo[1])
+        """The water grid over ``obj``, turned with it: its u axis follows the object's own x
+        as seen from above, so a pool turned about z is covered by its own rectangle, not by
+        its bounding box (whose corners are not water)."""
+        m = obj.matrix_world
+        angle = math.atan2(m[1][0], m[0][0]) if math.hypot(m[0][0], m[1][0]) > 1e-9 else 0.0
+        if abs(angle) < 1e-7:
+            angle = 0.0
+        corners = np.array([tuple(m @ Vector(c)) for c in obj.bound_box])
+        c, s = math.cos(angle), math.sin(angle)
+        u = c * corners[:, 0] + s * corners[:, 1]
+        v = -s * corners[:, 0] + c * corners[:, 1]
+        ex, ey = float(u.max() - u.min()), float(v.max() - v.min())
         if ex <= 0 or ey <= 0:
             raise ValueError(f"{obj.name}: the water object must be a horizontal plane with an "
                              "extent in x and y")
         cell = ex / width
         rows = max(4, int(round(ey / cell)))
-        return (float(lo[0]), float(lo[1])), cell, (rows, width), float(hi[2])
+        u0, v0 = float(u.min()), float(v.min())
+        origin = (c * u0 - s * v0, s * u0 + c * v0)
+        return Grid(origin, angle, cell, (rows, width), float(corners[:, 2].max()))
 
     @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
-        origin, cell, shape, level = cls.grid(obj, params["water"]["width"])
+        grid = cls.grid(obj, params["water"]["width"])
+        origin, cell, shape, level = grid.origin, grid.cell, grid.shape, grid.level
         params["water"].update(height=shape[0], cell_size=cell)
         depsgraph = context.evaluated_depsgraph_get()
         if settings.ground_object:
             ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
-                                           "DOWN", depsgraph)
+                                           "DOWN", depsgraph, angle=grid.angle)
             ground[np.isnan(ground)] = level - 1.0 if np.all(np.isnan(ground)) else \
                 np.nanmin(ground)
         elif settings.ground_image is not None:
@@ -139,12 +178,13 @@ class CausticsBlender(BlenderEffect):
             d = settings.sun_object.matrix_world.to_quaternion() @ Vector((0, 0, 1))
             if d.z <= 0.01:
                 raise ValueError(f"{settings.sun_object.name}: the sun is below the horizon")
-            params["light"]["light_direction"] = tuple(d)
+            params["light"]["light_direction"] = grid.direction(d)
         footprints = {}
         if settings.disturber_object:
             def footprint(_f):
                 under = meshes.sample_heights(settings.disturber_object, origin, cell, shape,
-                                              "UP", context.evaluated_depsgraph_get())
+                                              "UP", context.evaluated_depsgraph_get(),
+                                              angle=grid.angle)
                 press = np.clip(level - np.nan_to_num(under, nan=level), 0.0,
                                 settings.disturber_depth).astype(np.float32)
                 return press if press.any() else None
@@ -152,7 +192,7 @@ class CausticsBlender(BlenderEffect):
         sources = None
         if settings.source_object:
             under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
-                                          depsgraph)
+                                          depsgraph, angle=grid.angle)
             sources = np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
         w = settings.map_resolution
         inputs = dict(ground=ground.astype(np.float32), level=level, footprints=footprints,
@@ -165,7 +205,7 @@ class CausticsBlender(BlenderEffect):
                 raise ValueError("Ground Texture: the preview needs an image of the ground")
             cam = settings.preview_camera.matrix_world.translation
             inputs["view"] = {
-                "camera": (cam.x - origin[0], cam.y - origin[1], cam.z),
+                "camera": (*grid.to_grid(cam.x, cam.y), cam.z),
                 "texture": np.ascontiguousarray(images.pixels(settings.ground_texture)[..., :3]),
                 "environment": None if settings.environment is None else
                 np.ascontiguousarray(images.pixels(settings.environment)[..., :3])}
@@ -176,13 +216,15 @@ class CausticsBlender(BlenderEffect):
     def _sequence_texture(cls, tree, obj, width, role, folder, stream, frames, location):
         """An image node playing ``stream``'s sequence, looked up by world position over the
         water grid (0..1 across the maps' extent)."""
-        origin, cell, shape, _ = cls.grid(obj, width)
+        grid = cls.grid(obj, width)
         x, y = location
         geo = materials.add_node(tree, "ShaderNodeNewGeometry", f"{role}.position", (x - 400, y))
         mp = materials.add_node(tree, "ShaderNodeMapping", f"{role}.mapping", (x - 200, y))
-        sx, sy = 1.0 / (shape[1] * cell), 1.0 / (shape[0] * cell)
-        mp.inputs["Scale"].default_value = (sx, sy, 1.0)
-        mp.inputs["Location"].default_value = (-origin[0] * sx, -origin[1] * sy, 0.0)
+        # Texture mapping is the inverse transform: (R^T (position - corner)) / size.
+        mp.vector_type = "TEXTURE"
+        mp.inputs["Location"].default_value = (grid.origin[0], grid.origin[1], 0.0)
+        mp.inputs["Rotation"].default_value = (0.0, 0.0, grid.angle)
+        mp.inputs["Scale"].default_value = (*grid.size, 1.0)
         tree.links.new(geo.outputs["Position"], mp.inputs["Vector"])
         tex = materials.add_node(tree, "ShaderNodeTexImage", role, (x, y))
         tex.image = images.load_sequence(folder, stream, frames[0], len(frames),
@@ -234,7 +276,13 @@ class CausticsBlender(BlenderEffect):
                                     (bsdf.location.x - 200, -100))
             nm.space = "WORLD"
             tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-            tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+            # The map's normals are in the grid's frame: turned with the grid into the world.
+            turn = materials.add_node(tree, "ShaderNodeVectorRotate", "caustics.normal_turn",
+                                      (bsdf.location.x - 100, -250))
+            turn.rotation_type = "Z_AXIS"
+            turn.inputs["Angle"].default_value = cls.grid(obj, width).angle
+            tree.links.new(nm.outputs["Normal"], turn.inputs["Vector"])
+            tree.links.new(turn.outputs["Vector"], bsdf.inputs["Normal"])
         if settings.displace_surface:
             cls._displace(obj, folder, frames, width)
         if settings.projector:
@@ -252,14 +300,16 @@ class CausticsBlender(BlenderEffect):
     def _displace(cls, obj, folder, frames, width):
         """Subdivision + Displace modifiers reading the height sequence through a UV map that
         spans the water grid (made here, removed by Free Bake)."""
-        origin, cell, shape, _ = cls.grid(obj, width)
+        grid = cls.grid(obj, width)
+        shape = grid.shape
         mesh = obj.data
         uv = mesh.uv_layers.get("HBK_UV") or mesh.uv_layers.new(name="HBK_UV")
         mw = obj.matrix_world
+        w, h = grid.size
         for loop in mesh.loops:
             p = mw @ mesh.vertices[loop.vertex_index].co
-            uv.data[loop.index].uv = ((p.x - origin[0]) / (shape[1] * cell),
-                                      (p.y - origin[1]) / (shape[0] * cell))
+            u, v = grid.to_grid(p.x, p.y)
+            uv.data[loop.index].uv = (u / w, v / h)
         tex = bpy.data.textures.get(f"HBK_{obj.name}_height") or bpy.data.textures.new(
             f"HBK_{obj.name}_height", "IMAGE")
         tex.image = images.load_sequence(folder, "height", frames[0], len(frames),
@@ -288,8 +338,9 @@ class CausticsBlender(BlenderEffect):
     def _projector(cls, context, obj, settings, folder, frames, width):
         """A spot light straight above the grid's centre whose emission is the caustic map,
         projected so that the map spans the grid at the ground's mean depth (a gobo)."""
-        origin, cell, shape, level = cls.grid(obj, width)
-        sx, sy = shape[1] * cell, shape[0] * cell
+        grid = cls.grid(obj, width)
+        level = grid.level
+        sx, sy = grid.size
         ground = settings.ground_object
         floor = (meshes.world_bounds(ground)[0][2] + meshes.world_bounds(ground)[1][2]) / 2 \
             if ground is not None else level - 1.0
@@ -300,8 +351,9 @@ class CausticsBlender(BlenderEffect):
         if lobj.name not in context.scene.collection.all_objects:
             (obj.users_collection[0] if obj.users_collection else
              context.scene.collection).objects.link(lobj)
-        lobj.location = (origin[0] + sx / 2, origin[1] + sy / 2, level + height)
-        lobj.rotation_euler = (0.0, 0.0, 0.0)  # a spot light points down its -Z
+        lobj.location = (*grid.to_world(sx / 2, sy / 2), level + height)
+        # A spot light points down its -Z; turned with the grid, its x runs along the map's.
+        lobj.rotation_euler = (0.0, 0.0, grid.angle)
         dist = level + height - floor
         light.energy = settings.projector_power
         light.spot_size = 2.0 * np.arctan(0.5 * np.hypot(sx, sy) / dist) * 1.05
