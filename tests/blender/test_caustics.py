@@ -17,3 +17,8 @@ def test_ground_image_and_a_pouring_source(blender, tmp_path):
 def test_a_pool_turned_about_z_gets_its_own_grid_and_wiring(blender, tmp_path):
     r = blender.run("caustics_turned.py", tmp_path)
     assert "CAUSTICS TURNED OK" in r.stdout
+
+
+def test_two_pools_over_one_floor_each_wire_their_own_map(blender, tmp_path):
+    r = blender.run("caustics_two_pools.py", tmp_path)
+    assert "CAUSTICS TWO POOLS OK" in r.stdout

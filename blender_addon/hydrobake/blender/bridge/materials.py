@@ -3,6 +3,8 @@ Hydrobake adds is labelled, so it can be found again and removed by Free Bake.""
 import bpy
 
 TAG = "hydrobake"
+OWNER = "hydrobake_owner"  # the object whose bake added the node, where several may wire one
+ANY = object()  # remove_tagged: whoever added the node
 
 
 def ensure_material(obj, name):
@@ -54,31 +56,37 @@ def restore(obj, prefix):
             bpy.data.materials.remove(mat)
 
 
-def tagged(node_tree, role):
-    """Hydrobake's node with ``role`` in this tree, or None."""
+def tagged(node_tree, role, owner=None):
+    """Hydrobake's node with ``role`` (added for ``owner``, or for no one) in this tree, or
+    None."""
     for node in node_tree.nodes:
-        if node.get(TAG) == role:
+        if node.get(TAG) == role and node.get(OWNER) == owner:
             return node
     return None
 
 
-def add_node(node_tree, bl_idname, role, location=(0, 0), label=None):
-    """Adds (or reuses) a node tagged with ``role``."""
-    node = tagged(node_tree, role)
+def add_node(node_tree, bl_idname, role, location=(0, 0), label=None, owner=None):
+    """Adds (or reuses) a node tagged with ``role``; ``owner`` names the object it is for,
+    where one tree takes several objects' bakes (a floor under two pools)."""
+    node = tagged(node_tree, role, owner)
     if node is None or node.bl_idname != bl_idname:
         if node is not None:
             node_tree.nodes.remove(node)
         node = node_tree.nodes.new(bl_idname)
         node[TAG] = role
+        if owner is not None:
+            node[OWNER] = owner
     node.location = location
-    node.label = label or f"Hydrobake {role}"
+    node.label = label or (f"Hydrobake {role}" if owner is None else
+                           f"Hydrobake {role} ({owner})")
     return node
 
 
-def remove_tagged(node_tree, prefix=""):
-    """Removes every Hydrobake node whose role starts with ``prefix``; returns the count."""
+def remove_tagged(node_tree, prefix="", owner=ANY):
+    """Removes every Hydrobake node whose role starts with ``prefix`` (added for ``owner``
+    only, if given: None for nodes added for no one); returns the count."""
     gone = [n for n in node_tree.nodes if isinstance(n.get(TAG), str) and
-            n[TAG].startswith(prefix)]
+            n[TAG].startswith(prefix) and (owner is ANY or n.get(OWNER) == owner)]
     for n in gone:
         node_tree.nodes.remove(n)
     return len(gone)

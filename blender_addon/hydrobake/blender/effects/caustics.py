@@ -213,20 +213,23 @@ class CausticsBlender(BlenderEffect):
 
     # --- wiring -------------------------------------------------------------------------
     @classmethod
-    def _sequence_texture(cls, tree, obj, width, role, folder, stream, frames, location):
+    def _sequence_texture(cls, tree, obj, width, role, folder, stream, frames, location,
+                          owner=None):
         """An image node playing ``stream``'s sequence, looked up by world position over the
         water grid (0..1 across the maps' extent)."""
         grid = cls.grid(obj, width)
         x, y = location
-        geo = materials.add_node(tree, "ShaderNodeNewGeometry", f"{role}.position", (x - 400, y))
-        mp = materials.add_node(tree, "ShaderNodeMapping", f"{role}.mapping", (x - 200, y))
+        geo = materials.add_node(tree, "ShaderNodeNewGeometry", f"{role}.position", (x - 400, y),
+                                 owner=owner)
+        mp = materials.add_node(tree, "ShaderNodeMapping", f"{role}.mapping", (x - 200, y),
+                                owner=owner)
         # Texture mapping is the inverse transform: (R^T (position - corner)) / size.
         mp.vector_type = "TEXTURE"
         mp.inputs["Location"].default_value = (grid.origin[0], grid.origin[1], 0.0)
         mp.inputs["Rotation"].default_value = (0.0, 0.0, grid.angle)
         mp.inputs["Scale"].default_value = (*grid.size, 1.0)
         tree.links.new(geo.outputs["Position"], mp.inputs["Vector"])
-        tex = materials.add_node(tree, "ShaderNodeTexImage", role, (x, y))
+        tex = materials.add_node(tree, "ShaderNodeTexImage", role, (x, y), owner=owner)
         tex.image = images.load_sequence(folder, stream, frames[0], len(frames),
                                          name=f"HBK_{obj.name}_{stream}")
         tex.extension = "EXTEND"
@@ -240,28 +243,11 @@ class CausticsBlender(BlenderEffect):
         width = manifest["params"]["water"]["width"]
         ground = settings.ground_object
         if ground is not None and ground.type == "MESH":
-            mat = materials.ensure_material(ground, f"HBK_{ground.name}_floor")
-            tree = mat.node_tree
-            bsdf = materials.principled(tree)
-            if bsdf is not None:
-                tex = cls._sequence_texture(tree, obj, width, "caustics.map", folder,
-                                            "caustics", frames, (bsdf.location.x - 500, 300))
-                mix = materials.add_node(tree, "ShaderNodeMixRGB", "caustics.multiply",
-                                         (bsdf.location.x - 250, 200))
-                mix.blend_type = "MULTIPLY"
-                # Beyond the water the floor keeps its colour: the map is clipped there (alpha
-                # 0, no multiply), not its edge smeared across the rest of the floor.
-                tex.extension = "CLIP"
-                tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
-                base = bsdf.inputs["Base Color"]
-                if base.is_linked and base.links[0].from_node is not mix:
-                    tree.links.new(base.links[0].from_socket, mix.inputs["Color1"])
-                elif not base.is_linked:
-                    mix.inputs["Color1"].default_value = base.default_value
-                tree.links.new(tex.outputs["Color"], mix.inputs["Color2"])
-                tree.links.new(mix.outputs["Color"], base)
-        # The water: a clear refracting material with the baked surface normals.
-        mat = materials.ensure_material(obj, f"HBK_{obj.name}_water")
+            cls._wire_floor(ground, obj, width, folder, frames)
+        # The water: a clear refracting material with the baked surface normals (the pool's
+        # own: another pool sharing the material has other normals).
+        materials.ensure_material(obj, f"HBK_{obj.name}_water")
+        mat = materials.own(obj, 0, lambda tree: materials.remove_tagged(tree, "caustics."))
         tree = mat.node_tree
         bsdf = materials.principled(tree)
         if bsdf is not None:
@@ -295,6 +281,50 @@ class CausticsBlender(BlenderEffect):
         if "hydrobake_shadow" not in obj:
             obj["hydrobake_shadow"] = int(obj.visible_shadow)
         obj.visible_shadow = False
+
+    @classmethod
+    def _wire_floor(cls, ground, obj, width, folder, frames):
+        """Multiplies the pool's caustic map into the ground's base colour. Each pool under
+        one ground has its own nodes (owned by the pool) and its own multiply in a chain, so
+        a second pool adds its map rather than taking the first one's place."""
+        mat = materials.ensure_material(ground, f"HBK_{ground.name}_floor")
+        tree = mat.node_tree
+        bsdf = materials.principled(tree)
+        if bsdf is None:
+            return
+        owner = obj.name
+        tex = cls._sequence_texture(tree, obj, width, "caustics.map", folder, "caustics",
+                                    frames, (bsdf.location.x - 500, 300), owner=owner)
+        mix = materials.add_node(tree, "ShaderNodeMixRGB", "caustics.multiply",
+                                 (bsdf.location.x - 250, 200), owner=owner)
+        mix.blend_type = "MULTIPLY"
+        # Beyond the water the floor keeps its colour: the map is clipped there (alpha 0, no
+        # multiply), not its edge smeared across the rest of the floor.
+        tex.extension = "CLIP"
+        tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
+        tree.links.new(tex.outputs["Color"], mix.inputs["Color2"])
+        base = bsdf.inputs["Base Color"]
+        socket = base  # up the chain of multiplies already feeding the base colour
+        while socket.is_linked and socket.links[0].from_node.get(materials.TAG) == \
+                "caustics.multiply":
+            if socket.links[0].from_node == mix:
+                return  # a re-bake: already in the chain
+            socket = socket.links[0].from_node.inputs["Color1"]
+        if base.is_linked:
+            tree.links.new(base.links[0].from_socket, mix.inputs["Color1"])
+        else:
+            mix.inputs["Color1"].default_value = base.default_value
+        tree.links.new(mix.outputs["Color"], base)
+
+    @staticmethod
+    def _unwire_multiply(tree, mix):
+        """Takes a pool's multiply out of the chain: what fed it feeds what it fed."""
+        c1 = mix.inputs["Color1"]
+        for link in list(mix.outputs["Color"].links):
+            if c1.is_linked:
+                tree.links.new(c1.links[0].from_socket, link.to_socket)
+            else:
+                link.to_socket.default_value = c1.default_value
 
     @classmethod
     def _displace(cls, obj, folder, frames, width):
@@ -408,22 +438,22 @@ class CausticsBlender(BlenderEffect):
             bpy.data.textures.remove(height)
         if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
-        mats = [s.material for s in obj.material_slots if s.material]
-        if settings.ground_object:
-            mats += [s.material for s in settings.ground_object.material_slots if s.material]
-        for mat in mats:
+        for mat in {s.material for s in obj.material_slots if s.material}:
+            if mat.node_tree:
+                materials.remove_tagged(mat.node_tree, "caustics.")
+        materials.restore(obj, "caustics.")
+        ground = settings.ground_object
+        floors = {s.material for s in ground.material_slots if s.material} if ground else ()
+        for mat in floors:
             if not mat.node_tree:
                 continue
             tree = mat.node_tree
-            mix = materials.tagged(tree, "caustics.multiply")
-            bsdf = materials.principled(tree)
-            if mix is not None and bsdf is not None:
-                c1 = mix.inputs["Color1"]
-                if c1.is_linked:
-                    tree.links.new(c1.links[0].from_socket, bsdf.inputs["Base Color"])
-                else:
-                    bsdf.inputs["Base Color"].default_value = c1.default_value
-            materials.remove_tagged(tree, "caustics.")
+            # This pool's nodes, and any from before they were owned (one pool per floor).
+            for owner in (cls.baked_name(obj, settings), None):
+                mix = materials.tagged(tree, "caustics.multiply", owner)
+                if mix is not None:
+                    cls._unwire_multiply(tree, mix)
+                materials.remove_tagged(tree, "caustics.", owner=owner)
         if "hydrobake_shadow" in obj:
             obj.visible_shadow = bool(obj["hydrobake_shadow"])
             del obj["hydrobake_shadow"]
