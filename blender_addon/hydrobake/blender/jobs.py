@@ -4,6 +4,7 @@ Scene data is read on the main thread when the job is made; the worker thread th
 only the core (C and files); wiring the result back happens on the main thread again.
 Jobs are keyed by object and effect *names*, never by Python references to Blender data."""
 import contextlib
+import os
 
 import bpy
 
@@ -70,8 +71,11 @@ class Job:
         settings = settings_of(obj, self.effect_name)
         manifest = BakeCache(self.folder).read_manifest()
         if manifest and manifest["frames"]:
-            if settings.get("baked_as", obj.name) != obj.name:  # renamed: unwire the old
+            old_name, old_folder = settings.get("baked_as", obj.name), settings.bake_folder
+            if old_name != obj.name:  # renamed: unwire the old
                 self.beffect.remove(context, obj, settings)
+                if manifest.get("complete"):
+                    self._free_superseded(obj, old_folder, old_name)
             settings.is_baked = True
             settings.bake_folder = self.recorded
             scene = bpy.data.scenes.get(self.scene_name) or context.scene
@@ -79,6 +83,26 @@ class Job:
                 self.beffect.apply(context, obj, settings, self.folder, manifest)
             settings["baked_as"] = obj.name
             paths.relink(self.folder, self.recorded)
+
+    def _free_superseded(self, obj, folder, name):
+        """A renamed object's re-bake went to a folder under its new name. Once it is complete,
+        the bake it replaces is freed, as a re-bake in place would have replaced it: else it
+        stays on disk, and an object later given the old name finds it there. Only a bake
+        made for that name and effect, and that no other object now uses."""
+        if not folder or os.path.realpath(folder) == os.path.realpath(self.folder):
+            return
+        cache = BakeCache(folder)
+        try:
+            old = cache.read_manifest()
+        except ValueError:
+            return
+        if not old or old.get("object") != name or old.get("effect") != self.effect_name:
+            return
+        if any(os.path.realpath(settings_of(o, self.effect_name).bake_folder or "/") ==
+               os.path.realpath(folder) for o in bpy.data.objects
+               if o != obj and hasattr(o, f"hydrobake_{self.effect_name}")):
+            return
+        cache.free()
 
 
 def bake_state(obj, effect_name):

@@ -71,9 +71,14 @@ def made(prefix):
 
 # Renamed after its bake: a re-bake replaces the old objects, and Free Bake finds them.
 assert made("HBK_Domain_") == ["HBK_Domain_surface", "HBK_Domain_volume"]
+old_folder = s.bake_folder
 domain.name = "Tank"
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Tank") == {"FINISHED"}
 assert made("HBK_Domain_") == [] and made("HBK_Tank_") == ["HBK_Tank_surface", "HBK_Tank_volume"]
+# The bake under the old name is replaced, as a re-bake in place would be: not left on disk
+# for an object later named Domain to find.
+assert s.bake_folder != old_folder and os.path.isdir(s.bake_folder)
+assert not os.path.exists(old_folder), os.listdir(old_folder)
 domain.name = "Pool"
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Pool") == {"FINISHED"}
 assert made("HBK_") == [], made("HBK_")
