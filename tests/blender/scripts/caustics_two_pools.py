@@ -86,4 +86,21 @@ free(right)
 assert chain() == ([], tiles.name), chain()
 assert not any(n.get("hydrobake") for n in ftree.nodes)
 assert not any(n.get("hydrobake") for n in water.node_tree.nodes)
+
+# Renamed after its bake, while a new object took its old name and baked into the old folder:
+# the renamed pool's re-bake leaves that folder alone (it frees only a bake no object uses).
+bake(left)
+folder = left.hydrobake_caustics.bake_folder
+left.name = "Pond"
+newcomer = in_blender.new_plane("Left")
+newcomer.location = (-1.5, 0.0, 0.0)
+ns = newcomer.hydrobake_caustics
+ns.enabled, ns.use_scene_range, ns.frame_start, ns.frame_end = True, False, 1, 1
+ns.water.width, ns.map_resolution = 16, 32
+bake(newcomer)
+assert os.path.realpath(ns.bake_folder) == os.path.realpath(folder)
+bake(left)
+assert os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
+assert os.path.isdir(left.hydrobake_caustics.bake_folder) and \
+    left.hydrobake_caustics.bake_folder != folder
 print("CAUSTICS TWO POOLS OK")
