@@ -22,3 +22,8 @@ def test_a_pool_turned_about_z_gets_its_own_grid_and_wiring(blender, tmp_path):
 def test_two_pools_over_one_floor_each_wire_their_own_map(blender, tmp_path):
     r = blender.run("caustics_two_pools.py", tmp_path)
     assert "CAUSTICS TWO POOLS OK" in r.stdout
+
+
+def test_free_gives_the_scene_back_and_the_wiring_fits_the_artists_materials(blender, tmp_path):
+    r = blender.run("caustics_free.py", tmp_path)
+    assert "CAUSTICS FREE OK" in r.stdout

@@ -168,6 +168,29 @@ def test_view_image_shows_the_lit_ground_and_reflects_the_sky():
     np.testing.assert_allclose(img2[mid, 4:-4, 0], 2 * (1 - r0) * tex[mid, 4:-4, 0], atol=2e-3)
 
 
+def test_view_image_looks_up_the_sky_in_the_world_for_a_turned_grid():
+    """A grid turned by ``heading`` about z sees the sky turned back: the camera looks along
+    the grid's x, which is the sky's x at heading 0 (red there) and its y at a quarter turn
+    (blue there); a whole turn is no turn."""
+    n = 32
+    wh, gh = np.zeros((n, n), np.float32), np.full((n, n), -1.0, np.float32)
+    cell = 0.05
+    tex, cmap = np.zeros((n, n, 3), np.float32), np.ones((n, n, 4), np.float32)
+    sky = np.zeros((16, 64, 3), np.float32)
+    lon = ((np.arange(64) + 0.5) / 64 - 0.5) * 360.0
+    sky[:, np.abs(lon) < 45, 0] = 1.0
+    sky[:, np.abs(lon) >= 45, 2] = 1.0
+    camera = (-2.0, n * cell / 2, 0.5)  # low, looking over the water along +x
+    red, blue = [], []
+    for heading in (0.0, np.pi / 2, 2 * np.pi):
+        img = caustics.view_image(wh, gh, cell, camera, tex, cmap, sky, {"fresnel": 1},
+                                  heading=heading)
+        red.append(img[..., 0].mean())
+        blue.append(img[..., 2].mean())
+    assert red[0] > 5 * blue[0] and blue[1] > 5 * red[1], (red, blue)
+    np.testing.assert_allclose([red[2], blue[2]], [red[0], blue[0]], rtol=1e-5)
+
+
 def test_effect_bakes_the_view_preview(tmp_path):
     tex = np.full((16, 16, 3), 0.5, np.float32)
     e = get("caustics")({"water": {"width": 24, "height": 24, "rain_rate": 50.0}},

@@ -132,11 +132,13 @@ def _bilinear(img, x, y):
 
 
 def view_image(water_height, ground_height, cell_size, camera, ground_texture, caustic_map,
-               environment=None, params=None):
+               environment=None, params=None, heading=0.0):
     """The paper's rendering of the water seen from ``camera`` (§3.2), one pixel per surface
     sample: the lit ground (texture x caustic map) looked up where the refracted view ray hits
     it, attenuated by absorption along the path in water, plus the Fresnel reflection of the
-    ``environment`` (a latitude-longitude image, +z up; None = black). (H, W, 3) float32."""
+    ``environment`` (a latitude-longitude image, +z up; None = black). ``heading``: the grid's
+    x axis from the environment's, in radians about z (a grid turned with its pool sees the
+    sky turned back). (H, W, 3) float32."""
     p = _struct(params)
     uv, refl = view(water_height, ground_height, cell_size, camera, p, channels=4)
     tex = np.ascontiguousarray(ground_texture, np.float32)
@@ -154,7 +156,8 @@ def view_image(water_height, ground_height, cell_size, camera, ground_texture, c
     if environment is not None:
         env = np.ascontiguousarray(environment, np.float32)
         eh, ew = env.shape[:2]
-        lon = np.arctan2(refl[..., 1], refl[..., 0])
+        lon = np.arctan2(refl[..., 1], refl[..., 0]) + heading
+        lon = np.mod(lon + np.pi, 2 * np.pi) - np.pi
         lat = np.arcsin(np.clip(refl[..., 2], -1.0, 1.0))
         sky = _bilinear(env, (0.5 + lon / (2 * np.pi)) * ew - 0.5,
                         (0.5 + lat / np.pi) * eh - 0.5)[..., :3]

@@ -15,6 +15,7 @@ bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "pool.blend"))
 scene = bpy.data.scenes["Caustics"]
 water, floor = bpy.data.objects["Water"], bpy.data.objects["Pool Floor"]
 s = water.hydrobake_caustics
+before = [m.name if m else None for m in water.data.materials]  # as Free must leave them
 assert s.enabled and s.ground_object == floor
 s.use_scene_range = False
 s.frame_start, s.frame_end = 1, 3
@@ -48,8 +49,11 @@ mix = link.from_node
 assert mix.inputs["Color1"].links[0].from_node.name == orig_from
 tex = mix.inputs["Color2"].links[0].from_node
 assert tex.image.source == "SEQUENCE"
-# Clipped at the water's edge, where the floor keeps its own colour (alpha 0: no multiply).
-assert tex.extension == "CLIP" and mix.inputs["Fac"].links[0].from_socket.name == "Alpha"
+# Clipped at the water's edge, where the floor keeps its own colour (alpha 0: no multiply);
+# the colour itself read past the edge, so the edge texel is not blended with black.
+edge = mix.inputs["Fac"].links[0].from_node
+assert edge.extension == "CLIP" and mix.inputs["Fac"].links[0].from_socket.name == "Alpha"
+assert tex.extension == "EXTEND" and edge.image == tex.image
 wtree = water.data.materials[0].node_tree
 wbsdf = next(n for n in wtree.nodes if n.type == "BSDF_PRINCIPLED")
 turn = wbsdf.inputs["Normal"].links[0].from_node
@@ -100,7 +104,10 @@ assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Water") == {"
 assert not os.path.exists(folder)
 assert bsdf.inputs["Base Color"].links[0].from_node.name == orig_from
 assert not any(n.get("hydrobake") for n in floor_tree.nodes)
-assert not any(n.get("hydrobake") for n in wtree.nodes)
+after = [m.name if m else None for m in water.data.materials]
+assert after == before, (before, after)  # a material made for the bake is gone with it
+assert all(m is None or not any(n.get("hydrobake") for n in m.node_tree.nodes)
+           for m in water.data.materials)
 assert water.visible_shadow and not s.is_baked
 assert "HBK Displace" not in water.modifiers and "HBK_UV" not in water.data.uv_layers
 assert "HBK_Water_projector" not in bpy.data.objects

@@ -15,6 +15,7 @@ bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "rain.blend"))
 scene = bpy.data.scenes["Rain"]
 glass = bpy.data.objects["Windshield"]
 s = glass.hydrobake_rain
+before = [m.name if m else None for m in glass.data.materials]  # as Free must leave them
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
 s.rain.cell_size = 0.01  # a coarse grid for the test
 assert s.wiper_0 is not None and s.wiper_1 is not None  # the example's blades are animated
@@ -59,8 +60,11 @@ assert m2["params"]["rain"]["width"] == p["width"], (m2["params"]["rain"]["width
 assert [m.name for m in glass.modifiers] == ["User Thickness"]  # theirs is kept, none added
 assert all(m.show_viewport for m in glass.modifiers)
 
+tree = glass.data.materials[0].node_tree
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Windshield") == {"FINISHED"}
-assert not any(n.get("hydrobake") for n in tree.nodes)
+assert [m.name if m else None for m in glass.data.materials] == before, before
+for mat in glass.data.materials:
+    assert mat is None or not any(n.get("hydrobake") for n in mat.node_tree.nodes)
 assert [m.name for m in glass.modifiers] == ["User Thickness"]
 assert "HBK_Windshield_rain_preview" not in bpy.data.images
 

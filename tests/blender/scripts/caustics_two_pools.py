@@ -48,7 +48,7 @@ def chain():
         node = socket.links[0].from_node
         tex = node.inputs["Color2"].links[0].from_node
         assert tex.image.name == f"HBK_{node['hydrobake_owner']}_caustics", tex.image.name
-        assert tex.extension == "CLIP"
+        assert node.inputs["Fac"].links[0].from_node.extension == "CLIP"
         owners.append(node["hydrobake_owner"])
         assert len(owners) <= 2, owners  # a loop in the chain
         socket = node.inputs["Color1"]

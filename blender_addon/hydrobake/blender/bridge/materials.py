@@ -7,15 +7,75 @@ OWNER = "hydrobake_owner"  # the object whose bake added the node, where several
 ANY = object()  # remove_tagged: whoever added the node
 
 
+MADE = "hydrobake_made"  # on a material ensure_material made and gave the object
+SAVED = "hydrobake_saved"  # on a material: the values set_inputs replaced, by input name
+NODES_WERE_OFF = "hydrobake_nodes_were_off"  # use_nodes() turned its nodes on
+
+
 def ensure_material(obj, name):
-    """The object's first material, or a new node material ``name`` assigned to it."""
-    if obj.data.materials and obj.data.materials[0] is not None:
-        mat = obj.data.materials[0]
-    else:
+    """The material the object's first slot renders with (its mesh's or, linked to the
+    object, its own), or a new node material ``name`` given to it; with its nodes on."""
+    # The mesh's list says whether there is a slot: the object's slots can lag behind it.
+    has_slot = len(obj.data.materials) > 0 and len(obj.material_slots) > 0
+    mat = obj.material_slots[0].material if has_slot else None
+    if mat is None:
         mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
-        obj.data.materials.append(mat)
-    mat.use_nodes = True
+        if has_slot:
+            obj.material_slots[0].material = mat
+            mat[MADE] = "slot"
+        else:
+            obj.data.materials.append(mat)
+            mat[MADE] = "appended"
+    use_nodes(mat)
     return mat
+
+
+def use_nodes(mat):
+    """Turns the material's nodes on, remembering if they were off (give_back)."""
+    if not mat.use_nodes:
+        mat[NODES_WERE_OFF] = 1
+        mat.use_nodes = True
+
+
+def set_inputs(mat, bsdf, values):
+    """Sets Principled inputs {name: value} the first time a bake wires the material, and
+    keeps the values they replace for give_back(); a re-bake keeps the user's later edits."""
+    if SAVED in mat:
+        return
+    def plain(v):
+        return float(v) if isinstance(v, (int, float)) else tuple(v)
+    mat[SAVED] = {k: plain(bsdf.inputs[k].default_value) for k in values}
+    for k, v in values.items():
+        bsdf.inputs[k].default_value = v
+
+
+def give_back(obj, mat, prefix):
+    """Free Bake's undo of ensure_material, use_nodes and set_inputs on ``mat`` (one of
+    ``obj``'s), once no node of the effect (role ``prefix``) is left in it: the inputs get
+    their values back, the nodes their off switch, and a material made for the object leaves
+    its slot (and the file, with no other user)."""
+    tree = mat.node_tree
+    if tree and any(str(n.get(TAG, "")).startswith(prefix) for n in tree.nodes):
+        return
+    bsdf = principled(tree) if tree else None
+    if SAVED in mat:
+        for k, v in mat[SAVED].to_dict().items():
+            if bsdf is not None and k in bsdf.inputs:
+                bsdf.inputs[k].default_value = v
+        del mat[SAVED]
+    if NODES_WERE_OFF in mat:
+        mat.use_nodes = False
+        del mat[NODES_WERE_OFF]
+    if MADE in mat:
+        index = next((i for i, s in enumerate(obj.material_slots) if s.material == mat), None)
+        if index is not None:
+            obj.material_slots[index].material = None
+            if mat[MADE] == "appended" and index == len(obj.data.materials) - 1:
+                obj.data.materials.pop()
+        if mat.users == 0:
+            bpy.data.materials.remove(mat)
+        else:
+            del mat[MADE]
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for

@@ -38,6 +38,9 @@ class Grid(namedtuple("Grid", "origin angle cell shape level")):
         return self.shape[1] * self.cell, self.shape[0] * self.cell
 
 
+OWN_MODIFIERS = ("HBK Subdivision", "HBK Displace")
+
+
 @register_effect
 class CausticsBlender(BlenderEffect):
     name = "caustics"
@@ -124,6 +127,21 @@ class CausticsBlender(BlenderEffect):
                             "and Displace modifiers, removed by Free Bake)"),
         )
 
+    @staticmethod
+    def _corners(obj):
+        """World corners of the water's box, without this effect's own Subdivision and
+        Displace (the Displace moves the surface it would measure: a re-bake or a resume must
+        see the grid the bake saw)."""
+        ours = [m for m in obj.modifiers if m.name in OWN_MODIFIERS and m.show_viewport]
+        for mod in ours:
+            mod.show_viewport = False
+        try:
+            ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()) if ours else obj
+            return np.array([tuple(obj.matrix_world @ Vector(c)) for c in ev.bound_box])
+        finally:
+            for mod in ours:
+                mod.show_viewport = True
+
     @classmethod
     def grid(cls, obj, width):
         """The water grid over ``obj``, turned with it: its u axis follows the object's own x
@@ -133,14 +151,14 @@ class CausticsBlender(BlenderEffect):
         angle = math.atan2(m[1][0], m[0][0]) if math.hypot(m[0][0], m[1][0]) > 1e-9 else 0.0
         if abs(angle) < 1e-7:
             angle = 0.0
-        corners = np.array([tuple(m @ Vector(c)) for c in obj.bound_box])
+        corners = cls._corners(obj)
         c, s = math.cos(angle), math.sin(angle)
         u = c * corners[:, 0] + s * corners[:, 1]
         v = -s * corners[:, 0] + c * corners[:, 1]
         ex, ey = float(u.max() - u.min()), float(v.max() - v.min())
-        if ex <= 0 or ey <= 0:
+        if min(ex, ey) <= 1e-3 * max(ex, ey, 1e-9):  # on edge: only float noise across
             raise ValueError(f"{obj.name}: the water object must be a horizontal plane with an "
-                             "extent in x and y")
+                             f"extent in x and y (it spans {ex:.3g} x {ey:.3g} m from above)")
         cell = ex / width
         rows = max(4, int(round(ey / cell)))
         u0, v0 = float(u.min()), float(v.min())
@@ -176,8 +194,10 @@ class CausticsBlender(BlenderEffect):
             ground = np.full(shape, level - 1.0, np.float32)
         if settings.sun_object:
             d = settings.sun_object.matrix_world.to_quaternion() @ Vector((0, 0, 1))
-            if d.z <= 0.01:
-                raise ValueError(f"{settings.sun_object.name}: the sun is below the horizon")
+            if d.z <= 0.01:  # grazing light spreads the map over the whole ground
+                up = math.degrees(math.asin(max(-1.0, min(1.0, d.z))))
+                raise ValueError(f"Sun: {settings.sun_object.name} is {up:.1f} degrees above the "
+                                 "horizon; the light must come from at least 0.6 degrees above")
             params["light"]["light_direction"] = grid.direction(d)
         footprints = {}
         if settings.disturber_object:
@@ -204,7 +224,12 @@ class CausticsBlender(BlenderEffect):
             if settings.ground_texture is None:
                 raise ValueError("Ground Texture: the preview needs an image of the ground")
             cam = settings.preview_camera.matrix_world.translation
+            if cam.z <= level:
+                raise ValueError(f"Preview Camera: {settings.preview_camera.name} is at z = "
+                                 f"{cam.z:.3g} m, not above the water (its surface at "
+                                 f"{level:.3g} m)")
             inputs["view"] = {
+                "heading": grid.angle,
                 "camera": (*grid.to_grid(cam.x, cam.y), cam.z),
                 "texture": np.ascontiguousarray(images.pixels(settings.ground_texture)[..., :3]),
                 "environment": None if settings.environment is None else
@@ -213,11 +238,10 @@ class CausticsBlender(BlenderEffect):
 
     # --- wiring -------------------------------------------------------------------------
     @classmethod
-    def _sequence_texture(cls, tree, obj, width, role, folder, stream, frames, location,
+    def _sequence_texture(cls, tree, obj, grid, role, folder, stream, frames, location,
                           owner=None):
         """An image node playing ``stream``'s sequence, looked up by world position over the
         water grid (0..1 across the maps' extent)."""
-        grid = cls.grid(obj, width)
         x, y = location
         geo = materials.add_node(tree, "ShaderNodeNewGeometry", f"{role}.position", (x - 400, y),
                                  owner=owner)
@@ -240,10 +264,11 @@ class CausticsBlender(BlenderEffect):
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
         frames = sorted(int(f) for f in manifest["frames"])
-        width = manifest["params"]["water"]["width"]
+        grid = cls.grid(obj, manifest["params"]["water"]["width"])
         ground = settings.ground_object
         if ground is not None and ground.type == "MESH":
-            cls._wire_floor(ground, obj, width, folder, frames)
+            cls._wire_floor(ground, obj, grid, folder, frames)
+            settings["wired_ground"] = ground.name
         # The water: a clear refracting material with the baked surface normals (the pool's
         # own: another pool sharing the material has other normals).
         materials.ensure_material(obj, f"HBK_{obj.name}_water")
@@ -251,12 +276,9 @@ class CausticsBlender(BlenderEffect):
         tree = mat.node_tree
         bsdf = materials.principled(tree)
         if bsdf is not None:
-            if not mat.get("hydrobake_water_setup"):
-                bsdf.inputs["Transmission"].default_value = 1.0
-                bsdf.inputs["Roughness"].default_value = 0.0
-                bsdf.inputs["IOR"].default_value = 1.333
-                mat["hydrobake_water_setup"] = 1
-            tex = cls._sequence_texture(tree, obj, width, "caustics.surface", folder,
+            materials.set_inputs(mat, bsdf, {"Transmission": 1.0, "Roughness": 0.0,
+                                             "IOR": 1.333})
+            tex = cls._sequence_texture(tree, obj, grid, "caustics.surface", folder,
                                         "surface", frames, (bsdf.location.x - 500, 0))
             nm = materials.add_node(tree, "ShaderNodeNormalMap", "caustics.normal",
                                     (bsdf.location.x - 200, -100))
@@ -266,13 +288,13 @@ class CausticsBlender(BlenderEffect):
             turn = materials.add_node(tree, "ShaderNodeVectorRotate", "caustics.normal_turn",
                                       (bsdf.location.x - 100, -250))
             turn.rotation_type = "Z_AXIS"
-            turn.inputs["Angle"].default_value = cls.grid(obj, width).angle
+            turn.inputs["Angle"].default_value = grid.angle
             tree.links.new(nm.outputs["Normal"], turn.inputs["Vector"])
             tree.links.new(turn.outputs["Vector"], bsdf.inputs["Normal"])
         if settings.displace_surface:
-            cls._displace(obj, folder, frames, width)
+            cls._displace(obj, folder, frames, grid)
         if settings.projector:
-            cls._projector(context, obj, settings, folder, frames, width)
+            cls._projector(context, obj, settings, folder, frames, grid)
         if "view" in manifest.get("streams", []):
             images.load_unused_sequence(folder, "view", frames[0], len(frames),
                                         f"HBK_{obj.name}_view")
@@ -283,25 +305,37 @@ class CausticsBlender(BlenderEffect):
         obj.visible_shadow = False
 
     @classmethod
-    def _wire_floor(cls, ground, obj, width, folder, frames):
-        """Multiplies the pool's caustic map into the ground's base colour. Each pool under
-        one ground has its own nodes (owned by the pool) and its own multiply in a chain, so
-        a second pool adds its map rather than taking the first one's place."""
-        mat = materials.ensure_material(ground, f"HBK_{ground.name}_floor")
-        tree = mat.node_tree
+    def _wire_floor(cls, ground, obj, grid, folder, frames):
+        """Multiplies the pool's caustic map into the base colour of every material of the
+        ground (the ones its slots render with). Each pool under one ground has its own nodes
+        (owned by the pool) and its own multiply in a chain, so a second pool adds its map
+        rather than taking the first one's place."""
+        mats = list(dict.fromkeys(s.material for s in ground.material_slots if s.material))
+        for mat in mats or [materials.ensure_material(ground, f"HBK_{ground.name}_floor")]:
+            materials.use_nodes(mat)
+            cls._wire_floor_material(mat.node_tree, obj, grid, folder, frames)
+
+    @classmethod
+    def _wire_floor_material(cls, tree, obj, grid, folder, frames):
         bsdf = materials.principled(tree)
         if bsdf is None:
             return
         owner = obj.name
-        tex = cls._sequence_texture(tree, obj, width, "caustics.map", folder, "caustics",
-                                    frames, (bsdf.location.x - 500, 300), owner=owner)
-        mix = materials.add_node(tree, "ShaderNodeMixRGB", "caustics.multiply",
-                                 (bsdf.location.x - 250, 200), owner=owner)
+        x = bsdf.location.x
+        tex = cls._sequence_texture(tree, obj, grid, "caustics.map", folder, "caustics",
+                                    frames, (x - 500, 300), owner=owner)
+        # The colour is read past the water's edge (EXTEND) and the alpha clipped there (the
+        # floor beyond keeps its own colour): one clipped lookup for both blends the edge
+        # texel's colour with black, a dark line one map texel wide around the pool.
+        edge = materials.add_node(tree, "ShaderNodeTexImage", "caustics.map_edge",
+                                  (x - 500, 550), owner=owner)
+        edge.image, edge.extension = tex.image, "CLIP"
+        images.configure_user(edge.image_user, frames[0], len(frames))
+        tree.links.new(tex.inputs["Vector"].links[0].from_socket, edge.inputs["Vector"])
+        mix = materials.add_node(tree, "ShaderNodeMixRGB", "caustics.multiply", (x - 250, 200),
+                                 owner=owner)
         mix.blend_type = "MULTIPLY"
-        # Beyond the water the floor keeps its colour: the map is clipped there (alpha 0, no
-        # multiply), not its edge smeared across the rest of the floor.
-        tex.extension = "CLIP"
-        tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
+        tree.links.new(edge.outputs["Alpha"], mix.inputs["Fac"])
         tree.links.new(tex.outputs["Color"], mix.inputs["Color2"])
         base = bsdf.inputs["Base Color"]
         socket = base  # up the chain of multiplies already feeding the base colour
@@ -327,10 +361,9 @@ class CausticsBlender(BlenderEffect):
                 link.to_socket.default_value = c1.default_value
 
     @classmethod
-    def _displace(cls, obj, folder, frames, width):
+    def _displace(cls, obj, folder, frames, grid):
         """Subdivision + Displace modifiers reading the height sequence through a UV map that
         spans the water grid (made here, removed by Free Bake)."""
-        grid = cls.grid(obj, width)
         shape = grid.shape
         mesh = obj.data
         uv = mesh.uv_layers.get("HBK_UV") or mesh.uv_layers.new(name="HBK_UV")
@@ -345,6 +378,7 @@ class CausticsBlender(BlenderEffect):
         tex.image = images.load_sequence(folder, "height", frames[0], len(frames),
                                          name=f"HBK_{obj.name}_height")
         tex.extension = "EXTEND"
+        tex.use_clamp = False  # heights below the level are negative: the water goes down too
         images.configure_user(tex.image_user, frames[0], len(frames))
         sub = obj.modifiers.get("HBK Subdivision") or obj.modifiers.new("HBK Subdivision",
                                                                         "SUBSURF")
@@ -365,10 +399,9 @@ class CausticsBlender(BlenderEffect):
         disp.strength = 1.0
 
     @classmethod
-    def _projector(cls, context, obj, settings, folder, frames, width):
+    def _projector(cls, context, obj, settings, folder, frames, grid):
         """A spot light straight above the grid's centre whose emission is the caustic map,
         projected so that the map spans the grid at the ground's mean depth (a gobo)."""
-        grid = cls.grid(obj, width)
         level = grid.level
         sx, sy = grid.size
         ground = settings.ground_object
@@ -423,7 +456,8 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        prefix = f"HBK_{cls.baked_name(obj, settings)}"
+        pool = cls.baked_name(obj, settings)
+        prefix = f"HBK_{pool}"
         name = f"{prefix}_projector"
         if name in bpy.data.objects:
             bpy.data.objects.remove(bpy.data.objects[name])
@@ -441,23 +475,32 @@ class CausticsBlender(BlenderEffect):
         for mat in {s.material for s in obj.material_slots if s.material}:
             if mat.node_tree:
                 materials.remove_tagged(mat.node_tree, "caustics.")
+            materials.give_back(obj, mat, "caustics.")
         materials.restore(obj, "caustics.")
-        ground = settings.ground_object
-        floors = {s.material for s in ground.material_slots if s.material} if ground else ()
-        for mat in floors:
+        # The floors: this pool's nodes wherever they are (its ground may have been changed or
+        # deleted since the bake), and nodes from before they had owners in its grounds.
+        grounds = [g for g in (settings.ground_object,
+                               bpy.data.objects.get(settings.get("wired_ground", "")))
+                   if g is not None and g.type == "MESH"]
+        floors = {s.material for g in grounds for s in g.material_slots if s.material}
+        for mat in bpy.data.materials:
             if not mat.node_tree:
                 continue
             tree = mat.node_tree
-            # This pool's nodes, and any from before they were owned (one pool per floor).
-            for owner in (cls.baked_name(obj, settings), None):
+            for owner in (pool, None) if mat in floors else (pool,):
                 mix = materials.tagged(tree, "caustics.multiply", owner)
                 if mix is not None:
                     cls._unwire_multiply(tree, mix)
                 materials.remove_tagged(tree, "caustics.", owner=owner)
+        for g in dict.fromkeys(grounds):
+            for mat in {s.material for s in g.material_slots if s.material}:
+                materials.give_back(g, mat, "caustics.")
+        settings.pop("wired_ground", None)
         if "hydrobake_shadow" in obj:
             obj.visible_shadow = bool(obj["hydrobake_shadow"])
             del obj["hydrobake_shadow"]
-        images.remove(f"{prefix}_view")
+        for stream in ("view", "caustics", "surface", "height"):
+            images.remove(f"{prefix}_{stream}")
 
     @classmethod
     def draw_settings(cls, layout, settings):

@@ -147,11 +147,8 @@ class RainBlender(BlenderEffect):
         bsdf = materials.principled(tree)
         if bsdf is None:
             return
-        if not mat.get("hydrobake_glass_setup"):
-            bsdf.inputs["Transmission"].default_value = 1.0
-            bsdf.inputs["Roughness"].default_value = 0.0
-            bsdf.inputs["IOR"].default_value = 1.33  # glass and drops as one water plate
-            mat["hydrobake_glass_setup"] = 1
+        # Glass and drops as one water plate (Free Bake gives the values back).
+        materials.set_inputs(mat, bsdf, {"Transmission": 1.0, "Roughness": 0.0, "IOR": 1.33})
         uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
         x, y = bsdf.location
         uvn = materials.add_node(tree, "ShaderNodeUVMap", "rain.uv", (x - 1100, y - 300))
@@ -182,11 +179,13 @@ class RainBlender(BlenderEffect):
         mod = obj.modifiers.get(THICKNESS)
         if mod is not None:
             obj.modifiers.remove(mod)
-        for slot in obj.material_slots:
-            if slot.material and slot.material.node_tree:
-                materials.remove_tagged(slot.material.node_tree, "rain.")
+        for mat in {s.material for s in obj.material_slots if s.material}:
+            if mat.node_tree:
+                materials.remove_tagged(mat.node_tree, "rain.")
+            materials.give_back(obj, mat, "rain.")
         materials.restore(obj, "rain.")
-        images.remove(f"HBK_{cls.baked_name(obj, settings)}_rain_preview")
+        for stream in ("preview", "normal"):
+            images.remove(f"HBK_{cls.baked_name(obj, settings)}_rain_{stream}")
 
     @classmethod
     def draw_settings(cls, layout, settings):

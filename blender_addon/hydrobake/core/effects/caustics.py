@@ -8,7 +8,8 @@ Inputs (all optional, arrays (H, W) float32 on the water grid, row 0 at y = 0):
     sources     (H, W) water added/removed in m/s (pouring, draining)
     map_size    (width, height) of the caustic map in pixels (default 4 texels per cell)
     view        {"camera": (x, y, z) in the grid's frame, "texture": (h, w, 3) ground colour,
-                 "environment": (h, w, 3) lat-long sky or None}: also bake the paper's
+                 "environment": (h, w, 3) lat-long sky or None, "heading": the grid's x axis
+                 from the sky's x, radians about z (default 0)}: also bake the paper's
                 rendering of the water from that camera (view refraction onto the lit
                 ground, Fresnel reflection of the sky) as `view_####.exr`
     loop        (first frame, last frame, blend frames): a seamless loop. The water runs
@@ -138,7 +139,8 @@ class CausticsEffect(Effect):
             return {}
         img = caustics.view_image(self.surface, self.ground, self.cell_size,
                                   self.view["camera"], self.view["texture"], multiplier,
-                                  self.view.get("environment"), self.params["light"])
+                                  self.view.get("environment"), self.params["light"],
+                                  heading=float(self.view.get("heading", 0.0)))
         return {"view": ("exr", {c: img[..., i] for i, c in enumerate("RGB")}, {"half": True})}
 
     def save_state(self):
