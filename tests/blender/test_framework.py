@@ -40,3 +40,8 @@ def test_a_project_moved_with_its_bakes_still_finds_them(blender, tmp_path):
     shutil.rmtree(first)
     r = blender.run("moved_project.py", "check", moved, blend=str(moved / "project.blend"))
     assert "MOVED PROJECT OK" in r.stdout
+
+
+def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
+    r = blender.run("copied_and_renamed.py", tmp_path)
+    assert "COPIED AND RENAMED OK" in r.stdout

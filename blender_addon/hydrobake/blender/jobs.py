@@ -33,6 +33,46 @@ def scene_context(context, scene):
     return context.temp_override(scene=scene, view_layer=scene.view_layers[0])
 
 
+def _same_folder(a, b):
+    return bool(a) and bool(b) and os.path.realpath(a) == os.path.realpath(b)
+
+
+def copied_from(obj, effect_name):
+    """The object whose bake record ``obj`` holds as a copy (Shift+D copies the settings, the
+    bake's folder and the name it was wired under), or None: the record names another object
+    that exists, is baked and has the same folder. A copy owns neither the files nor the
+    wiring (they go by the other's name)."""
+    s = settings_of(obj, effect_name)
+    name = s.get("baked_as")
+    if not s.is_baked or not name or name == obj.name:
+        return None
+    other = bpy.data.objects.get(name)
+    if other is None or other == obj:
+        return None
+    o = settings_of(other, effect_name)
+    return other if o.is_baked and _same_folder(o.bake_folder, s.bake_folder) else None
+
+
+def forget(obj, effect_name):
+    """Clears a bake record from the object's settings (not the files, not the wiring)."""
+    s = settings_of(obj, effect_name)
+    s.is_baked = False
+    s.bake_folder = ""
+    s.pop("baked_as", None)
+
+
+def name_holder(obj, effect_name):
+    """Another object whose bake of the effect still goes by ``obj``'s name (it was renamed
+    since: its files and wiring are named after the name ``obj`` has now), or None."""
+    for other in bpy.data.objects:
+        if other == obj:
+            continue
+        s = settings_of(other, effect_name)
+        if s.is_baked and s.get("baked_as") == obj.name and copied_from(other, effect_name) is None:
+            return other
+    return None
+
+
 class Job:
     def __init__(self, context, obj, effect_name, frames=None, folder_override=None,
                  threads=None, scene=None, resume=False):
@@ -40,6 +80,15 @@ class Job:
         self.object_name, self.effect_name = obj.name, effect_name
         self.beffect = effects.get(effect_name)
         settings = settings_of(obj, effect_name)
+        holder = name_holder(obj, effect_name)
+        if holder is not None:  # its files and wiring would be taken for this object's
+            raise ValueError(f"{obj.name}: {holder.name}'s {effect_name} bake still goes by this "
+                             f"name (baked as {obj.name}, renamed since); re-bake or free "
+                             f"{holder.name} first, or rename this object")
+        self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
+        if resume and self.copy_of is not None:
+            raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
+                             f"record is a copy of {self.copy_of.name}'s); bake it anew")
         groups = self.beffect.core_class().groups()
         params = properties.to_params(groups, settings)
         for g, spec in groups.items():
@@ -72,7 +121,9 @@ class Job:
         manifest = BakeCache(self.folder).read_manifest()
         if manifest and manifest["frames"]:
             old_name, old_folder = settings.get("baked_as", obj.name), settings.bake_folder
-            if old_name != obj.name:  # renamed: unwire the old
+            if self.copy_of is not None:
+                pass  # the record was a copy of another object's bake: nothing of ours
+            elif old_name != obj.name:  # renamed: unwire the old
                 self.beffect.remove(context, obj, settings)
                 if manifest.get("complete"):
                     self._free_superseded(obj, old_folder, old_name)
@@ -122,6 +173,9 @@ def bake_state(obj, effect_name):
 def free(context, obj, effect_name):
     """Removes the bake's files (and nothing else) and unwires it."""
     settings = settings_of(obj, effect_name)
+    if copied_from(obj, effect_name) is not None:  # the other object's bake stays whole
+        forget(obj, effect_name)
+        return []
     beffect = effects.get(effect_name)
     folder = settings.bake_folder or paths.bake_folder(obj, effect_name, settings)
     removed = BakeCache(folder).free()

@@ -1,0 +1,87 @@
+"""Bake records that do not own their bake: a Shift+D copy of a baked pool holds the
+original's record (folder, name, is_baked), and freeing or re-baking the copy must leave the
+original's files and wiring whole; a new object given a renamed pool's old name must not
+take that pool's bake (its files and wiring still go by the name) and is refused by name."""
+import os
+
+import bpy
+
+import in_blender
+
+in_blender.enable()
+from hydrobake.blender.bridge import materials  # noqa: E402
+
+tmp = in_blender.args()[0]
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "copies.blend"))
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+floor = in_blender.new_plane("Floor")
+floor.scale, floor.location = (6.0, 3.0, 1.0), (0.0, 0.0, -0.5)
+fmat = bpy.data.materials.new("Tiles")
+fmat.use_nodes = True
+floor.data.materials.append(fmat)
+pool = in_blender.new_plane("Pool")
+s = pool.hydrobake_caustics
+s.enabled, s.ground_object = True, floor
+s.use_scene_range, s.frame_start, s.frame_end = False, 1, 2
+s.water.width, s.map_resolution = 16, 32
+
+
+def owners():
+    return sorted(n["hydrobake_owner"] for n in fmat.node_tree.nodes
+                  if n.get("hydrobake") == "caustics.multiply")
+
+
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool") == {"FINISHED"}
+folder = s.bake_folder
+for o in bpy.context.view_layer.objects:
+    o.select_set(o == pool)
+bpy.context.view_layer.objects.active = pool
+assert bpy.ops.object.duplicate() == {"FINISHED"}
+copy = bpy.context.view_layer.objects.active
+copy.location.x = 3.0
+c = copy.hydrobake_caustics
+assert copy.name == "Pool.001" and c.is_baked and c.bake_folder == folder  # Blender copied it
+# Resuming the copy would continue the original's bake: refused.
+try:
+    bpy.ops.hydrobake.bake(effect="caustics", object_name=copy.name, resume=True)
+    raise AssertionError("resume of a copied record was not refused")
+except RuntimeError as exc:
+    assert "copy of Pool's" in str(exc), str(exc)
+# Free on the copy forgets its record only.
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=copy.name) == {"FINISHED"}
+assert not c.is_baked and c.bake_folder == "" and "baked_as" not in c
+assert s.is_baked and os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
+assert owners() == ["Pool"] and materials.tagged(pool.active_material.node_tree,
+                                                 "caustics.surface") is not None
+# A re-bake of a fresh copy (record still copied) makes its own bake beside the original's.
+for o in bpy.context.view_layer.objects:
+    o.select_set(o == pool)
+bpy.context.view_layer.objects.active = pool
+assert bpy.ops.object.duplicate() == {"FINISHED"}
+second = bpy.context.view_layer.objects.active
+second.location.x = -3.0
+assert second.hydrobake_caustics.is_baked
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name=second.name) == {"FINISHED"}
+assert second.hydrobake_caustics.bake_folder != folder
+assert os.path.isfile(os.path.join(folder, "caustics_0001.exr")) and s.is_baked
+assert owners() == sorted(["Pool", second.name]), owners()
+
+# Renamed, then a newcomer takes the old name: its bake is refused, naming the holder.
+pool.name = "PoolA"
+newcomer = in_blender.new_plane("Pool")
+newcomer.hydrobake_caustics.enabled = True
+n = newcomer.hydrobake_caustics
+n.ground_object, n.use_scene_range, n.frame_start, n.frame_end = floor, False, 1, 2
+n.water.width, n.map_resolution = 16, 32
+try:
+    bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool")
+    raise AssertionError("a newcomer with a baked object's old name was not refused")
+except RuntimeError as exc:
+    assert "PoolA's caustics bake still goes by this name" in str(exc), str(exc)
+assert os.path.isfile(os.path.join(folder, "caustics_0001.exr")) and owners().count("Pool") == 1
+# Re-baking PoolA moves its bake to its new name; then the newcomer may bake.
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="PoolA") == {"FINISHED"}
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool") == {"FINISHED"}
+assert owners() == sorted(["Pool", "PoolA", second.name]), owners()
+print("COPIED AND RENAMED OK")
