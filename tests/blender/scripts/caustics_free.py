@@ -76,8 +76,7 @@ bsdf = materials.principled(water.node_tree)
 for k, v in (("Roughness", 0.4), ("IOR", 1.45), ("Transmission", 0.3)):
     bsdf.inputs[k].default_value = v
 pool.data.materials.append(water)
-stone = in_blender.new_plane("Stone")
-stone.scale, stone.location = (0.15, 0.15, 1.0), (0.4, 0.0, -0.08)
+stone = in_blender.new_box("Stone", (0.3, 0.3, 0.2), (0.4, 0.0, 0.02))  # through the surface
 stone.hide_render = True
 s = pool.hydrobake_caustics
 s.enabled, s.ground_object = True, floor
@@ -190,6 +189,17 @@ bake(bare)
 bpy.data.objects.remove(other)
 free(bare)
 assert tags(other_mat) == [], tags(other_mat)
+
+# A disturber wholly under the water moves no surface; through it, it dents it.
+b.ground_object, b.frame_end = plain, 2
+rock = in_blender.new_box("Rock", (0.5, 0.5, 0.2), (8.0, 0.0, -0.2))  # z -0.3..-0.1
+b.disturber_object, b.disturber_depth = rock, 0.1
+for z, dented in ((-0.2, False), (0.0, True)):
+    rock.location.z = z
+    bake(bare)
+    h = exr.read(os.path.join(b.bake_folder, "water_0002.exr"))["height"]
+    assert (h.min() < -0.01) == dented, (z, h.min())
+b.disturber_object = None
 
 # Refused by name: a plane standing on its edge, a sun at the horizon, a camera under water.
 edge = in_blender.new_plane("Edge")

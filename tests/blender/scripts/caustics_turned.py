@@ -39,9 +39,8 @@ def world(u, v):
     return 1.0 + c * lx - s * ly, 2.0 + s * lx + c * ly
 
 
-stone = in_blender.new_plane("Stone")  # 0.2 m square pressed in at grid (1.5, 0.75) m
-stone.scale = (0.1, 0.1, 1.0)
-stone.location = (*world(1.5, 0.75), -0.05)
+stone = in_blender.new_box("Stone", (0.2, 0.2, 0.2), (*world(1.5, 0.75), 0.05))  # through
+# the surface, its 0.2 m square footprint at grid (1.5, 0.75) m, its underside 0.05 m down
 settings = pool.hydrobake_caustics
 settings.enabled, settings.ground_object = True, floor
 settings.disturber_object, settings.disturber_depth = stone, 0.05

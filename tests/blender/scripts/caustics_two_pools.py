@@ -87,8 +87,8 @@ assert chain() == ([], tiles.name), chain()
 assert not any(n.get("hydrobake") for n in ftree.nodes)
 assert not any(n.get("hydrobake") for n in water.node_tree.nodes)
 
-# Renamed after its bake, while a new object took its old name and baked into the old folder:
-# the renamed pool's re-bake leaves that folder alone (it frees only a bake no object uses).
+# Renamed after its bake: a new object given the old name is refused until the renamed pool
+# re-bakes, which frees its bake under the old name (complete, and no other object's).
 bake(left)
 folder = left.hydrobake_caustics.bake_folder
 left.name = "Pond"
@@ -97,10 +97,14 @@ newcomer.location = (-1.5, 0.0, 0.0)
 ns = newcomer.hydrobake_caustics
 ns.enabled, ns.use_scene_range, ns.frame_start, ns.frame_end = True, False, 1, 1
 ns.water.width, ns.map_resolution = 16, 32
+try:
+    bake(newcomer)
+    raise AssertionError("the newcomer took Pond's name")
+except RuntimeError as exc:
+    assert "Pond's caustics bake still goes by this name" in str(exc), str(exc)
+bake(left)
+assert not os.path.exists(folder) and os.path.isdir(left.hydrobake_caustics.bake_folder)
 bake(newcomer)
 assert os.path.realpath(ns.bake_folder) == os.path.realpath(folder)
-bake(left)
-assert os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
-assert os.path.isdir(left.hydrobake_caustics.bake_folder) and \
-    left.hydrobake_caustics.bake_folder != folder
+assert os.path.isdir(left.hydrobake_caustics.bake_folder)
 print("CAUSTICS TWO POOLS OK")

@@ -202,9 +202,14 @@ class CausticsBlender(BlenderEffect):
         footprints = {}
         if settings.disturber_object:
             def footprint(_f):
+                dg = context.evaluated_depsgraph_get()
                 under = meshes.sample_heights(settings.disturber_object, origin, cell, shape,
-                                              "UP", context.evaluated_depsgraph_get(),
-                                              angle=grid.angle)
+                                              "UP", dg, angle=grid.angle)
+                # Only where the object crosses the surface: wholly under it, it moves no
+                # surface (its top below the level).
+                top = meshes.sample_heights(settings.disturber_object, origin, cell, shape,
+                                            "DOWN", dg, angle=grid.angle)
+                under[~(np.nan_to_num(top, nan=-np.inf) >= level)] = np.nan
                 press = np.clip(level - np.nan_to_num(under, nan=level), 0.0,
                                 settings.disturber_depth).astype(np.float32)
                 return press if press.any() else None
