@@ -49,12 +49,24 @@ def configure_user(image_user, frame_start, frame_count):
     image_user.use_cyclic = False
 
 
-def pixels(img):
-    """An image's pixels as a (h, w, channels) float32 array, row 0 at the bottom."""
+def pixels(img, colour=False):
+    """An image's pixels as a (h, w, channels) float32 array, row 0 at the bottom. colour:
+    the values are colours wanted in scene-linear light; an 8-bit sRGB image's pixels are its
+    sRGB values (Blender linearises only float images), so they are linearised here."""
     w, h = img.size
     buf = np.empty(w * h * img.channels, dtype=np.float32)
     img.pixels.foreach_get(buf)
-    return buf.reshape(h, w, img.channels)
+    px = buf.reshape(h, w, img.channels)
+    if colour and not img.is_float and img.colorspace_settings.name == "sRGB":
+        rgb = px[..., :3]
+        px[..., :3] = np.where(rgb <= 0.04045, rgb / 12.92,
+                               ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    return px
+
+
+def has_pixels(img):
+    """Whether the image has data to read (a file moved away leaves it empty)."""
+    return img.has_data or (img.size[0] > 0 and img.size[1] > 0 and len(img.pixels) > 0)
 
 
 def set_pixels(img, arr):

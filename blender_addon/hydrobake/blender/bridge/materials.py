@@ -71,7 +71,11 @@ def give_back(obj, mat, prefix):
         if index is not None:
             obj.material_slots[index].material = None
             if mat[MADE] == "appended" and index == len(obj.data.materials) - 1:
-                obj.data.materials.pop()
+                # The operator drops the object's slot too (popping the mesh's list leaves
+                # an empty slot on the object, saved with the file).
+                obj.active_material_index = index
+                with bpy.context.temp_override(object=obj):
+                    bpy.ops.object.material_slot_remove()
         if mat.users == 0:
             bpy.data.materials.remove(mat)
         else:
@@ -79,25 +83,35 @@ def give_back(obj, mat, prefix):
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
+COPY_FOR = "hydrobake_copy_for"  # ... and the object it was made for
+LINK_WAS = "hydrobake_link_was"  # ... put on the object's own slot of a shared mesh
 
 
 def own(obj, index, unwire):
     """The material in the object's slot ``index``, made the object's own first if another
     object uses it too: a bake wires the object's own images into it, and two objects'
     bakes in one material overwrote each other. The copy, '<name> (<object>)', records the
-    shared material, which restore() puts back. unwire(node_tree) takes another object's
+    shared material, which restore() puts back; on a mesh other objects share (a linked
+    duplicate) it goes on the object's own slot. A copy made for another object (a duplicate
+    of a baked object shows it) is copied again. unwire(node_tree) takes another object's
     wiring of the effect out of the copy."""
-    mat = obj.material_slots[index].material if index < len(obj.material_slots) else None
-    if mat is None or COPY_OF in mat:
+    slot = obj.material_slots[index] if index < len(obj.material_slots) else None
+    mat = slot.material if slot is not None else None
+    if mat is None or mat.get(COPY_FOR) == obj.name:
         return mat
-    if not any(o is not obj and any(s.material == mat for s in o.material_slots)
-               for o in bpy.data.objects):
+    if COPY_OF not in mat and not any(o != obj and any(s.material == mat for s in
+                                                       o.material_slots)
+                                      for o in bpy.data.objects):
         return mat
+    shared = mat.get(COPY_OF, mat.name)
     copy = mat.copy()
-    copy.name = f"{mat.name} ({obj.name})"
-    copy[COPY_OF] = mat.name
+    copy.name = f"{shared} ({obj.name})"
+    copy[COPY_OF], copy[COPY_FOR] = shared, obj.name
     unwire(copy.node_tree)  # another object's, if the shared material had it
-    obj.material_slots[index].material = copy
+    if slot.link == "DATA" and obj.data.users > 1:
+        slot.link = "OBJECT"  # the mesh's slot would show it on every object of the mesh
+        copy[LINK_WAS] = "DATA"
+    slot.material = copy
     return copy
 
 
@@ -111,7 +125,11 @@ def restore(obj, prefix):
         if shared is None or (shared.node_tree and any(
                 str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
             continue
-        slot.material = shared
+        if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
+            slot.material = None
+            slot.link = "DATA"  # the mesh's own material shows again
+        else:
+            slot.material = shared
         if mat.users == 0:
             bpy.data.materials.remove(mat)
 

@@ -236,9 +236,9 @@ class CausticsBlender(BlenderEffect):
             inputs["view"] = {
                 "heading": grid.angle,
                 "camera": (*grid.to_grid(cam.x, cam.y), cam.z),
-                "texture": np.ascontiguousarray(images.pixels(settings.ground_texture)[..., :3]),
+                "texture": np.ascontiguousarray(images.pixels(settings.ground_texture, colour=True)[..., :3]),
                 "environment": None if settings.environment is None else
-                np.ascontiguousarray(images.pixels(settings.environment)[..., :3])}
+                np.ascontiguousarray(images.pixels(settings.environment, colour=True)[..., :3])}
         return params, inputs
 
     # --- wiring -------------------------------------------------------------------------

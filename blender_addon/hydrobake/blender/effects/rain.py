@@ -74,10 +74,18 @@ class RainBlender(BlenderEffect):
         if uvs is None:
             raise ValueError(f"{obj.name}: needs a UV map (the glass is simulated in UV space)")
         rp = params["rain"]
+        cls._check_materials(obj)
         if settings.use_mesh_size:
             mu, mv = uv_grid.physical_size(pos, tris, uvs)
-            rp["width"] = int(np.clip(round(mu / rp["cell_size"]), 8, 16384))
-            rp["height"] = int(np.clip(round(mv / rp["cell_size"]), 8, 16384))
+            cells = (round(mu / rp["cell_size"]), round(mv / rp["cell_size"]))
+            if min(cells) < 8:  # the grid's least; a bigger grid would be a bigger glass
+                largest = min(mu, mv) / 8.0
+                raise ValueError(
+                    f"Cell Size = {rp['cell_size']:g} m: gives {cells[0]} x {cells[1]} cells on "
+                    f"this {mu:.3g} x {mv:.3g} m glass, fewer than 8 each way; use at most "
+                    f"{largest:.3g} m")
+            rp["width"] = int(np.clip(cells[0], 8, 16384))
+            rp["height"] = int(np.clip(cells[1], 8, 16384))
             if rp["width"] * rp["height"] > MAX_CELLS:
                 # The kernel's limit, said in the setting the user chose (not width x height).
                 smallest = float(np.sqrt(mu * mv / MAX_CELLS)) * 1.001
@@ -92,10 +100,16 @@ class RainBlender(BlenderEffect):
         back = -np.array(fwd.normalized(), np.float64)
         field, mask = uv_grid.rasterize(pos, tris, uvs, rp["width"], rp["height"],
                                         back=back)
+        if mask.mean() < 0.01:  # the grid is UV 0..1: a layout elsewhere simulates no glass
+            uv = obj.data.uv_layers.active.name
+            raise ValueError(f"{obj.name}: its UV map '{uv}' covers {100 * mask.mean():.2g}% "
+                             "of the 0..1 square (the glass is simulated there); unwrap the "
+                             "glass into it")
         inputs = dict(gravity_dir=field, mask=mask, substeps=settings.substeps,
                       fps=scene.render.fps / scene.render.fps_base)
         if settings.car_object:
-            inputs["car"] = cls._car_motion(scene, settings.car_object, fwd, frames)
+            inputs["car"] = cls._car_motion(scene, settings.car_object,
+                                            AXES[settings.forward_axis], frames)
         blades = [o for o in (settings.wiper_0, settings.wiper_1) if o is not None]
         if blades:
             if len(blades) != rp["wiper_count"]:
@@ -103,28 +117,69 @@ class RainBlender(BlenderEffect):
                                  f"wiper_count = {rp['wiper_count']}; set one per blade")
             inputs["wipers"] = cls._wiper_motion(scene, blades, rp["wiper_mode"], frames)
         if settings.background_image is not None:
-            inputs["background"] = images.pixels(settings.background_image)
+            img = settings.background_image
+            if not images.has_pixels(img):
+                raise ValueError(f"Preview Background: image '{img.name}' has no pixels (its "
+                                 f"file {img.filepath or '(none)'} is missing?)")
+            inputs["background"] = images.pixels(img, colour=True)
         return params, inputs
 
     @staticmethod
-    def _car_motion(scene, car, fwd, frames):
-        """{frame: (speed, acceleration)} along the car's forward axis, from its animation."""
+    def _car_motion(scene, car, axis, frames):
+        """{frame: (speed, acceleration)} along the car's forward axis as it points at each
+        frame (a car that turns keeps its speed), from its animation. Keys that start or stop
+        the car make an instant change (hundreds of m/s^2 between two frames): the
+        acceleration is clamped to the kernel's +-50 m/s^2 (5 g)."""
         fps = scene.render.fps / scene.render.fps_base
-        pos = animation.per_frame(scene, frames[0] - 2, frames[1],
-                                lambda f: np.array(car.matrix_world.translation))
-        f_axis = np.array(fwd.normalized())
-        speed = {f: max(0.0, float((pos[f] - pos[f - 1]) @ f_axis) * fps)
+
+        def sample(_f):
+            m = car.matrix_world
+            return (np.array(m.translation),
+                    np.array((m.to_3x3() @ Vector(axis)).normalized()))
+        at = animation.per_frame(scene, frames[0] - 2, frames[1], sample)
+        speed = {f: max(0.0, float((at[f][0] - at[f - 1][0]) @ at[f][1]) * fps)
                  for f in range(frames[0] - 1, frames[1] + 1)}
-        return {f: (speed[f], (speed[f] - speed[f - 1]) * fps)
+        fast = max(speed, key=speed.get)
+        if speed[fast] > 100.0:
+            raise ValueError(f"Car: {car.name} moves at {speed[fast]:.4g} m/s at frame {fast}; "
+                             "at most 100 m/s")
+        return {f: (speed[f], float(np.clip((speed[f] - speed[f - 1]) * fps, -50.0, 50.0)))
                 for f in range(frames[0], frames[1] + 1)}
 
     @staticmethod
     def _wiper_motion(scene, blades, mode, frames):
-        """{frame: [value per blade]}: local Z rotation in degrees (PIVOT, mode 1) or local X
-        location in metres (TRANSLATE), sampled from the animation."""
+        """{frame: [value per blade]}: the local rotation about Z in degrees (PIVOT, mode 1:
+        the Euler Z of its rotation mode, or from a quaternion or axis-angle, kept continuous
+        from frame to frame) or local X location in metres (TRANSLATE), from the animation."""
+        last = {}
+
+        def turn(b):
+            if b.rotation_mode not in ("QUATERNION", "AXIS_ANGLE"):
+                return float(np.degrees(b.rotation_euler.z))  # its own Euler order's Z
+            q = b.matrix_basis.to_quaternion()
+            e = q.to_euler("XYZ", last[b.name]) if b.name in last else q.to_euler("XYZ")
+            last[b.name] = e
+            return float(np.degrees(e.z))
         return animation.per_frame(scene, frames[0], frames[1], lambda f: [
-            float(np.degrees(b.rotation_euler.z)) if mode == 1 else float(b.location.x)
-            for b in blades])
+            turn(b) if mode == 1 else float(b.location.x) for b in blades])
+
+    @staticmethod
+    def _shader(tree):
+        """The material's surface shader the drops' normals go into: Principled or Glass."""
+        return materials.principled(tree) or next(
+            (n for n in tree.nodes if n.type == "BSDF_GLASS"), None)
+
+    @classmethod
+    def _check_materials(cls, obj):
+        """Refused before the bake: materials none of which can take the drops' normals."""
+        mats = [s.material for s in obj.material_slots if s.material]
+        if not mats:
+            return  # one is made
+        def takes(m):  # a material without a node tree gets the default one (Principled)
+            return m.node_tree is None or cls._shader(m.node_tree) is not None
+        if not any(takes(m) for m in mats):
+            raise ValueError(f"{obj.name}: its materials ({', '.join(m.name for m in mats)}) "
+                             "have no Principled or Glass BSDF for the drops' normals")
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
@@ -136,19 +191,41 @@ class RainBlender(BlenderEffect):
         its normal is the drop normal map on the faces rays leave by (back-facing), the flat
         normal on those they enter by. Dry glass is then an exact parallel plate."""
         frames = sorted(int(f) for f in manifest["frames"])
-        if not any(m.type == "SOLIDIFY" for m in obj.modifiers):
-            mod = obj.modifiers.new(THICKNESS, "SOLIDIFY")
+        if not any(m.type == "SOLIDIFY" and m.show_render for m in obj.modifiers):
+            mod = obj.modifiers.get(THICKNESS) or obj.modifiers.new(THICKNESS, "SOLIDIFY")
             mod.thickness = 0.004
             mod.offset = 0.0
             mod.use_even_offset = True
-        materials.own(obj, 0, lambda tree: materials.remove_tagged(tree, "rain."))
-        mat = materials.ensure_material(obj, f"HBK_{obj.name}_glass")
+        # Every material of the glass gets the drops (a frit band is wet too); the glass
+        # values go to the glass-like ones (Glass BSDF, or transmission), else to the first.
+        unwire = lambda tree: materials.remove_tagged(tree, "rain.")  # noqa: E731
+        mats = [materials.own(obj, i, unwire) for i in range(len(obj.material_slots))]
+        mats = list(dict.fromkeys(m for m in mats if m is not None)) or \
+            [materials.ensure_material(obj, f"HBK_{obj.name}_glass")]
+        for mat in mats:
+            materials.use_nodes(mat)
+        wired = [m for m in mats if cls._shader(m.node_tree) is not None]
+        glassy = [m for m in wired if cls._glassy(cls._shader(m.node_tree))] or wired[:1]
+        for mat in wired:
+            cls._wire(obj, mat, folder, frames, values=mat in glassy)
+        if "preview" in manifest.get("streams", []) and settings.background_image is not None:
+            images.load_unused_sequence(folder, "preview", frames[0], len(frames),
+                                        f"HBK_{obj.name}_rain_preview")
+
+    @staticmethod
+    def _glassy(shader):
+        return shader.type == "BSDF_GLASS" or \
+            shader.inputs["Transmission"].default_value >= 0.5
+
+    @classmethod
+    def _wire(cls, obj, mat, folder, frames, values):
         tree = mat.node_tree
-        bsdf = materials.principled(tree)
-        if bsdf is None:
-            return
-        # Glass and drops as one water plate (Free Bake gives the values back).
-        materials.set_inputs(mat, bsdf, {"Transmission": 1.0, "Roughness": 0.0, "IOR": 1.33})
+        bsdf = cls._shader(tree)
+        if values:  # glass and drops as one water plate (Free Bake gives the values back)
+            want = {"Roughness": 0.0, "IOR": 1.33}
+            if "Transmission" in bsdf.inputs:
+                want["Transmission"] = 1.0
+            materials.set_inputs(mat, bsdf, want)
         uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
         x, y = bsdf.location
         uvn = materials.add_node(tree, "ShaderNodeUVMap", "rain.uv", (x - 1100, y - 300))
@@ -166,13 +243,18 @@ class RainBlender(BlenderEffect):
         geo = materials.add_node(tree, "ShaderNodeNewGeometry", "rain.geometry", (x - 550, y - 50))
         side = materials.add_node(tree, "ShaderNodeMixRGB", "rain.side", (x - 250, y - 200))
         side.use_clamp = False
+        normal = bsdf.inputs["Normal"]
+        # The faces rays enter by keep the material's own normal (a Bump of its own, say), or
+        # the flat one; Free Bake links the material's own back.
+        theirs = normal.links[0].from_socket if normal.is_linked and \
+            normal.links[0].from_node != side else None
         tree.links.new(geo.outputs["Backfacing"], side.inputs["Fac"])
-        tree.links.new(geo.outputs["Normal"], side.inputs["Color1"])
+        if theirs is not None:
+            tree.links.new(theirs, side.inputs["Color1"])
+        elif not side.inputs["Color1"].is_linked:
+            tree.links.new(geo.outputs["Normal"], side.inputs["Color1"])
         tree.links.new(nm.outputs["Normal"], side.inputs["Color2"])
-        tree.links.new(side.outputs["Color"], bsdf.inputs["Normal"])
-        if "preview" in manifest.get("streams", []) and settings.background_image is not None:
-            images.load_unused_sequence(folder, "preview", frames[0], len(frames),
-                                        f"HBK_{obj.name}_rain_preview")
+        tree.links.new(side.outputs["Color"], normal)
 
     @classmethod
     def remove(cls, context, obj, settings):
@@ -181,6 +263,12 @@ class RainBlender(BlenderEffect):
             obj.modifiers.remove(mod)
         for mat in {s.material for s in obj.material_slots if s.material}:
             if mat.node_tree:
+                side = materials.tagged(mat.node_tree, "rain.side")
+                shader = cls._shader(mat.node_tree)
+                c1 = side.inputs["Color1"] if side is not None else None
+                if c1 is not None and c1.is_linked and shader is not None and \
+                        not c1.links[0].from_node.get(materials.TAG):
+                    mat.node_tree.links.new(c1.links[0].from_socket, shader.inputs["Normal"])
                 materials.remove_tagged(mat.node_tree, "rain.")
             materials.give_back(obj, mat, "rain.")
         materials.restore(obj, "rain.")
