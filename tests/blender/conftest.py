@@ -26,11 +26,12 @@ class Blender:
         if os.environ.get("HBK_BLENDER_TEST_LIB"):
             self.env["HYDROBAKE_LIB"] = os.environ["HBK_BLENDER_TEST_LIB"]
 
-    def run(self, script, *args, blend=None, check=True, timeout=300, extra=()):
+    def run(self, script, *args, blend=None, check=True, timeout=300, extra=(), cwd=None):
         cmd = [BLENDER, "-b"] + ([blend] if blend else []) + [
             "--factory-startup", "--python-exit-code", "1", *extra,
             "--python", os.path.join(SCRIPTS, script), "--", *map(str, args)]
-        r = subprocess.run(cmd, env=self.env, capture_output=True, text=True, timeout=timeout)
+        r = subprocess.run(cmd, env=self.env, capture_output=True, text=True, timeout=timeout,
+                           cwd=cwd)
         if check and r.returncode != 0:
             pytest.fail(f"{script} exited {r.returncode}\n--- stdout\n{r.stdout[-6000:]}\n"
                         f"--- stderr\n{r.stderr[-6000:]}")

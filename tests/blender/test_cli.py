@@ -1,9 +1,14 @@
-"""The batch command line in background mode: bake, progress lines, exit codes, kill safety."""
+"""The batch command line in background mode: bake, progress lines, exit codes, kill safety,
+signals, argument and override checks, bake folder names."""
+import hashlib
 import json
 import os
 import shutil
 import signal
+import subprocess
 import time
+
+import pytest
 
 from hydrobake_paths import ROOT, frames_in
 
@@ -93,3 +98,210 @@ def test_overrides_are_for_the_run_not_saved_into_the_file(blender, tmp_path):
         after.stdout.split("SETTING")[1].split("BAKED")[0]  # the file's own resolution
     m = json.loads((tmp_path / "cache" / "examples" / "Tank_fluid" / "manifest.json").read_text())
     assert m["params"]["fluid"]["resolution"] == [32, 16, 16]  # the bake's
+
+
+def _recorded_and_whole(folder):
+    """The manifest's frames, each of whose files is on disk with its recorded SHA-256."""
+    m = json.loads((folder / "manifest.json").read_text())
+    for files in m["frames"].values():
+        for name, digest in files.items():
+            assert hashlib.sha256((folder / name).read_bytes()).hexdigest() == digest, name
+    return m, sorted(int(f) for f in m["frames"])
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)],
+                         ids=["SIGINT", "SIGTERM"])
+def test_a_signal_cancels_the_bake_cleanly_and_resume_completes_it(blender, tmp_path, sig,
+                                                                    code):
+    blend = _blend(blender, tmp_path)
+    out = tmp_path / "cache"
+    args = ("--objects", "Glass,Rear", "--effects", "testwave", "--frames", "1-20",
+            "--output", out)
+    # Every step after the first spends about 25 s in one C call that polls the cancel flag:
+    # the signal lands there, so only a handler that runs while C is busy stops it in time.
+    blender.env["HBK_FIXTURE_C_SUBSTEPS"] = "100000"
+    try:
+        p = blender.popen("cli_fixture.py", "bake", *args, blend=blend)
+        folder = out / "shot" / "Glass_testwave"
+        deadline = time.monotonic() + 60
+        while not frames_in(folder) and time.monotonic() < deadline and p.poll() is None:
+            time.sleep(0.05)
+        time.sleep(0.5)  # into frame 2's C call
+        p.send_signal(sig)
+        try:
+            stdout, stderr = p.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.communicate()
+            pytest.fail(f"still baking 10 s after {sig.name}")
+    finally:
+        del blender.env["HBK_FIXTURE_C_SUBSTEPS"]
+    assert p.returncode == code, (p.returncode, stderr[-3000:])
+    m, done = _recorded_and_whole(folder)
+    assert not m["complete"] and done == list(range(1, len(done) + 1)) and len(done) < 20
+    assert f"hydrobake: Glass/testwave: cancelled after frame {done[-1]}" in stderr, stderr
+    assert "not started: Rear/testwave" in stderr and "Rear/testwave frame" not in stdout
+    assert not (out / "shot" / "Rear_testwave").exists()
+    assert not [n for n in os.listdir(folder) if ".tmp" in n]
+    assert "Traceback" not in stderr
+    # A later resume continues from there and completes both.
+    r = blender.run("cli_fixture.py", "resume", *args, blend=blend)
+    assert f"Glass/testwave resumed after frame {done[-1]}" in r.stdout, r.stdout
+    for obj in ("Glass", "Rear"):
+        m, frames = _recorded_and_whole(out / "shot" / f"{obj}_testwave")
+        assert m["complete"] and frames == list(range(1, 21))
+
+
+def test_empty_selections_are_refused(blender, tmp_path):
+    blend = _blend(blender, tmp_path)
+    out = tmp_path / "cache"
+    for option, value in (("--objects", ""), ("--effects", ","), ("--output", "")):
+        args = ["--output", out] if option != "--output" else []
+        r = blender.run("cli_fixture.py", "bake", option, value, *args, blend=blend,
+                        check=False)
+        assert r.returncode == 2, (option, r.returncode, r.stderr[-2000:])
+        assert f"argument {option}: {option} '{value}': empty" in r.stderr, r.stderr
+        assert "frame 1" not in r.stdout
+    assert not out.exists()
+    assert not (tmp_path / "hydrobake_cache").exists()
+
+
+def test_overrides_are_checked_against_keys_shapes_types_and_ranges(blender, tmp_path):
+    blend = str(tmp_path / "examples.blend")
+    shutil.copy(os.path.join(ROOT, "examples.blend"), blend)
+    water = {"objects": ["Water"], "effects": ["caustics"]}
+    cases = [
+        # Values Blender would clamp or take as numbers: refused with the range.
+        ({"Water/caustics": {"map_resolution": 0}}, "Water/caustics: map_resolution = 0: "
+         "must be in [16, 8192]"),
+        ({"Water/caustics": {"water": {"substeps": -5}}}, "Water/caustics: water.substeps = "
+         "-5: must be in [1, 1000]"),
+        ({"Water/caustics": {"water": {"substeps": True}}}, "water.substeps = true: must be an "
+         "integer in [1, 1000], not true/false"),
+        ({"Water/caustics": {"water": {"gravity": False}}}, "water.gravity = false: must be a "
+         "number in [0.01, 100], not true/false"),
+        ({"*/caustics": {"water": {"gravity": 1e9}}}, "*/caustics: water.gravity = 1000000000.0: "
+         "must be in [0.01, 100]"),
+        ('{"Water/caustics": {"water": {"gravity": NaN}}}', "water.gravity = NaN: must be in"),
+        ({"Water/caustics": {"light": {"light_direction": [0, 0, 1e40]}}},
+         "light.light_direction = [0, 0, 1e+40]: must be in"),
+        # A value where a group belongs and a group where a value does.
+        ({"Water/caustics": {"water": 5}}, "Water/caustics: water is a group of settings"),
+        ({"Water/caustics": {"map_resolution": {"x": 1}}}, "Water/caustics: map_resolution is "
+         "a single setting, not a group"),
+        # Keys that name no object, no effect, or have no slash.
+        ({"Nope/caustics": {}}, "key 'Nope/caustics': no object 'Nope'"),
+        ({"Water/caustic": {}}, "key 'Water/caustic': 'caustic' is not an effect"),
+        ({"Water": {}}, "key 'Water': must be \"Object/effect\" or \"*/effect\""),
+        ({"Camera/caustics": {"map_resolution": 32}},
+         "key 'Camera/caustics': Camera cannot have the caustics effect"),
+        # What is right goes through: the bounds themselves (float32 in Blender), wildcards,
+        # other effects' keys, objects not baked this run.
+        ({"Water/caustics": {"map_resolution": 16, "water": {"gravity": 0.01,
+                                                             "substeps": 1000}}}, None),
+        ({"*/caustics": {"water": {"gravity": 100.0}}, "*/snow": {"snow": {}},
+          "Tank/fluid": {"fluid": {"substeps": 2}}}, None),
+    ]
+    spec = tmp_path / "cases.json"
+    spec.write_text(json.dumps([dict(water, table=t) for t, _ in cases]))
+    r = blender.run("cli_overrides.py", spec, blend=blend)
+    lines = [l for l in r.stdout.splitlines() if l.startswith("CASE ")]
+    assert len(lines) == len(cases), r.stdout[-3000:]
+    for i, (line, (table, want)) in enumerate(zip(lines, cases)):
+        if want is None:
+            assert line == f"CASE {i} OK", (table, line)
+        else:
+            assert line.startswith(f"CASE {i} ERROR ") and want in line, (table, line, want)
+    valid = "valid keys: Car/snow, Ground/snow, Person/snow, Tank/fluid, Water/caustics, " \
+        "Windshield/rain, */caustics, */fluid, */rain, */snow"
+    assert all(valid in l for l in lines[9:13]), lines[9:13]
+    # Through the command line: one error line naming the key, no traceback, nothing baked.
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"Water/caustics": {"water": 5}}))
+    r = blender.run("cli.py", "bake", "--objects", "Water", "--effects", "caustics",
+                    "--overrides", bad, "--output", tmp_path / "cache", blend=blend,
+                    check=False)
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr[-3000:]
+    assert "hydrobake: error: --overrides Water/caustics: water is a group" in r.stderr
+    assert not (tmp_path / "cache").exists()
+
+
+def test_invalid_json_names_the_overrides_file(blender, tmp_path):
+    blend = _blend(blender, tmp_path)
+    bad = tmp_path / "typo.json"
+    bad.write_text('{"*/testwave": {"frame_start": 2,}}')
+    r = blender.run("cli_fixture.py", "bake", "--overrides", bad, blend=blend, check=False)
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert f"hydrobake: error: --overrides {bad}: not valid JSON" in r.stderr, r.stderr
+
+
+def test_a_relative_output_is_recorded_absolute(blender, tmp_path):
+    blend = _blend(blender, tmp_path)
+    here, elsewhere = tmp_path / "here", tmp_path / "elsewhere"
+    here.mkdir()
+    elsewhere.mkdir()
+    blender.run("cli_fixture.py", "bake", "--objects", "Glass", "--effects", "testwave",
+                "--frames", "1-2", "--output", "cache", blend=blend, cwd=here)
+    folder = here / "cache" / "shot" / "Glass_testwave"
+    assert frames_in(folder) == [1, 2]
+    # Another run, started from another folder, finds the bake the file records.
+    r = blender.run("cli_fixture.py", "list", blend=blend, cwd=elsewhere)
+    assert f"Glass/testwave: enabled=True baked=True folder={folder}" in r.stdout, r.stdout
+    r = blender.run("cli_fixture.py", "free", "--objects", "Glass", "--effects", "testwave",
+                    blend=blend, cwd=elsewhere)
+    assert "Glass/testwave freed 3 files" in r.stdout, r.stdout
+    assert not folder.exists()
+
+
+def test_a_target_that_cannot_be_set_up_does_not_stop_the_others(blender, tmp_path):
+    blend = str(tmp_path / "shot.blend")
+    blender.run("make_fixture_blend.py", blend, "!Broken")  # first in name order
+    out = tmp_path / "cache"
+    r = blender.run("cli_fixture.py", "bake", "--frames", "1-2", "--output", out, blend=blend,
+                    check=False)
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr[-3000:]
+    assert "hydrobake: Broken/testwave failed: Broken: the fixture cannot be set up here" \
+        in r.stderr, r.stderr
+    for obj in ("Glass", "Rear"):
+        assert f"hydrobake: {obj}/testwave finished" in r.stdout
+        assert frames_in(out / "shot" / f"{obj}_testwave") == [1, 2]
+    assert not (out / "shot" / "Broken_testwave").exists()
+
+
+def test_names_that_clean_to_the_same_folder_get_their_own(blender, tmp_path):
+    blend = str(tmp_path / "shot.blend")
+    blender.run("make_fixture_blend.py", blend, "Pool.A", "Pool_A", "Pool A")
+    out = tmp_path / "cache"
+    blender.run("cli_fixture.py", "bake", "--objects", "Pool.A,Pool_A,Pool A", "--effects",
+                "testwave", "--frames", "1-2", "--output", out, blend=blend)
+    folders = {}
+    for name in ("Pool.A", "Pool_A", "Pool A"):  # a clean name keeps its folder name
+        tag = "" if name == "Pool_A" else "_" + hashlib.sha1(name.encode()).hexdigest()[:6]
+        folders[name] = out / "shot" / f"Pool_A{tag}_testwave"
+    assert len(set(folders.values())) == 3
+    for name, folder in folders.items():
+        m, frames = _recorded_and_whole(folder)
+        assert m["complete"] and m["object"] == name and frames == [1, 2]
+
+
+def test_resume_refuses_a_changed_map_resolution(blender, tmp_path):
+    blend = str(tmp_path / "pool.blend")
+    shutil.copy(os.path.join(ROOT, "examples.blend"), blend)
+
+    def run(command, resolution, frames):
+        table = tmp_path / f"map{resolution}.json"
+        table.write_text(json.dumps({"Water/caustics": {"map_resolution": resolution,
+                                                        "water": {"width": 24}}}))
+        return blender.run("cli.py", command, "--objects", "Water", "--effects", "caustics",
+                           "--frames", frames, "--overrides", table, "--output",
+                           tmp_path / "cache", "--no-save", blend=blend, check=False)
+    assert run("bake", 32, "1-2").returncode == 0
+    folder = tmp_path / "cache" / "pool" / "Water_caustics"
+    w, h = json.loads((folder / "manifest.json").read_text())["inputs"]["map_size"]
+    r = run("resume", 16, "1-3")
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr[-3000:]
+    assert f"map_size: [{w}, {h}] in the bake, [16, " in r.stderr, r.stderr
+    assert frames_in(folder) == [1, 2]
+    r = run("resume", 32, "1-3")
+    assert r.returncode == 0 and "resumed after frame 2" in r.stdout
+    assert frames_in(folder) == [1, 2, 3]

@@ -58,6 +58,19 @@ def test_cancel_midway_keeps_earlier_frames_and_no_partial_file(tmp_path):
     assert BakeCache(folder).verify() == []
 
 
+def test_cancelled_before_it_starts_leaves_the_earlier_bake_alone(tmp_path):
+    # A command line interrupted while the next bake was being set up.
+    folder = tmp_path / "bake"
+    BakeRunner(WaveEffect(), folder, 1, 3).run()
+    before = {n: (folder / n).read_bytes() for n in os.listdir(folder)}
+    r = BakeRunner(WaveEffect(), folder, 1, 5)
+    r.cancel()
+    with pytest.raises(errors.Cancelled, match="before it started"):
+        r.run()
+    assert r.state.status == "CANCELLED" and r.state.done == 0
+    assert {n: (folder / n).read_bytes() for n in os.listdir(folder)} == before
+
+
 def test_failure_keeps_earlier_frames_and_reports(tmp_path):
     folder = tmp_path / "bake"
     r = BakeRunner(WaveEffect(fail_at=3), folder, 1, 5)

@@ -95,10 +95,50 @@ def test_resume_refuses_changed_settings(reference, tmp_path):
     shutil.copytree(reference, folder)
     changed = {"water": dict(PARAMS["water"], rain_rate=10.0), "light": PARAMS["light"]}
     e = effect(changed)
-    with pytest.raises(errors.StateError, match="cannot resume: params differs"):
+    # The message names the first parameter that differs, with both values.
+    with pytest.raises(errors.StateError, match=r"^cannot resume the bake in .*: "
+                       r"water\.rain_rate: 80\.0 in the bake, 10\.0 now; free it"):
         BakeRunner(e, folder, 1, 12, resume=True).run()
     e.close()
     assert files(folder) == files(reference)  # nothing was touched
+
+
+@pytest.mark.parametrize("inputs, want", [
+    # The panel's Map Resolution: a map of another size from frame 13 on.
+    ({"map_size": (40, 32)}, r"map_size: \[80, 64\] in the bake, \[40, 32\] now"),
+    # The loop option: the last frames would cross-fade into another start.
+    ({"loop": (1, 12, 3)}, r"loop: none in the bake, \[1, 12, 3\] now"),
+    ({"level": 0.25}, r"level: 0\.5 in the bake, 0\.25 now"),
+], ids=["map_size", "loop", "level"])
+def test_resume_refuses_changed_inputs_beside_the_params(reference, tmp_path, inputs, want):
+    folder = tmp_path / "bake"
+    shutil.copytree(reference, folder)
+    assert BakeCache(folder).read_manifest()["inputs"]["map_size"] == [80, 64]
+    e = get("caustics")(PARAMS, dict(INPUTS, **inputs))
+    with pytest.raises(errors.StateError, match=r"^cannot resume the bake in .*: " + want):
+        BakeRunner(e, folder, 1, 12, resume=True).run()
+    e.close()
+    assert files(folder) == files(reference)  # nothing was touched
+
+
+def test_resume_refuses_a_changed_rain_time_step(tmp_path):
+    small = {"rain": {"width": 32, "height": 32, "map_width": 64, "map_height": 64,
+                      "cell_size": 0.002, "rain_rate": 3000.0, "seed": 5}}
+    folder = tmp_path / "rain"
+    e = get("rain")(small, {"substeps": 2, "fps": 24.0})
+    BakeRunner(e, folder, 1, 2).run()
+    e.close()
+    for inputs, want in (({"substeps": 3, "fps": 24.0}, "substeps: 2 in the bake, 3 now"),
+                         ({"substeps": 2, "fps": 25.0}, "fps: 24.0 in the bake, 25.0 now")):
+        e = get("rain")(small, inputs)
+        with pytest.raises(errors.StateError, match=want):
+            BakeRunner(e, folder, 1, 4, resume=True).run()
+        e.close()
+    e = get("rain")(small, {"substeps": 2, "fps": 24.0})  # the same: it continues
+    r = BakeRunner(e, folder, 1, 4, resume=True)
+    r.run()
+    e.close()
+    assert r.resumed_from == 2 and BakeCache(folder).frames() == [1, 2, 3, 4]
 
 
 def test_free_removes_checkpoints_too(reference, tmp_path):

@@ -17,18 +17,23 @@ Commands:
 --overrides sets parameters for this run only, e.g.
     {"Water/caustics": {"map_resolution": 128, "water": {"width": 48}}, "*/snow": {...}}
 Without --objects/--effects, every object with an enabled effect is used. Progress goes to
-stdout a line per frame; errors go to stderr and the exit code is 1.
+stdout a line per frame; errors go to stderr. Exit codes: 0 done, 2 a usage error (argparse:
+an unknown option, a bad --frames, an empty --objects), 1 anything else (an unknown object or
+effect, a bad override, a failed bake), 130 / 143 a bake stopped by SIGINT / SIGTERM.
 """
 import argparse
+import ctypes
 import json
 import os
+import signal
 import sys
+import threading
 import time
 
 import bpy
 
 from ..core import errors
-from . import effects, jobs
+from . import effects, jobs, paths
 
 
 def _argv():
@@ -47,8 +52,26 @@ def _frames(text):
     return start, end
 
 
-def _csv(text):
-    return [t for t in text.split(",") if t]
+def _names(option):
+    """A comma-separated list of names for ``option``; an empty one is refused (leaving the
+    option out means "every enabled one", an empty value must not say the same)."""
+    def parse(text):
+        names = [t for t in text.split(",") if t.strip()]
+        if not names:
+            raise argparse.ArgumentTypeError(
+                f"{option} {text!r}: empty; name at least one, or leave {option} out for "
+                "every enabled one")
+        return names
+    return parse
+
+
+def _folder(text):
+    """--output: made absolute here, so the file records the folder itself, not one relative
+    to wherever this run happened to start ('//' stays relative to the .blend)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"--output {text!r}: empty; give a folder, or leave "
+                                         "--output out for each effect's Cache Folder")
+    return text if text.startswith("//") else os.path.abspath(text)
 
 
 def parser():
@@ -57,11 +80,15 @@ def parser():
     sub.add_parser("list", help="show effects, objects and bake state")
     for name in ("bake", "resume", "free", "regress"):
         s = sub.add_parser(name, help=f"{name} bakes")
-        s.add_argument("--objects", type=_csv, help="comma-separated object names")
-        s.add_argument("--effects", type=_csv, help="comma-separated effect names")
+        s.add_argument("--objects", type=_names("--objects"),
+                       help="comma-separated object names")
+        s.add_argument("--effects", type=_names("--effects"),
+                       help="comma-separated effect names")
         if name != "free":
             s.add_argument("--frames", type=_frames, help="frame range START-END")
-            s.add_argument("--output", help="cache folder override (absolute path)")
+            s.add_argument("--output", type=_folder,
+                           help="cache folder override (a relative one is taken from the "
+                                "current folder)")
             s.add_argument("--threads", type=int, default=None,
                            help="threads (0 = all cores); results do not depend on it")
             s.add_argument("--overrides", help="JSON file of parameters for this run only")
@@ -106,43 +133,134 @@ def _print_frame(job, t0):
     return on_frame
 
 
-def apply_overrides(pairs, path):
-    """Sets parameters from a JSON file {"Object/effect" or "*/effect": {...}} (in memory);
-    returns what they were, [(target, name, value)] in the order set (restore_overrides)."""
-    undo = []
-    if not path:
-        return undo
-    with open(path) as f:
-        table = json.load(f)
+def _load_overrides(path):
+    """The --overrides table: a JSON object of objects, read with the file's name in every
+    error."""
+    try:
+        with open(path) as f:
+            table = json.load(f)
+    except OSError as exc:
+        raise ValueError(f"--overrides {path}: {exc.strerror or exc}") from None
+    except ValueError as exc:  # json.JSONDecodeError, UnicodeDecodeError
+        raise ValueError(f"--overrides {path}: not valid JSON ({exc})") from None
     if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
         raise ValueError(f"--overrides {path}: must be a JSON object of objects "
                          '{"Object/effect": {"setting": value, ...}, ...}')
+    return table
+
+
+def _check_keys(table, path, pairs):
+    """Every key is "Object/effect" for an object of this file that can have the effect, or
+    "*/effect" (every object baked with it); anything else is refused with the valid keys."""
+    known = effects.load_all()
+
+    def can_have(obj, name):
+        return hasattr(obj, f"hydrobake_{name}") and known[name].poll(obj)
+
+    for key in table:
+        obj_name, slash, name = key.rpartition("/")  # object names may hold '/', effects not
+        if not slash:
+            why = 'must be "Object/effect" or "*/effect"'
+        elif name not in known:
+            why = f"{name!r} is not an effect (effects: {', '.join(sorted(known))})"
+        elif obj_name == "*":
+            continue
+        elif obj_name not in bpy.data.objects:
+            why = f"no object {obj_name!r} in {bpy.data.filepath or 'the file'}"
+        elif not can_have(bpy.data.objects[obj_name], name):
+            why = f"{obj_name} cannot have the {name} effect"
+        else:
+            continue
+        valid = sorted({f"{o.name}/{e}" for o in bpy.data.objects for e in known
+                        if can_have(o, e) and (getattr(o, f"hydrobake_{e}").enabled or
+                                               (o, e) in pairs)})
+        valid += [f"*/{e}" for e in sorted(known)]
+        shown = ", ".join(valid[:40]) + (f", ... ({len(valid) - 40} more)"
+                                         if len(valid) > 40 else "")
+        raise KeyError(f"--overrides {path}: key {key!r}: {why}; valid keys: {shown}")
+
+
+def _float32(v):
+    """v as the float32 a Blender float property holds (its limits are float32 too)."""
+    try:
+        return ctypes.c_float(v).value
+    except OverflowError:  # an int past any float
+        return float("inf") if v > 0 else float("-inf")
+
+
+def _check_value(target, attr, value, where):
+    """Refuses what Blender's setattr would take silently: a number outside the property's
+    hard range (it clamps: a map resolution of 0 bakes 16), and true/false for a number
+    (True is 1 to it). Other wrong types are left to Blender, whose error is clear."""
+    prop = target.bl_rna.properties[attr]
+    if prop.type not in {"INT", "FLOAT"}:
+        return
+    values = value if isinstance(value, (list, tuple)) else [value]
+    lo, hi = prop.hard_min, prop.hard_max
+    span = f"[{lo:g}, {hi:g}]" if prop.type == "FLOAT" else f"[{lo}, {hi}]"
+    kind = "an integer" if prop.type == "INT" else "a number"
+    for v in values:
+        if isinstance(v, bool):
+            raise ValueError(f"--overrides {where} = {json.dumps(value)}: must be {kind} in "
+                             f"{span}, not true/false")
+        if not isinstance(v, (int, float)):
+            continue  # Blender names the type it expects
+        x = _float32(v) if prop.type == "FLOAT" else v
+        if not lo <= x <= hi:  # NaN too
+            raise ValueError(f"--overrides {where} = {json.dumps(value)}: must be in {span}")
+
+
+def apply_overrides(pairs, path):
+    """Sets parameters from a JSON file {"Object/effect" or "*/effect": {...}} (in memory);
+    returns what they were, [(target, name, value)] in the order set (restore_overrides).
+    Keys, shapes, types and ranges are checked first; on an error (KeyError, ValueError
+    naming the key) what was set is put back."""
+    undo = []
+    if not path:
+        return undo
+    table = _load_overrides(path)
+    _check_keys(table, path, pairs)
 
     def put(target, attr, value, where):
-        was = getattr(target, attr)
-        undo.append((target, attr, tuple(was) if hasattr(was, "__len__") and
-                     not isinstance(was, str) else was))
+        _check_value(target, attr, value, where)
+        was = getattr(target, attr)  # an array is a live view: copied before it is set
+        was = tuple(was) if hasattr(was, "__len__") and not isinstance(was, str) else was
         try:
             setattr(target, attr, value)
-        except (TypeError, ValueError) as exc:  # Blender's: the type or length is wrong
+        except (TypeError, ValueError, AttributeError, OverflowError) as exc:  # Blender's
             raise ValueError(f"--overrides {where}: {exc}") from None
+        undo.append((target, attr, was))
 
-    for obj, name in pairs:
-        for key in (f"*/{name}", f"{obj.name}/{name}"):  # the object's own entry wins
-            for attr, value in table.get(key, {}).items():
-                settings = jobs.settings_of(obj, name)
-                if isinstance(value, dict):
-                    group = getattr(settings, attr, None)
-                    if group is None:
-                        raise KeyError(f"--overrides {key}: {attr} is not a setting")
-                    for k, v in value.items():
-                        if not hasattr(group, k):
-                            raise KeyError(f"--overrides {key}: {attr}.{k} is not a parameter")
-                        put(group, k, v, f"{key}: {attr}.{k}")
-                elif hasattr(settings, attr):
-                    put(settings, attr, value, f"{key}: {attr}")
-                else:
-                    raise KeyError(f"--overrides {key}: {attr} is not a setting")
+    def settle(target, values, key, prefix=""):
+        for attr, value in values.items():
+            name = f"{prefix}{attr}"
+            prop = target.bl_rna.properties.get(attr)
+            if prop is None or attr == "rna_type":
+                raise KeyError(f"--overrides {key}: {name} is not a "
+                               f"{'parameter' if prefix else 'setting'}")
+            group = getattr(target, attr)
+            if isinstance(group, bpy.types.PropertyGroup):  # a group of parameters
+                if not isinstance(value, dict):
+                    raise ValueError(
+                        f"--overrides {key}: {name} is a group of settings: give an object "
+                        f'{{"setting": value, ...}}, not {json.dumps(value)}')
+                settle(group, value, key, f"{name}.")
+            elif isinstance(value, dict):
+                raise ValueError(f"--overrides {key}: {name} is a single setting, not a group: "
+                                 "give its value, not an object")
+            elif prop.type == "COLLECTION" or prop.is_readonly:
+                raise ValueError(f"--overrides {key}: {name} cannot be set")
+            else:
+                put(target, attr, value, f"{key}: {name}")
+
+    try:
+        for obj, name in pairs:
+            for key in (f"*/{name}", f"{obj.name}/{name}"):  # the object's own entry wins
+                if key in table:
+                    settle(jobs.settings_of(obj, name), table[key], key)
+    except (KeyError, ValueError):
+        restore_overrides(undo)
+        raise
     return undo
 
 
@@ -151,35 +269,127 @@ def restore_overrides(undo):
         setattr(target, attr, value)
 
 
+class Interrupts:
+    """While bakes run, the first SIGINT (Ctrl-C) or SIGTERM cancels the running bake through
+    BakeRunner.cancel: its recorded frames stay valid and a later ``resume`` continues it; no
+    further target starts. A second signal ends the process at once (what is on disk is still
+    whole: files are renamed into place complete).
+
+    Python runs a signal handler only in the main thread, between bytecodes: the bake runs in
+    a worker thread (run_job) while the main thread waits in short joins, so the handler runs
+    at once and its cancel reaches a long C call through the progress's cancel flag. Without
+    this, Blender's own SIGINT handler only sets a break flag that nothing reads, and SIGTERM
+    kills with no word."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.signum = None
+        self.runner = None
+        self._old = {}
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.SIGNALS:
+                self._old[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, signal.SIG_DFL if old is None else old)  # None: Blender's own
+
+    def _handle(self, signum, frame):
+        name = signal.Signals(signum).name
+        if self.signum is not None:
+            _say(f"hydrobake: {name} again: stopping at once")
+            os._exit(self.code)
+        self.signum = signum
+        if self.runner is not None:
+            self.runner.cancel()
+        _say(f"hydrobake: {name}: cancelling (again to stop at once)")
+
+    @property
+    def code(self):
+        """The conventional exit code of a process stopped by the signal: 128 + its number."""
+        return 128 + self.signum if self.signum else 0
+
+    def run_job(self, job):
+        """Runs the job's bake in a worker thread (as the UI does) until it ends."""
+        self.runner = job.runner
+        try:
+            if self.signum is None:  # a signal during setup: the folder stays as it was
+                job.runner.start()
+                while not job.runner.join(0.1):
+                    pass
+        finally:
+            self.runner = None
+
+
+def _say(line):
+    """Writes a line to stderr from a signal handler: unbuffered, as the handler may have
+    interrupted the main thread inside a print to the same stream."""
+    os.write(2, (line + "\n").encode())
+
+
 def bake(args, resume=False):
+    with Interrupts() as stop:
+        code = _bake(args, resume, stop)
+    return stop.code or code
+
+
+def _bake(args, resume, stop):
     failures = 0
     pairs = targets(args.objects, args.effects)
     undo = apply_overrides(pairs, getattr(args, "overrides", None))
     if not pairs:
         raise KeyError("nothing to bake: no object has an enabled Hydrobake effect "
                        "(use --objects and --effects)")
-    for obj, name in pairs:
+    def not_started(rest):
+        left = ", ".join(f"{o.name}/{n}" for o, n in rest)
+        print(f"hydrobake: not started: {left}", file=sys.stderr, flush=True)
+
+    for i, (obj, name) in enumerate(pairs):
+        if stop.signum:
+            not_started(pairs[i:])
+            break
         t0 = time.monotonic()
         scene = obj.users_scene[0] if obj.users_scene else bpy.context.scene
-        job = jobs.Job(bpy.context, obj, name, frames=args.frames, folder_override=args.output,
-                       threads=args.threads, scene=scene, resume=resume)
+        try:  # a target that cannot be set up is reported; the others still bake
+            job = jobs.Job(bpy.context, obj, name, frames=args.frames,
+                           folder_override=args.output, threads=args.threads, scene=scene,
+                           resume=resume)
+        except Exception as exc:
+            print(f"hydrobake: {obj.name}/{name} failed: {exc}", file=sys.stderr, flush=True)
+            failures += 1
+            continue
         job.runner.on_frame = _print_frame(job, t0)
         jobs.ACTIVE[job.key] = job
         try:
-            job.runner.run()
-        except Exception as exc:  # report every target, then fail
-            print(f"hydrobake: {obj.name}/{name} failed: {exc}", file=sys.stderr, flush=True)
-            failures += 1
+            stop.run_job(job)
         finally:
             job.finalize(bpy.context)
+        s, error = job.runner.state, job.runner.error
+        if s.status == "PENDING":  # never started: a signal came while it was set up
+            not_started(pairs[i:])
+            break
+        if s.status == "CANCELLED" and stop.signum:
+            after = (f"after frame {s.written}" if s.written >= s.frame_start
+                     else "before its first frame")
+            print(f"hydrobake: {obj.name}/{name}: cancelled {after}", file=sys.stderr,
+                  flush=True)
+            continue
+        if error is not None:  # report every target, then fail
+            print(f"hydrobake: {obj.name}/{name} failed: {error}", file=sys.stderr, flush=True)
+            failures += 1
         if job.runner.resumed_from is not None:
             print(f"hydrobake: {obj.name}/{name} resumed after frame {job.runner.resumed_from}",
                   flush=True)
-        print(f"hydrobake: {obj.name}/{name} {job.runner.state.status.lower()} in "
+        print(f"hydrobake: {obj.name}/{name} {s.status.lower()} in "
               f"{time.monotonic() - t0:.1f}s -> {job.folder}", flush=True)
     # Overrides are for this run: the file keeps its own settings (and the bake's wiring).
     restore_overrides(undo)
-    if bpy.data.filepath and not failures and not getattr(args, "no_save", False):
+    if (bpy.data.filepath and not failures and not stop.signum and
+            not getattr(args, "no_save", False)):
         bpy.ops.wm.save_mainfile()  # keeps is_baked and the wiring for renders
     return 1 if failures else 0
 
@@ -189,13 +399,15 @@ def regress(args):
     if args.existing:
         new = args.existing
     else:
-        out = args.output or os.path.join(args.report or bpy.app.tempdir, "bake")
+        out = args.output or os.path.abspath(os.path.join(args.report or bpy.app.tempdir,
+                                                          "bake"))
         args.output, args.no_save = out, True
-        if bake(args):
-            return 1
+        code = bake(args)
+        if code:
+            return code
         # Bakes land in <output>/<blend name>/<object>_<effect>, the golden set's layout.
         stem = os.path.splitext(os.path.basename(bpy.data.filepath))[0] or "untitled"
-        new = os.path.join(out, bpy.path.clean_name(stem))
+        new = os.path.join(out, paths.folder_name(stem))
     report = rg.compare(new, args.golden, rg.load_tolerances(args.tolerances))
     print(rg.summary(report), flush=True)
     if args.report:

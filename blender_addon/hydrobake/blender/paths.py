@@ -1,5 +1,6 @@
 """Where a bake goes: ``<cache folder>/<blend name>/<object>_<effect>/``, so bakes of different
 files, objects and effects never mix."""
+import hashlib
 import os
 
 import bpy
@@ -7,6 +8,17 @@ import bpy
 
 class CacheFolderError(ValueError):
     pass
+
+
+def folder_name(name):
+    """``name`` as a folder name, one folder per name: bpy.path.clean_name's where that leaves
+    the name as it is, else the cleaned name and the first 6 hex digits of the SHA-1 of the
+    raw one. clean_name alone maps "Pool.A" and "Pool_A" (or "Pool A") to one folder, and
+    the second bake of the two would replace the first."""
+    clean = bpy.path.clean_name(name)
+    if clean == name:
+        return clean
+    return f"{clean}_{hashlib.sha1(name.encode('utf-8')).hexdigest()[:6]}"
 
 
 def bake_folder(obj, effect_name, settings, override=None):
@@ -22,8 +34,8 @@ def bake_folder(obj, effect_name, settings, override=None):
             f"'{base}' is relative to it (or set an absolute Cache Folder)")
     root = bpy.path.abspath(base)
     stem = os.path.splitext(os.path.basename(blend))[0] if blend else "untitled"
-    leaf = f"{bpy.path.clean_name(obj.name)}_{effect_name}"
-    return os.path.normpath(os.path.join(root, bpy.path.clean_name(stem), leaf))
+    leaf = f"{folder_name(obj.name)}_{effect_name}"
+    return os.path.normpath(os.path.join(root, folder_name(stem), leaf))
 
 
 def stored(folder, settings, override=None):

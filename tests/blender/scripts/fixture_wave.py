@@ -9,7 +9,7 @@ import numpy as np
 from hydrobake.blender import effects as beffects, registration
 from hydrobake.blender.bridge import images, materials
 from hydrobake.blender.effects.base import BlenderEffect
-from hydrobake.core import effects, errors, image
+from hydrobake.core import effects, errors, image, snow
 from hydrobake.core.effects.base import Effect
 
 
@@ -21,8 +21,24 @@ class WaveEffect(Effect):
         super().__init__(None, inputs)
         self.delay = float((inputs or {}).get("delay", 0.0))
         self.t = 0
+        # Every step after the first spends this many snow substeps in one C call (about
+        # 0.25 ms each), which polls the progress's cancel flag as the effects' long calls do.
+        self.c_substeps = int((inputs or {}).get("c_substeps", 0))
+        self.snow = None
+        if self.c_substeps:
+            self.snow = snow.Snow({"flake_count": 20000, "texture_width": 16,
+                                   "texture_height": 16, "threads": 1})
+            self.snow.set_mesh(np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                                        np.float32), np.array([[0, 1, 2], [0, 2, 3]], np.int32),
+                               np.zeros((2, 3, 2), np.float32))
+
+    def close(self):
+        if self.snow is not None:
+            self.snow.close()
 
     def step(self, frame, progress):
+        if self.snow is not None and self.t:
+            self.snow.step(self.c_substeps, progress)
         end = time.monotonic() + self.delay
         while time.monotonic() < end:
             if progress.cancel:
@@ -46,7 +62,10 @@ class BlenderWave(BlenderEffect):
 
     @classmethod
     def prepare(cls, context, obj, settings, params, frames):
-        return params, {"delay": float(os.environ.get("HBK_FIXTURE_DELAY", cls.delay))}
+        if obj.get("hbk_fixture_fail"):  # a target whose setup fails (the CLI goes on)
+            raise ValueError(f"{obj.name}: the fixture cannot be set up here, on purpose")
+        return params, {"delay": float(os.environ.get("HBK_FIXTURE_DELAY", cls.delay)),
+                        "c_substeps": int(os.environ.get("HBK_FIXTURE_C_SUBSTEPS", 0))}
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):

@@ -1,4 +1,5 @@
-"""Saves a .blend with two objects that have the fixture effect enabled."""
+"""Saves a .blend with two objects that have the fixture effect enabled (Glass and Rear), and
+the further objects named after the file: NAME, or !NAME for one whose bake fails to set up."""
 import os
 
 import bpy
@@ -8,9 +9,12 @@ import fixture_wave
 
 in_blender.enable()
 fixture_wave.install()
-out = in_blender.args()[0]
-for name in ("Glass", "Rear"):
-    in_blender.new_plane(name).hydrobake_testwave.enabled = True
+out, *more = in_blender.args()
+for name in ("Glass", "Rear", *more):
+    obj = in_blender.new_plane(name.lstrip("!"))
+    obj.hydrobake_testwave.enabled = True
+    if name.startswith("!"):
+        obj["hbk_fixture_fail"] = True
 bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 3
 bpy.ops.wm.save_as_mainfile(filepath=out)
 print("SAVED", out)

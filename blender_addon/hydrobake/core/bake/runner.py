@@ -90,7 +90,8 @@ class BakeRunner:
     """Bakes frames [frame_start, frame_end] of ``effect`` into ``folder``.
 
     ``run()`` blocks; ``start()`` runs it in a thread; ``cancel()`` may be called from any
-    thread and takes effect within one C progress poll."""
+    thread and takes effect within one C progress poll (before ``run()``, it leaves the
+    folder as it was)."""
 
     def __init__(self, effect, folder, frame_start, frame_end, header=None, on_frame=None,
                  resume=False, checkpoint_every=10):
@@ -174,8 +175,8 @@ class BakeRunner:
         s = self.state
         return dict(self.header, effect=self.effect.name, streams=list(self.effect.streams),
                     frame_start=s.frame_start, frame_end=s.frame_end,
-                    params=self.effect.params_dict(), seed=self.effect.seed,
-                    hydrobake=_lib.version)
+                    params=self.effect.params_dict(), inputs=self.effect.scalar_inputs(),
+                    seed=self.effect.seed, hydrobake=_lib.version)
 
     def _resume_point(self, header):
         """(manifest, first frame to bake) continuing an earlier bake in the folder: from the
@@ -184,11 +185,15 @@ class BakeRunner:
         m = self.cache.read_manifest()
         if m is None:
             return self.cache.start(header), s.frame_start
-        for key in ("effect", "frame_start", "params"):
-            if _comparable(m.get(key)) != _comparable(header[key]):
+        for key in ("effect", "streams", "frame_start", "params", "inputs"):
+            if key == "inputs" and key not in m:  # a bake from before they were recorded
+                continue
+            diff = _first_difference(_comparable(m.get(key)), _comparable(header[key]),
+                                     "" if key in ("params", "inputs") else key)
+            if diff:
                 raise errors.StateError(
-                    f"cannot resume: {key} differs from the bake in {self.cache.folder} "
-                    f"({_normal(m.get(key))!r} there); free it or bake anew")
+                    f"cannot resume the bake in {self.cache.folder}: {diff}; free it or bake "
+                    "anew")
         self.cache.remove_temporaries(m)
         bad = set(self.cache.verify())
         last = s.frame_start - 1  # last frame of the unbroken run of good frames
@@ -293,6 +298,8 @@ class BakeRunner:
                 self.on_frame(s)
 
         try:
+            if self._cancel.is_set():  # cancelled before it began: the folder stays as it was
+                raise errors.Cancelled("bake cancelled before it started")
             header = self._header()
             if self.resume:
                 manifest, first = self._resume_point(header)
@@ -361,6 +368,31 @@ class BakeRunner:
 def _normal(value):
     """JSON's view of a value (tuples become lists), for comparing with a manifest."""
     return json.loads(json.dumps(value))
+
+
+def _first_difference(there, here, path=""):
+    """"water.gravity: 9.81 in the bake, 5 now" for the first value (in key order) where the
+    manifest's ``there`` and this run's ``here`` differ; "" where they are equal."""
+    if isinstance(there, dict) and isinstance(here, dict):
+        for k in sorted(set(there) | set(here)):
+            sub = f"{path}.{k}" if path else str(k)
+            if k not in there:
+                return f"{sub}: not in the bake, {_show(here[k])} now"
+            if k not in here:
+                return f"{sub}: {_show(there[k])} in the bake, not set now"
+            diff = _first_difference(there[k], here[k], sub)
+            if diff:
+                return diff
+        return ""
+    if there == here:
+        return ""
+    return f"{path or 'value'}: {_show(there)} in the bake, {_show(here)} now"
+
+
+def _show(value):
+    if value is None:
+        return "none"
+    return value if isinstance(value, str) else json.dumps(value)
 
 
 def _comparable(value):

@@ -5,6 +5,18 @@ on a C kernel; the Blender side (blender/effects/) feeds it inputs and wires its
 from .. import errors
 
 
+def plain(value):
+    """``value`` with tuples, numpy arrays and numpy scalars made JSON's lists and numbers
+    (for scalar_inputs)."""
+    if isinstance(value, dict):
+        return {str(k): plain(v) for k, v in value.items()}
+    if hasattr(value, "tolist"):  # numpy arrays and scalars
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    return value
+
+
 class Effect:
     """One effect's simulation for one object.
 
@@ -50,6 +62,13 @@ class Effect:
 
     def params_dict(self):
         return {g: spec.to_dict(self.params[g]) for g, spec in self.groups().items()}
+
+    def scalar_inputs(self):
+        """The inputs besides ``params`` that shape every frame's output, as plain JSON
+        values (e.g. {"map_size": [w, h], "substeps": 2}); arrays taken from the scene are
+        not among them. The runner records them in the manifest beside the parameters, and
+        a resume refuses to continue a bake whose values differ."""
+        return {}
 
     def step(self, frame, progress):
         """Advances the simulation to ``frame``. ``progress`` is the hbk_progress_t to pass to

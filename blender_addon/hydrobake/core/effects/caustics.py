@@ -35,7 +35,7 @@ import numpy as np
 from .. import caustics, errors, image
 from ..water import Water
 from . import register
-from .base import Effect
+from .base import Effect, plain
 
 
 @register
@@ -84,6 +84,15 @@ class CausticsEffect(Effect):
                     f"loop blend = {blend}: must be in [1, {last - first}] (frames in the loop "
                     "minus one)")
             self.loop = (first, last, blend)
+
+    def scalar_inputs(self):
+        """The map size (the panel's Map Resolution), the starting level, the loop and the
+        preview camera: a resume with any of them changed would not continue this bake."""
+        view = None if self.view is None else {
+            "camera": [float(c) for c in self.view["camera"]],
+            "heading": float(self.view.get("heading", 0.0))}
+        return plain({"map_size": self.map_size, "level": self.level, "loop": self.loop,
+                      "view": view})
 
     def step(self, frame, progress):
         if self.loop is not None and self.preroll is None:

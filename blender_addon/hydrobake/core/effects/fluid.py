@@ -36,7 +36,7 @@ import numpy as np
 from .. import arrays, solid_textures
 from ..fluid import Fluid
 from . import register
-from .base import Effect
+from .base import Effect, plain
 
 
 @register
@@ -74,6 +74,12 @@ class FluidEffect(Effect):
         lo, hi = np.array(p.box_min[:]), np.array(p.box_max[:])
         self.cell = (hi - lo) / np.array(p.resolution[:])
         self.origin = lo
+
+    def scalar_inputs(self):
+        """The filled box, its jitter and the obstacles (the SPH's start)."""
+        inp = self.inputs
+        return plain({"fill": inp.get("fill"), "jitter": float(inp.get("jitter", 0.0)),
+                      "obstacles": inp.get("obstacles") or []})
 
     def step(self, frame, progress):
         if frame in self.particles:

@@ -23,7 +23,7 @@ import numpy as np
 from .. import errors, image
 from ..rain import Rain, refraction
 from . import register
-from .base import Effect
+from .base import Effect, plain
 
 
 @register
@@ -44,7 +44,7 @@ class RainEffect(Effect):
         if not 1 <= substeps <= 1000:
             raise errors.InvalidArgument(f"substeps = {substeps}: must be in [1, 1000]")
         self.dt = 1.0 / fps / substeps
-        self.substeps = substeps
+        self.fps, self.substeps = fps, substeps
         self.rain = Rain(self.params_dict()["rain"])
         try:
             if inp.get("gravity_dir") is not None or inp.get("mask") is not None:
@@ -57,6 +57,10 @@ class RainEffect(Effect):
         self.background = inp.get("background")
         if self.background is None:
             self.streams = ("rain", "normal", "height")
+
+    def scalar_inputs(self):
+        """Frames per second and substeps: together the time step."""
+        return plain({"fps": self.fps, "substeps": self.substeps})
 
     def step(self, frame, progress):
         if frame in self.car:
