@@ -166,6 +166,24 @@ def test_empty_selections_are_refused(blender, tmp_path):
     assert not (tmp_path / "hydrobake_cache").exists()
 
 
+def test_bad_threads_and_an_unwritable_file_get_a_message_not_a_traceback(blender, tmp_path):
+    blend = _blend(blender, tmp_path)
+    out = tmp_path / "cache"
+    for value in ("-1", "abc", "2000"):
+        r = blender.run("cli_fixture.py", "bake", "--threads", value, "--output", out,
+                        blend=blend, check=False)
+        assert r.returncode == 2 and f"--threads '{value}': must be an integer in [0, 1024]" \
+            in r.stderr, r.stderr[-2000:]
+    # A .blend that cannot be written (Blender writes '<file>@' first, here a folder; file
+    # modes do not stop root): the bake is on disk, the save failure is one line.
+    os.mkdir(blend + "@")
+    r = blender.run("cli_fixture.py", "bake", "--frames", "1-2", "--output", out,
+                    blend=blend, check=False)
+    assert r.returncode == 1 and "hydrobake: error: could not save" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and "--no-save" in r.stderr
+    assert json.loads((out / "shot" / "Glass_testwave" / "manifest.json").read_text())["complete"]
+
+
 def test_overrides_are_checked_against_keys_shapes_types_and_ranges(blender, tmp_path):
     blend = str(tmp_path / "examples.blend")
     shutil.copy(os.path.join(ROOT, "examples.blend"), blend)

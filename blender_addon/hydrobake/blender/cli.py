@@ -74,6 +74,31 @@ def _folder(text):
     return text if text.startswith("//") else os.path.abspath(text)
 
 
+def _threads(text):
+    """--threads: 0 (every core) to 1024."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = None
+    if n is None or not 0 <= n <= 1024:
+        raise argparse.ArgumentTypeError(f"--threads {text!r}: must be an integer in [0, 1024] "
+                                         "(0 = every core)")
+    return n
+
+
+def _save():
+    """Saves the .blend (the bake's record and wiring); a file that cannot be written is
+    reported, not a traceback: the bake itself is on disk."""
+    try:
+        bpy.ops.wm.save_mainfile()
+    except RuntimeError as exc:
+        print(f"hydrobake: error: could not save {bpy.data.filepath}: "
+              f"{str(exc).strip().splitlines()[-1]} (pass --no-save to leave it as it is)",
+              file=sys.stderr, flush=True)
+        return False
+    return True
+
+
 def parser():
     p = argparse.ArgumentParser(prog="hydrobake", description="Hydrobake batch baking")
     sub = p.add_subparsers(dest="command", required=True)
@@ -89,7 +114,7 @@ def parser():
             s.add_argument("--output", type=_folder,
                            help="cache folder override (a relative one is taken from the "
                                 "current folder)")
-            s.add_argument("--threads", type=int, default=None,
+            s.add_argument("--threads", type=_threads, default=None,
                            help="threads (0 = all cores); results do not depend on it")
             s.add_argument("--overrides", help="JSON file of parameters for this run only")
             s.add_argument("--no-save", action="store_true",
@@ -389,8 +414,8 @@ def _bake(args, resume, stop):
     # Overrides are for this run: the file keeps its own settings (and the bake's wiring).
     restore_overrides(undo)
     if (bpy.data.filepath and not failures and not stop.signum and
-            not getattr(args, "no_save", False)):
-        bpy.ops.wm.save_mainfile()  # keeps is_baked and the wiring for renders
+            not getattr(args, "no_save", False)) and not _save():
+        return 1  # keeps is_baked and the wiring for renders, when it can
     return 1 if failures else 0
 
 
@@ -423,8 +448,8 @@ def free(args):
     for obj, name in targets(args.objects, args.effects):
         removed = jobs.free(bpy.context, obj, name)
         print(f"hydrobake: {obj.name}/{name} freed {len(removed)} files", flush=True)
-    if bpy.data.filepath:
-        bpy.ops.wm.save_mainfile()
+    if bpy.data.filepath and not _save():
+        return 1
     return 0
 
 
