@@ -8,7 +8,7 @@ from hydrobake_paths import ROOT
 GOLDEN = os.path.join(ROOT, "tests", "golden")
 
 
-def _regress(blender, tmp_path, overrides, name):
+def _regress(blender, tmp_path, overrides, name, *select):
     blend = tmp_path / "examples.blend"  # the golden set's folder is named after the file
     if not blend.exists():
         shutil.copy(os.path.join(ROOT, "examples.blend"), blend)
@@ -16,7 +16,8 @@ def _regress(blender, tmp_path, overrides, name):
     return blender.run("cli.py", "regress", "--golden", os.path.join(GOLDEN, "examples"),
                        "--frames", "1-2", "--overrides", overrides, "--tolerances",
                        os.path.join(GOLDEN, "tolerances.json"), "--report", report,
-                       "--output", tmp_path / f"bake_{name}", blend=str(blend), check=False), \
+                       "--output", tmp_path / f"bake_{name}", *select, blend=str(blend),
+                       check=False), \
         report
 
 
@@ -39,3 +40,12 @@ def test_a_changed_setting_is_caught(blender, tmp_path):
     assert "FAIL Water_caustics/caustics_0001.exr" in r.stdout
     assert "FAIL Water_caustics/water_0001.exr" not in r.stdout  # absorption is light only
     assert "Water_caustics" in (report / "report.html").read_text()
+
+
+def test_a_selection_is_compared_with_its_part_of_the_golden_set(blender, tmp_path):
+    r, report = _regress(blender, tmp_path, os.path.join(GOLDEN, "overrides.json"), "part",
+                         "--objects", "Water", "--effects", "caustics")
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
+    rep = json.loads((report / "report.json").read_text())
+    assert rep["passed"] and {f["bake"] for f in rep["files"]} == {"Water_caustics"}
+    assert len(rep["files"]) == 2 * 4 and not rep["problems"], rep["problems"]

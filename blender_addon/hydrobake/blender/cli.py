@@ -433,7 +433,11 @@ def regress(args):
         # Bakes land in <output>/<blend name>/<object>_<effect>, the golden set's layout.
         stem = os.path.splitext(os.path.basename(bpy.data.filepath))[0] or "untitled"
         new = os.path.join(out, paths.folder_name(stem))
-    report = rg.compare(new, args.golden, rg.load_tolerances(args.tolerances))
+    # With a selection, only the selected bakes (the rest of the golden set was not baked).
+    only = None if not (args.objects or args.effects) else {
+        f"{paths.folder_name(obj.name)}_{name}" for obj, name in
+        targets(args.objects, args.effects)}
+    report = rg.compare(new, args.golden, rg.load_tolerances(args.tolerances), only=only)
     print(rg.summary(report), flush=True)
     if args.report:
         rg.write_report(report, args.report)

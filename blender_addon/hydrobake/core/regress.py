@@ -143,12 +143,15 @@ def bake_folders(root):
     return out
 
 
-def compare(new_root, golden_root, tolerances=None):
-    """The report: a dict with one entry per file and the overall verdict."""
+def compare(new_root, golden_root, tolerances=None, only=None):
+    """The report: a dict with one entry per file and the overall verdict. only: the bake
+    folders (relative to the roots, '<object>_<effect>') to compare; None = every golden one."""
     tolerances = tolerances or DEFAULT_TOLERANCES
     report = {"new": os.path.abspath(new_root), "golden": os.path.abspath(golden_root),
               "files": [], "problems": []}
     golden_bakes = bake_folders(golden_root)
+    if only is not None:
+        golden_bakes = [rel for rel in golden_bakes if rel in set(only)]
     if not golden_bakes:
         report["problems"].append(f"no bake (manifest.json) under golden {golden_root}")
     for rel in golden_bakes:
