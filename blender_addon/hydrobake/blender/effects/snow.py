@@ -1,11 +1,15 @@
-"""Snow in Blender: the object's evaluated mesh (world space, its active UV map) is the target;
-objects in a collider collection shelter it; each material says how well it catches snow and
-whether it melts or sheds flakes. The coverage and depth sequences are mixed into every
-material of the object non-destructively (Free Bake takes them out again)."""
+"""Snow in Blender: the object's evaluated mesh (its shape at the current frame, moved by its
+animation over the bake's frames; its active UV map, or in BOX mode a projection of its own)
+is the target; objects in a collider collection shelter it; each material says how well it
+catches snow and whether it melts or sheds flakes. The coverage and depth sequences are
+mixed into every material of the object non-destructively (Free Bake takes them out
+again)."""
+import math
+
 import bpy
 import numpy as np
 
-from ..bridge import frame_meshes, images, materials, mesh_data, points
+from ..bridge import animation, frame_meshes, images, materials, mesh_data, points
 from . import register_effect
 from .base import BlenderEffect
 
@@ -37,14 +41,24 @@ class HYDROBAKE_PG_snow_material(bpy.types.PropertyGroup):
         description="Moving surface (spinning tyres): flakes are thrown off and leave no snow")
 
 
+# An empty slot 0 gets a new node material from Bake (ensure_material), whose Principled BSDF
+# has Blender's default roughness 0.5 and metallic 0: the slot catches what that one will.
+EMPTY_SLOT_CATCH = 0.5 * 0.5 * (1.0 - 0.0)
+
+
 def catch_of(mat):
     if mat is None:
-        return 0.0, False, False
+        return EMPTY_SLOT_CATCH, False, False
     s = mat.hydrobake_snow
     if s.catch == "CUSTOM":
         c = s.catch_chance
     elif s.catch == "ROUGHNESS":
-        bsdf = materials.principled(mat.node_tree) if mat.use_nodes and mat.node_tree else None
+        # Nodes Bake turned on (use_nodes) in the user's material hold a default Principled
+        # BSDF: the material is still the one its viewport values describe, as before the
+        # first bake. (One Bake made has nothing else: its Principled BSDF it is.)
+        nodes = mat.use_nodes and mat.node_tree and (
+            materials.NODES_WERE_OFF not in mat or materials.MADE in mat)
+        bsdf = materials.principled(mat.node_tree) if nodes else None
         rough = bsdf.inputs["Roughness"].default_value if bsdf else mat.roughness
         metal = bsdf.inputs["Metallic"].default_value if bsdf else mat.metallic
         c = 0.5 * rough * (1.0 - metal)
@@ -85,6 +99,33 @@ def _flake_material():
     return mat
 
 
+def _is_box(contact_mode):
+    """Contact Mode BOX, as the settings (1) or an override ("BOX") give it."""
+    return contact_mode == 1 or str(contact_mode).upper() == "BOX"
+
+
+def _may_move(obj):
+    """Whether the object's world matrix may change from frame to frame: it or a parent is
+    animated (action, NLA, drivers), constrained, a rigid body, or parented to a bone or to
+    vertices. (A frame change handler moving it is not seen.)"""
+    while obj is not None:
+        ad = obj.animation_data
+        if ad is not None and (ad.action is not None or len(ad.drivers) or
+                               len(ad.nla_tracks)):
+            return True
+        if len(obj.constraints) or obj.rigid_body is not None or obj.parent_type != "OBJECT":
+            return True
+        obj = obj.parent
+    return False
+
+
+def _corners(points):
+    """The 8 corners of the bounding box of (N, 3) points."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                     for z in (lo[2], hi[2])], np.float64)
+
+
 def _unwire(tree):
     """Takes the snow out of a material: its surface shader back where the mix was."""
     mix = materials.tagged(tree, "snow.mix")
@@ -93,6 +134,108 @@ def _unwire(tree):
         for link in list(mix.outputs["Shader"].links):
             tree.links.new(src, link.to_socket)
     materials.remove_tagged(tree, "snow.")
+
+
+class _Nodes:
+    """Builds a node tree by expressions: each call adds a node and returns its (first enabled)
+    output socket; an argument is a socket to link or a value to set."""
+
+    def __init__(self, tree):
+        self.tree = tree
+
+    def node(self, idname, *args, **props):
+        n = self.tree.nodes.new(idname)
+        for k, v in props.items():
+            setattr(n, k, v)
+        ins = [s for s in n.inputs if s.enabled]
+        for sock, a in zip(ins, args):
+            if isinstance(a, bpy.types.NodeSocket):
+                self.tree.links.new(a, sock)
+            else:
+                sock.default_value = a
+        return n
+
+    def __call__(self, idname, *args, **props):
+        return next(s for s in self.node(idname, *args, **props).outputs if s.enabled)
+
+    def math(self, op, a, b):
+        return self("ShaderNodeMath", a, b, operation=op)
+
+    def vmath(self, op, a, b=(0.0, 0.0, 0.0)):
+        return self("ShaderNodeVectorMath", a, b, operation=op)
+
+    def compare(self, op, a, b):
+        return self("FunctionNodeCompare", a, b, data_type="FLOAT", operation=op)
+
+    def boolean(self, op, a, b):
+        return self("FunctionNodeBooleanMath", a, b, operation=op)
+
+    def switch(self, kind, cond, if_false, if_true):
+        return self("GeometryNodeSwitch", cond, if_false, if_true, input_type=kind)
+
+    def separate(self, v):
+        return [s for s in self.node("ShaderNodeSeparateXYZ", v).outputs]
+
+    def combine(self, x, y, z):
+        return self("ShaderNodeCombineXYZ", x, y, z)
+
+    def transform(self, v, m, offset=None):
+        """m (3 x 3 or more) @ v (+ offset)."""
+        out = self.combine(*[self.vmath("DOT_PRODUCT", v, tuple(map(float, m[k][:3])))
+                             for k in range(3)])
+        return out if offset is None else self.vmath("ADD", out, tuple(map(float, offset)))
+
+
+def _box_nodes(group, attr, matrix, normal_matrix, lo, inv_size, tile_u, tile_v):
+    """Fills ``group`` (Geometry Nodes) with BOX mode's projection, as hbk_snow.h lays the
+    atlas out: a face corner's world position (``matrix`` @ local) in its slot's box
+    (``lo``, ``inv_size`` per slot), on the tile its world normal (``normal_matrix`` @
+    local) points to most; stored as the corner attribute ``attr`` = (u, v, 0).
+    ``tile_u``, ``tile_v``: a tile's share of a block's width and height."""
+    tree = group
+    tree.nodes.clear()
+    if not tree.inputs:
+        tree.inputs.new("NodeSocketGeometry", "Geometry")
+    if not tree.outputs:
+        tree.outputs.new("NodeSocketGeometry", "Geometry")
+    N = _Nodes(tree)
+    slots = len(lo)
+    geo_in = N("NodeGroupInput")
+    world = N.transform(N("GeometryNodeInputPosition"), matrix, matrix[:3, 3])
+    face_normal = N("GeometryNodeFieldOnDomain", N("GeometryNodeInputNormal"), domain="FACE",
+                    data_type="FLOAT_VECTOR")
+    normal = N.transform(face_normal, normal_matrix)
+    b = N.math("MINIMUM", N.math("MAXIMUM", N("GeometryNodeInputMaterialIndex"), 0.0),
+               float(slots - 1))  # as prepare clips it
+    box_lo, box_inv = tuple(lo[0]), tuple(inv_size[0])
+    for k in range(1, slots):
+        here = N.compare("EQUAL", b, float(k))
+        box_lo = N.switch("VECTOR", here, box_lo, tuple(lo[k]))
+        box_inv = N.switch("VECTOR", here, box_inv, tuple(inv_size[k]))
+    qx, qy, qz = N.separate(N.vmath("MULTIPLY", N.vmath("SUBTRACT", world, box_lo), box_inv))
+    ax, ay, az = N.separate(N.vmath("ABSOLUTE", normal))
+    nx, ny, nz = N.separate(normal)
+    # The dominant axis, the first of equals (as numpy's argmax): x, else y, else z.
+    is_x = N.boolean("AND", N.compare("GREATER_EQUAL", ax, ay),
+                     N.compare("GREATER_EQUAL", ax, az))
+    is_y = N.boolean("NIMPLY", N.compare("GREATER_EQUAL", ay, az), is_x)
+    up = N.compare("GREATER_THAN", N.switch("FLOAT", is_x, N.switch("FLOAT", is_y, nz, ny),
+                                            nx), 0.0)
+    # The face's (u, v) axes as hbk_snow.h lists them: +X (+Y, +Z), -X (-Y, +Z), +Y (-X, +Z),
+    # -Y (+X, +Z), +Z (+X, +Y), -Z (+X, -Y).
+    ux = N.switch("FLOAT", up, N.math("SUBTRACT", 1.0, qy), qy)  # also v on the Z faces
+    uy = N.switch("FLOAT", up, qx, N.math("SUBTRACT", 1.0, qx))
+    u = N.switch("FLOAT", is_x, N.switch("FLOAT", is_y, qx, uy), ux)
+    v = N.switch("FLOAT", N.boolean("OR", is_x, is_y), ux, qz)
+    column = N.switch("FLOAT", is_x, N.switch("FLOAT", is_y, 2.0, 1.0), 0.0)
+    atlas = N.combine(N.math("MULTIPLY", N.math("ADD", column, u), tile_u),
+                      N.math("DIVIDE", N.math("ADD", b, N.math("MULTIPLY", N.math(
+                          "ADD", up, v), tile_v)), float(slots)), 0.0)
+    store = N("GeometryNodeStoreNamedAttribute", geo_in, attr, data_type="FLOAT_VECTOR",
+              domain="CORNER")
+    tree.links.new(atlas, next(s for s in store.node.inputs if s.enabled and
+                               s.type == "VECTOR"))
+    N.node("NodeGroupOutput", store)
 
 
 @register_effect
@@ -146,10 +289,16 @@ class SnowBlender(BlenderEffect):
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
         dg = context.evaluated_depsgraph_get()
-        pos, tris, uvs, mi = mesh_data.triangles(obj, dg)
+        sp = params["snow"]
+        box = _is_box(sp["contact_mode"])
+        pos, tris, uvs, mi = mesh_data.triangles(obj, dg, world=False)
         if uvs is None:
-            raise ValueError(f"{obj.name}: needs a UV map (the snow textures live in UV space)")
-        slots = [catch_of(s.material) for s in obj.material_slots] or [(0.0, False, False)]
+            if not box:
+                raise ValueError(f"{obj.name}: needs a UV map (the snow textures live in UV "
+                                 "space), or Contact Mode BOX (which makes its own)")
+            uvs = np.zeros((len(tris), 3, 2), np.float32)  # BOX mode does not read them
+        slots = [catch_of(s.material) for s in obj.material_slots] or [catch_of(None)]
+        movers = [obj]
         parts = [(pos, tris, uvs, mi)]
         n = len(pos)
         if settings.colliders:
@@ -158,17 +307,39 @@ class SnowBlender(BlenderEffect):
             for o in settings.colliders.all_objects:
                 if o.type != "MESH" or o == obj:
                     continue
-                p, t, _, _ = mesh_data.triangles(o, dg)
+                p, t, _, _ = mesh_data.triangles(o, dg, world=False)
+                movers.append(o)
                 parts.append((p, t + n, np.zeros((len(t), 3, 2), np.float32),
                               np.full(len(t), shelter, np.int32)))
                 n += len(p)
-        pos = np.concatenate([p[0] for p in parts])
         tris = np.concatenate([p[1] for p in parts])
         uvs = np.concatenate([p[2] for p in parts])
         mi = np.clip(np.concatenate([p[3] for p in parts]), 0, len(slots) - 1)
-        sp = params["snow"]
+        # Each object's world matrix over the bake's frames, not the frame the scene is on:
+        # the object (and a collider) may move. Shapes are taken at the current frame.
+
+        def matrices(f=None):
+            return np.array([np.array(o.matrix_world, np.float64) for o in movers])
+        if any(_may_move(o) for o in movers):
+            mats = animation.per_frame(scene, frames[0], frames[1], matrices)
+        else:  # nothing animates a matrix: no need to step the scene through the range
+            here = matrices()
+            mats = {f: here for f in range(frames[0], frames[1] + 1)}
+        first = mats[frames[0]]
+        moving = any(not np.array_equal(m, first) for m in mats.values())
+        inputs = {}
+        if moving:  # rest positions in each object's own space, moved every frame
+            pos = np.concatenate([p[0] for p in parts])
+            inputs.update(transforms=mats, part_vertices=[len(p[0]) for p in parts])
+            boxes = [(k, _corners(p[0])) for k, p in enumerate(parts) if len(p[0])]
+            reach = np.concatenate([c @ m[k][:3, :3].T + m[k][:3, 3] for m in mats.values()
+                                    for k, c in boxes])  # every part's box on every frame
+        else:  # in world space once
+            pos = np.concatenate([(p[0] @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+                                  for p, m in zip(parts, first)])
+            reach = pos
         if settings.auto_volume:
-            lo, hi = pos.min(axis=0), pos.max(axis=0)
+            lo, hi = reach.min(axis=0), reach.max(axis=0)
             height = float(hi[2] - lo[2]) + 1.5
             wind = np.array(sp["wind"][:2], np.float64)
             drift = np.abs(wind) * height / max(sp["fall_speed"], 0.05)
@@ -177,76 +348,128 @@ class SnowBlender(BlenderEffect):
                                 float(lo[2]) - 0.05)
             sp["volume_max"] = (float(hi[0] + margin[0]), float(hi[1] + margin[1]),
                                 float(hi[2]) + 1.5)
-        fps = scene.render.fps / scene.render.fps_base
-        substeps = max(1, int(round(1.0 / fps / sp["time_step"])))
-        return params, dict(positions=pos, triangles=tris, uvs=uvs, material_index=mi,
-                            materials=slots, substeps=substeps, flakes=settings.write_flakes)
-
-    # --- wiring -------------------------------------------------------------------------
-    BOX_UV = "HBK_SnowBox"
+        sp["time_step"], substeps = cls.substeps(scene, sp["time_step"])
+        inputs.update(positions=pos, triangles=tris, uvs=uvs, material_index=mi,
+                      materials=slots, substeps=substeps, flakes=settings.write_flakes)
+        return params, inputs
 
     @classmethod
-    def _box_uvs(cls, obj, snow, slots):
-        """The paper's projection back onto the model (§3.3.2) for BOX mode, as a UV map:
-        each face takes the tile of its part's box that faces its normal's dominant axis, in
-        the atlas layout of hbk_snow.h (a block per material slot, six tiles per block)."""
-        mesh = obj.data
-        m = np.array(obj.matrix_world, np.float64)
-        co = np.empty(len(mesh.vertices) * 3)
-        mesh.vertices.foreach_get("co", co)
-        co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-        mi = np.array([p.material_index for p in mesh.polygons])
-        lo = np.zeros((slots, 3))
-        hi = np.ones((slots, 3))
+    def substeps(cls, scene, time_step):
+        """(substep length, substeps per frame): a frame advances exactly 1/fps of scene time,
+        in as many substeps as come nearest the Time Step, each shortened or lengthened a
+        little to add up to the frame (and kept within the parameter's range)."""
+        frame_time = scene.render.fps_base / scene.render.fps
+        spec = cls.core_class().groups()["snow"].by_name["time_step"]
+        lo = max(1, math.ceil(frame_time / spec.max))
+        hi = max(lo, math.floor(frame_time / spec.min))
+        n = min(max(int(round(frame_time / time_step)), lo), hi)
+        return frame_time / n, n
+
+    # --- wiring -------------------------------------------------------------------------
+    BOX_ATTR = "HBK_SnowBox"  # BOX mode: atlas coordinates per face corner (x, y; z = 0)
+    BOX_MODIFIER = "HBK Snow Box"
+
+    @classmethod
+    def _box_projection(cls, context, obj, snow, slots, matrix):
+        """The paper's projection back onto the model (§3.3.2) for BOX mode: each face takes
+        the tile of its part's box that faces its normal's dominant axis, in the atlas layout
+        of hbk_snow.h (a block per material slot, six tiles per block). A Geometry Nodes
+        modifier, last in the stack, stores the atlas coordinates as the face corner attribute
+        BOX_ATTR on the evaluated mesh, so faces that modifiers make (Mirror, Array) take
+        their own tile where they are, as the simulation saw them. The boxes are measured
+        as the bake did, on the evaluated mesh with the world ``matrix`` (of the bake's first
+        frame); normals turn by its inverse transpose (with a non-uniform scale, the matrix
+        itself tilts them)."""
+        m = np.asarray(matrix, np.float64)
+        pos, tris, _, mi = mesh_data.triangles(obj, context.evaluated_depsgraph_get(),
+                                               world=False)
+        world = pos @ m[:3, :3].T + m[:3, 3]
+        mi = np.clip(mi, 0, slots - 1)  # as prepare clips them
+        lo, hi = np.zeros((slots, 3)), np.ones((slots, 3))
         for b in range(slots):
-            vs = [v for p in mesh.polygons if p.material_index == b for v in p.vertices]
-            if vs:
-                lo[b], hi[b] = co[vs].min(axis=0), co[vs].max(axis=0)
-        size = np.maximum(hi - lo, 1e-9)
+            vs = tris[mi == b].ravel()
+            if len(vs):
+                lo[b], hi[b] = world[vs].min(axis=0), world[vs].max(axis=0)
+        inv_size = 1.0 / np.maximum(hi - lo, 1e-6)  # hbk_snow's floor for a flat part
+        try:
+            normal_matrix = np.linalg.inv(m[:3, :3]).T
+        except np.linalg.LinAlgError:  # a zero scale: flat, the pseudo-inverse still orients
+            normal_matrix = np.linalg.pinv(m[:3, :3]).T
         w, h = snow.texture_width, snow.texture_height
-        tw, th = w // 3, h // 2
-        uv = mesh.uv_layers.get(cls.BOX_UV) or mesh.uv_layers.new(name=cls.BOX_UV)
-        nrm = np.array([tuple(m[:3, :3] @ np.array(p.normal)) for p in mesh.polygons])
-        for p, n, b in zip(mesh.polygons, nrm, mi):
-            axis = int(np.argmax(np.abs(n)))
-            pos = n[axis] > 0
-            for li in p.loop_indices:
-                q = (co[mesh.loops[li].vertex_index] - lo[b]) / size[b]
-                u, v = {  # the face's (u, v) axes as hbk_snow.h lists them
-                    (0, True): (q[1], q[2]), (0, False): (1 - q[1], q[2]),
-                    (1, True): (1 - q[0], q[2]), (1, False): (q[0], q[2]),
-                    (2, True): (q[0], q[1]), (2, False): (q[0], 1 - q[1])}[(axis, pos)]
-                uv.data[li].uv = ((axis * tw + u * tw) / w,
-                                  (b * h + (1 if pos else 0) * th + v * th) / (h * slots))
-        return cls.BOX_UV
+        name = f"HBK_{obj.name}_SnowBox"
+        group = bpy.data.node_groups.get(name) or bpy.data.node_groups.new(
+            name, "GeometryNodeTree")
+        _box_nodes(group, cls.BOX_ATTR, m, normal_matrix, lo, inv_size, (w // 3) / w,
+                   (h // 2) / h)
+        mod = obj.modifiers.get(cls.BOX_MODIFIER)  # an earlier bake's (it moves no vertex)
+        if mod is not None and obj.modifiers[-1] != mod:  # after modifiers added since
+            obj.modifiers.remove(mod)
+            mod = None
+        if mod is None:
+            mod = obj.modifiers.new(cls.BOX_MODIFIER, "NODES")
+        old, mod.node_group = mod.node_group, group
+        if old is not None and old != group and old.users == 0:  # named after an old name
+            bpy.data.node_groups.remove(old)
+        return cls.BOX_ATTR
+
+    @classmethod
+    def _remove_box(cls, obj):
+        """Takes out BOX mode's modifier and node group (and the UV map earlier versions
+        made)."""
+        mod = obj.modifiers.get(cls.BOX_MODIFIER)
+        if mod is not None:
+            group = mod.node_group
+            obj.modifiers.remove(mod)
+            if group is not None and group.users == 0:
+                bpy.data.node_groups.remove(group)
+        if obj.type == "MESH" and cls.BOX_ATTR in obj.data.uv_layers:
+            obj.data.uv_layers.remove(obj.data.uv_layers[cls.BOX_ATTR])
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):
         frames = sorted(int(f) for f in manifest["frames"])
         uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
-        if manifest["params"]["snow"]["contact_mode"] == 1:  # BOX: the atlas, not the UVs
-            slots = len(obj.material_slots) + (1 if settings.colliders else 0)
-            uv = cls._box_uvs(obj, settings.snow, max(slots, 1))
+        box = _is_box(manifest["params"]["snow"]["contact_mode"])
+        if box:  # the atlas, not the UVs
+            # As many blocks as prepare gave slots: at least one, and the colliders' own.
+            slots = max(len(obj.material_slots), 1) + (1 if settings.colliders else 0)
+            # The boxes as the bake measured them on its first frame, wherever the object is
+            # now.
+            matrix = animation.per_frame(context.scene, frames[0], frames[0], lambda f:
+                                         np.array(obj.matrix_world, np.float64))[frames[0]]
+            cls._box_projection(context, obj, settings.snow, slots, matrix)
+        else:
+            cls._remove_box(obj)  # an earlier BOX bake's
+        if not obj.material_slots or obj.material_slots[0].material is None:
+            # Snow needs a material to be mixed into: a new one (Free Bake takes it away).
+            materials.ensure_material(obj, f"HBK_{obj.name}_snow")
         for index in range(len(obj.material_slots)):
             mat = obj.material_slots[index].material
-            if mat is None or not mat.use_nodes or mat.hydrobake_snow.melts or \
-                    mat.hydrobake_snow.sheds:
+            if mat is None or mat.hydrobake_snow.melts or mat.hydrobake_snow.sheds:
                 continue
             mat = materials.own(obj, index, _unwire)
+            materials.use_nodes(mat)  # Free Bake turns them off again
             tree = mat.node_tree
             out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and
                         n.is_active_output), None)
             if out is None or not out.inputs["Surface"].is_linked:
                 continue
             x, y = out.location
-            uvn = materials.add_node(tree, "ShaderNodeUVMap", "snow.uv", (x - 900, y - 300))
-            uvn.uv_map = uv
+            if box:
+                uvn = materials.add_node(tree, "ShaderNodeAttribute", "snow.uv",
+                                         (x - 900, y - 300))
+                uvn.attribute_type, uvn.attribute_name = "GEOMETRY", cls.BOX_ATTR
+                uv_out = uvn.outputs["Vector"]
+            else:
+                uvn = materials.add_node(tree, "ShaderNodeUVMap", "snow.uv", (x - 900, y - 300))
+                uvn.uv_map = uv
+                uv_out = uvn.outputs["UV"]
             cov = materials.add_node(tree, "ShaderNodeTexImage", "snow.coverage",
                                      (x - 700, y - 300))
             cov.image = images.load_sequence(folder, "coverage", frames[0], len(frames),
                                              name=f"HBK_{obj.name}_snow_coverage")
             images.configure_user(cov.image_user, frames[0], len(frames))
-            tree.links.new(uvn.outputs["UV"], cov.inputs["Vector"])
+            tree.links.new(uv_out, cov.inputs["Vector"])
             white = materials.add_node(tree, "ShaderNodeBsdfPrincipled", "snow.bsdf",
                                        (x - 450, y - 450))
             white.inputs["Base Color"].default_value = (0.92, 0.94, 0.97, 1.0)
@@ -255,7 +478,9 @@ class SnowBlender(BlenderEffect):
             white.inputs["Subsurface Color"].default_value = (0.8, 0.9, 1.0, 1.0)
             mix = materials.add_node(tree, "ShaderNodeMixShader", "snow.mix", (x - 200, y))
             surface = out.inputs["Surface"].links[0].from_socket
-            if surface.node is not mix:
+            # A re-bake (or Resume) finds its own mix there. Blender hands out a new wrapper
+            # for a node at every access: compare with ==, never with `is`.
+            if surface.node != mix:
                 tree.links.new(surface, mix.inputs[1])
             tree.links.new(cov.outputs["Alpha"], mix.inputs["Fac"])
             tree.links.new(white.outputs["BSDF"], mix.inputs[2])
@@ -269,9 +494,10 @@ class SnowBlender(BlenderEffect):
                 dep.image = images.load_sequence(folder, "depth", frames[0], len(frames),
                                                  name=f"HBK_{obj.name}_snow_depth")
                 images.configure_user(dep.image_user, frames[0], len(frames))
-                tree.links.new(uvn.outputs["UV"], dep.inputs["Vector"])
+                tree.links.new(uv_out, dep.inputs["Vector"])
                 disp = materials.add_node(tree, "ShaderNodeDisplacement", "snow.displacement",
                                           (x - 300, y - 600))
+                disp.space = "WORLD"  # the depth is in metres, whatever the object's scale
                 disp.inputs["Midlevel"].default_value = 0.0
                 disp.inputs["Scale"].default_value = 1.0
                 tree.links.new(dep.outputs["Color"], disp.inputs["Height"])
@@ -287,12 +513,14 @@ class SnowBlender(BlenderEffect):
     @classmethod
     def remove(cls, context, obj, settings):
         frame_meshes.detach(f"HBK_{cls.baked_name(obj, settings)}_flakes")
-        if obj.type == "MESH" and cls.BOX_UV in obj.data.uv_layers:
-            obj.data.uv_layers.remove(obj.data.uv_layers[cls.BOX_UV])
-        for slot in obj.material_slots:
-            if slot.material is not None and slot.material.node_tree:
-                _unwire(slot.material.node_tree)
+        cls._remove_box(obj)
+        for mat in {s.material for s in obj.material_slots if s.material is not None}:
+            if mat.node_tree:
+                _unwire(mat.node_tree)
+            materials.give_back(obj, mat, "snow.")  # nodes switched on, a material made
         materials.restore(obj, "snow.")
+        for stream in ("coverage", "depth"):
+            images.remove(f"HBK_{cls.baked_name(obj, settings)}_snow_{stream}")
 
     @classmethod
     def draw_settings(cls, layout, settings):

@@ -7,7 +7,10 @@ Inputs:
     uvs            (T, 3, 2) float32 UV per triangle corner (TRIANGLES mode)
     material_index (T,) int32 material slot per triangle
     materials      [(catch_chance, melts, sheds)] per slot
-    transforms     {frame: (4, 4) matrix} rigid motion applied to positions (optional)
+    transforms     {frame: (4, 4) matrix} rigid motion applied to positions (optional);
+                   with part_vertices, {frame: (P, 4, 4)}: one matrix per part
+    part_vertices  (P,) int vertex counts of consecutive parts of positions (objects that
+                   move each their own way: a person and the roof over them); optional
     substeps       solver steps per frame (default 1)
     flakes         True to also write the falling flakes as points per frame
 
@@ -21,7 +24,7 @@ import numpy as np
 from .. import errors
 from ..snow import Snow
 from . import register
-from .base import Effect
+from .base import Effect, plain
 
 
 @register
@@ -49,6 +52,7 @@ class SnowEffect(Effect):
                                              "[1, 100000]")
             self.snow.set_materials(inp.get("materials") or [(0.0, False, False)])
             self.transforms = inp.get("transforms") or {}
+            self.parts = self._parts(inp.get("part_vertices"))
             self._set_mesh(None)
         except BaseException:
             self.snow.close()
@@ -57,12 +61,42 @@ class SnowEffect(Effect):
         if not self.with_flakes:
             self.streams = ("coverage", "depth")
 
+    def scalar_inputs(self):
+        """Substeps per frame, the material slots' sticking and whether flakes are written."""
+        materials = self.inputs.get("materials") or [(0.0, False, False)]
+        return plain({"substeps": self.substeps, "flakes": self.with_flakes,
+                      "materials": [[float(c), bool(m), bool(s)] for c, m, s in materials]})
+
+    def _parts(self, counts):
+        """Vertex ranges [(start, end)] the per-part transforms move; None: one for all."""
+        if counts is None:
+            for f, m in self.transforms.items():
+                if np.shape(m) != (4, 4):
+                    raise errors.InvalidArgument(f"transforms[{f}]: shape {np.shape(m)}, need "
+                                                 "(4, 4) (or part_vertices)")
+            return None
+        counts = [int(c) for c in counts]
+        if any(c < 0 for c in counts) or sum(counts) != len(self.positions):
+            raise errors.InvalidArgument(f"part_vertices: {counts} must be counts adding up to "
+                                         f"the {len(self.positions)} positions")
+        for f, m in self.transforms.items():
+            if np.shape(m) != (len(counts), 4, 4):
+                raise errors.InvalidArgument(f"transforms[{f}]: shape {np.shape(m)}, need "
+                                             f"({len(counts)}, 4, 4), one per part")
+        ends = np.cumsum(counts)
+        return list(zip((ends - counts).tolist(), ends.tolist()))
+
     def _set_mesh(self, frame):
         pos = self.positions
         m = self.transforms.get(frame)
         if m is not None:
             m = np.asarray(m, np.float64)
-            pos = (pos.astype(np.float64) @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+            if self.parts is None:
+                pos = (pos.astype(np.float64) @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+            else:
+                pos = np.concatenate([
+                    (pos[a:b].astype(np.float64) @ mk[:3, :3].T + mk[:3, 3]).astype(np.float32)
+                    for (a, b), mk in zip(self.parts, m)])
         self.snow.set_mesh(pos, self.triangles, self.inputs.get("uvs"),
                            self.inputs.get("material_index"))
 
