@@ -199,3 +199,49 @@ def test_resume_removes_what_the_killed_bake_was_writing(reference, tmp_path):
     assert not any((folder / n).exists() for n in left)
     assert (folder / "notes.txt").exists() and (folder / ".notes.txt.tmp-4242-20").exists()
     assert files(folder) == files(reference)
+
+
+def test_resume_never_shortens_a_bake(reference, tmp_path):
+    """Resuming a 1-12 bake to frame 6 would drop six good frames: refused, nothing touched."""
+    folder = tmp_path / "bake"
+    shutil.copytree(reference, folder)
+    before = {n: (folder / n).read_bytes() for n in os.listdir(folder)}
+    e = effect()
+    with pytest.raises(errors.StateError, match="to frame 6: it holds frames to 12"):
+        BakeRunner(e, folder, 1, 6, checkpoint_every=4, resume=True).run()
+    e.close()
+    assert {n: (folder / n).read_bytes() for n in os.listdir(folder)} == before
+
+
+def test_resume_of_a_complete_bake_steps_nothing(reference, tmp_path):
+    folder = tmp_path / "bake"
+    shutil.copytree(reference, folder)
+    stamps = {n: os.stat(folder / n).st_mtime_ns for n in os.listdir(folder)
+              if n != "manifest.json"}
+    e = effect()
+    stepped = []
+    step = e.step
+    e.step = lambda frame, progress: (stepped.append(frame), step(frame, progress))
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True)
+    r.run()
+    e.close()
+    assert stepped == [] and r.resumed_from == 12 and r.state.status == "FINISHED"
+    assert BakeCache(folder).read_manifest()["complete"]
+    assert {n: os.stat(folder / n).st_mtime_ns for n in stamps} == stamps
+
+
+def test_the_time_left_after_a_resume_counts_only_this_runs_frames(reference, tmp_path):
+    """Frames a resume found done took no time now: the estimate is per frame of this run."""
+    folder = tmp_path / "bake"
+    bake_until_cancel(folder, 6)
+    e = effect()
+    seen = []
+    r = BakeRunner(e, folder, 1, 12, checkpoint_every=4, resume=True,
+                   on_frame=lambda s: seen.append((s.done, s.resumed, s.eta(),
+                                                   time.monotonic() - s.started)))
+    r.run()
+    e.close()
+    done, resumed, eta, elapsed = seen[0]
+    assert resumed >= 5 and done == resumed + 1  # one frame baked by this run
+    # (counting the resumed frames as well would make it about 1/7 of this)
+    assert eta == pytest.approx(elapsed / (done - resumed) * (12 - done), rel=0.2)

@@ -22,6 +22,7 @@ class BakeState:
         self.frame_start, self.frame_end = frame_start, frame_end
         self.frame = None          # frame being baked
         self.done = 0              # frames finished
+        self.resumed = 0           # ... of them by the run a resume continued
         self.fraction = 0.0        # 0..1 over the whole bake
         self.status = "PENDING"    # PENDING RUNNING FINISHED CANCELLED FAILED
         self.message = ""
@@ -39,10 +40,11 @@ class BakeState:
         return self.frame_start + self.done - 1
 
     def eta(self):
-        """Seconds left, from the mean time per finished frame (None before the first)."""
-        if not self.done or self.started is None:
+        """Seconds left, from the mean time per frame this run finished (None before the
+        first; the frames a resume found done took no time now)."""
+        if self.done <= self.resumed or self.started is None:
             return None
-        per = (time.monotonic() - self.started) / self.done
+        per = (time.monotonic() - self.started) / (self.done - self.resumed)
         return per * (self.total - self.done)
 
 
@@ -194,11 +196,20 @@ class BakeRunner:
                 raise errors.StateError(
                     f"cannot resume the bake in {self.cache.folder}: {diff}; free it or bake "
                     "anew")
+        beyond = sorted(int(f) for f in m["frames"] if int(f) > s.frame_end)
+        if beyond:  # a resume continues a bake; shortening one would drop good frames
+            raise errors.StateError(
+                f"cannot resume the bake in {self.cache.folder} to frame {s.frame_end}: it holds "
+                f"frames to {beyond[-1]}; resume to its end or further, or free it to bake a "
+                "shorter range")
         self.cache.remove_temporaries(m)
         bad = set(self.cache.verify())
         last = s.frame_start - 1  # last frame of the unbroken run of good frames
         while str(last + 1) in m["frames"] and last + 1 not in bad and last + 1 <= s.frame_end:
             last += 1
+        if m.get("complete") and last == s.frame_end:  # nothing left to do
+            self.resumed_from = last
+            return m, last + 1
         stateless = self.effect.save_state() is None
         if stateless:
             start_at = last
@@ -305,7 +316,7 @@ class BakeRunner:
                 manifest, first = self._resume_point(header)
             else:
                 manifest, first = self.cache.start(header), s.frame_start
-            s.done = first - s.frame_start
+            s.done = s.resumed = first - s.frame_start
             for frame in range(first, s.frame_end + 1):
                 if self._cancel.is_set():
                     settle()
