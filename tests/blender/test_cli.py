@@ -323,3 +323,14 @@ def test_resume_refuses_a_changed_map_resolution(blender, tmp_path):
     r = run("resume", 32, "1-3")
     assert r.returncode == 0 and "resumed after frame 2" in r.stdout
     assert frames_in(folder) == [1, 2, 3]
+
+
+def test_the_shipped_command_runs_quietly(blender, tmp_path):
+    """build/hydrobake-batch itself (the tests' scripts enable the addon their own way): no
+    reload of the addon on the way in, the listing, exit 0."""
+    blend = _blend(blender, tmp_path)
+    r = subprocess.run([os.path.join(ROOT, "build", "hydrobake-batch"), blend, "list"],
+                       env=blender.env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "module changed on disk" not in r.stdout + r.stderr, r.stdout[-2000:]
+    assert "effects: caustics, fluid, rain, snow" in r.stdout and "Traceback" not in r.stderr
