@@ -54,6 +54,9 @@ assert flakes.modifiers["HBK Instances"].node_group is not None
 
 assert bpy.ops.hydrobake.free_bake(effect="snow", object_name="Person") == {"FINISHED"}
 assert "HBK_Person_flakes" not in bpy.data.objects
+# Its instancer and the flakes' material went with it (nothing else used them).
+assert not [g.name for g in bpy.data.node_groups if g.name.startswith("HBK Flake")]
+assert "HBK Snow Flake" not in bpy.data.materials
 assert out.inputs["Surface"].links[0].from_node.type == "BSDF_PRINCIPLED"
 assert not any(n.get("hydrobake") for n in coat.nodes)
 print("SNOW BLENDER OK")

@@ -30,3 +30,20 @@ def attach(name, folder, stream, radius, collection=None, material=None):
     mod = obj.modifiers.get("HBK Instances") or obj.modifiers.new("HBK Instances", "NODES")
     mod.node_group = _instancer(radius)
     return obj
+
+
+def detach(name):
+    """Removes the points object, and its instancer and material once nothing else uses them
+    (shared by every flake object of the same size)."""
+    obj = bpy.data.objects.get(name)
+    if obj is None:
+        return
+    mod = obj.modifiers.get("HBK Instances")
+    group = mod.node_group if mod is not None else None
+    mats = [m for m in obj.data.materials if m is not None]
+    frame_meshes.detach(name)
+    if group is not None and group.users == 0:
+        bpy.data.node_groups.remove(group)
+    for mat in mats:
+        if mat.users == 0 and mat.name.startswith("HBK "):
+            bpy.data.materials.remove(mat)

@@ -512,7 +512,7 @@ class SnowBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        frame_meshes.detach(f"HBK_{cls.baked_name(obj, settings)}_flakes")
+        points.detach(f"HBK_{cls.baked_name(obj, settings)}_flakes")
         cls._remove_box(obj)
         for mat in {s.material for s in obj.material_slots if s.material is not None}:
             if mat.node_tree:
