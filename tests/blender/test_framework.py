@@ -45,3 +45,8 @@ def test_a_project_moved_with_its_bakes_still_finds_them(blender, tmp_path):
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout
+
+
+def test_shared_materials_meshes_and_records_freed_in_any_order(blender, tmp_path):
+    r = blender.run("shared_records.py", tmp_path)
+    assert "SHARED RECORDS OK" in r.stdout

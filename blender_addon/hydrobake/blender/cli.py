@@ -363,7 +363,7 @@ def bake(args, resume=False):
 
 
 def _bake(args, resume, stop):
-    failures = 0
+    failures = recorded = 0
     pairs = targets(args.objects, args.effects)
     undo = apply_overrides(pairs, getattr(args, "overrides", None))
     if not pairs:
@@ -379,6 +379,11 @@ def _bake(args, resume, stop):
             break
         t0 = time.monotonic()
         scene = obj.users_scene[0] if obj.users_scene else bpy.context.scene
+        if resume and jobs.copied_from(obj, name) is not None:  # a Shift+D copy's record
+            print(f"hydrobake: {obj.name}/{name} skipped: its record is a copy of "
+                  f"{jobs.copied_from(obj, name).name}'s bake; nothing of its own to resume",
+                  flush=True)
+            continue
         try:  # a target that cannot be set up is reported; the others still bake
             job = jobs.Job(bpy.context, obj, name, frames=args.frames,
                            folder_override=args.output, threads=args.threads, scene=scene,
@@ -394,6 +399,7 @@ def _bake(args, resume, stop):
         finally:
             job.finalize(bpy.context)
         s, error = job.runner.state, job.runner.error
+        recorded += s.status != "PENDING"
         if s.status == "PENDING":  # never started: a signal came while it was set up
             not_started(pairs[i:])
             break
@@ -413,9 +419,12 @@ def _bake(args, resume, stop):
               f"{time.monotonic() - t0:.1f}s -> {job.folder}", flush=True)
     # Overrides are for this run: the file keeps its own settings (and the bake's wiring).
     restore_overrides(undo)
-    if (bpy.data.filepath and not failures and not stop.signum and
-            not getattr(args, "no_save", False)) and not _save():
-        return 1  # keeps is_baked and the wiring for renders, when it can
+    # Saved whenever a bake was recorded, even if others failed or a signal stopped the run:
+    # the file must describe what is on disk (a renamed object's re-bake freed its old
+    # folder; a cancelled bake's frames are there for resume).
+    if (bpy.data.filepath and recorded and not getattr(args, "no_save", False)) and \
+            not _save():
+        return 1
     return 1 if failures else 0
 
 

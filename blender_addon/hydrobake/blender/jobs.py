@@ -37,20 +37,40 @@ def _same_folder(a, b):
     return bool(a) and bool(b) and os.path.realpath(a) == os.path.realpath(b)
 
 
-def copied_from(obj, effect_name):
-    """The object whose bake record ``obj`` holds as a copy (Shift+D copies the settings, the
-    bake's folder and the name it was wired under), or None: the record names another object
-    that exists, is baked and has the same folder. A copy owns neither the files nor the
-    wiring (they go by the other's name)."""
+def holders(folder, effect_name, but=None):
+    """The objects whose settings record a bake of the effect in ``folder`` (but ``but``):
+    Shift+D copies the record, so one bake can have several."""
+    return [o for o in bpy.data.objects if o != but and settings_of(o, effect_name).is_baked
+            and _same_folder(settings_of(o, effect_name).bake_folder, folder)]
+
+
+def wiring_owner(obj, effect_name):
+    """The object whose bake's wiring (named after the name it was baked under) the record
+    in ``obj``'s settings describes: the holder still called by that name, or None when none
+    is (renamed since; or a copy's original was)."""
     s = settings_of(obj, effect_name)
-    name = s.get("baked_as")
-    if not s.is_baked or not name or name == obj.name:
-        return None
+    name = s.get("baked_as") or obj.name
+    if obj.name == name:
+        return obj
     other = bpy.data.objects.get(name)
-    if other is None or other == obj:
+    if other is not None and other in holders(s.bake_folder, effect_name):
+        return other
+    return None
+
+
+def copied_from(obj, effect_name):
+    """The other object whose bake record ``obj`` holds as a copy (Shift+D copies the
+    settings, the bake's folder and the name it was wired under), or None: others record the
+    same bake and ``obj`` is not the one its wiring is named after. A copy owns neither the
+    files nor the wiring."""
+    s = settings_of(obj, effect_name)
+    if not s.is_baked:
         return None
-    o = settings_of(other, effect_name)
-    return other if o.is_baked and _same_folder(o.bake_folder, s.bake_folder) else None
+    others = holders(s.bake_folder, effect_name, but=obj)
+    if not others or wiring_owner(obj, effect_name) == obj:
+        return None
+    owner = wiring_owner(obj, effect_name)
+    return owner if owner is not None else others[0]
 
 
 def forget(obj, effect_name):
@@ -61,14 +81,18 @@ def forget(obj, effect_name):
     s.pop("baked_as", None)
 
 
-def name_holder(obj, effect_name):
-    """Another object whose bake of the effect still goes by ``obj``'s name (it was renamed
-    since: its files and wiring are named after the name ``obj`` has now), or None."""
+def name_holder(obj, effect_name, folder):
+    """Another object whose bake record would be taken by ``obj``'s bake into ``folder``:
+    it records a bake in that folder, or one whose files and wiring go by the name ``obj``
+    has now (it was renamed since, or copied from one that was), or None."""
+    own = settings_of(obj, effect_name)
     for other in bpy.data.objects:
         if other == obj:
             continue
         s = settings_of(other, effect_name)
-        if s.is_baked and s.get("baked_as") == obj.name and copied_from(other, effect_name) is None:
+        if not s.is_baked or (own.is_baked and _same_folder(s.bake_folder, own.bake_folder)):
+            continue  # a copy of this object's own record: a re-bake replaces that bake
+        if _same_folder(s.bake_folder, folder) or s.get("baked_as") == obj.name:
             return other
     return None
 
@@ -80,11 +104,14 @@ class Job:
         self.object_name, self.effect_name = obj.name, effect_name
         self.beffect = effects.get(effect_name)
         settings = settings_of(obj, effect_name)
-        holder = name_holder(obj, effect_name)
-        if holder is not None:  # its files and wiring would be taken for this object's
-            raise ValueError(f"{obj.name}: {holder.name}'s {effect_name} bake still goes by this "
-                             f"name (baked as {obj.name}, renamed since); re-bake or free "
-                             f"{holder.name} first, or rename this object")
+        self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
+        if not (resume and settings.bake_folder and not folder_override):
+            holder = name_holder(obj, effect_name, self.folder)
+            if holder is not None:  # its files and wiring would be taken for this object's
+                raise ValueError(
+                    f"{obj.name}: {holder.name} records a {effect_name} bake made under this "
+                    f"name or in this folder ({self.folder}); free or re-bake {holder.name} "
+                    "first, or rename this object")
         self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
         if resume and self.copy_of is not None:
             raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
@@ -95,7 +122,6 @@ class Job:
             if "threads" in spec.by_name:
                 params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
-        self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
         with scene_context(context, scene):
             params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
         self.scene_name = scene.name
@@ -173,11 +199,15 @@ def bake_state(obj, effect_name):
 def free(context, obj, effect_name):
     """Removes the bake's files (and nothing else) and unwires it."""
     settings = settings_of(obj, effect_name)
-    if copied_from(obj, effect_name) is not None:  # the other object's bake stays whole
-        forget(obj, effect_name)
-        return []
     beffect = effects.get(effect_name)
     folder = settings.bake_folder or paths.bake_folder(obj, effect_name, settings)
+    others = holders(folder, effect_name, but=obj)
+    if others:  # others record this bake too (Shift+D copies): its files stay for them
+        if settings.is_baked:
+            if wiring_owner(obj, effect_name) == obj:
+                beffect.remove(context, obj, settings)  # the wiring named after this object
+            forget(obj, effect_name)
+        return []
     removed = BakeCache(folder).free()
     beffect.remove(context, obj, settings)
     settings.is_baked = False

@@ -101,7 +101,7 @@ try:
     bake(newcomer)
     raise AssertionError("the newcomer took Pond's name")
 except RuntimeError as exc:
-    assert "Pond's caustics bake still goes by this name" in str(exc), str(exc)
+    assert "Pond records a caustics bake made under this name" in str(exc), str(exc)
 bake(left)
 assert not os.path.exists(folder) and os.path.isdir(left.hydrobake_caustics.bake_folder)
 bake(newcomer)

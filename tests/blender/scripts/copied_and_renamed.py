@@ -78,7 +78,7 @@ try:
     bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool")
     raise AssertionError("a newcomer with a baked object's old name was not refused")
 except RuntimeError as exc:
-    assert "PoolA's caustics bake still goes by this name" in str(exc), str(exc)
+    assert "PoolA records a caustics bake made under this name" in str(exc), str(exc)
 assert os.path.isfile(os.path.join(folder, "caustics_0001.exr")) and owners().count("Pool") == 1
 # Re-baking PoolA moves its bake to its new name; then the newcomer may bake.
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="PoolA") == {"FINISHED"}

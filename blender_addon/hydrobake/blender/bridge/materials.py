@@ -37,40 +37,61 @@ def use_nodes(mat):
         mat.use_nodes = True
 
 
-def set_inputs(mat, bsdf, values):
-    """Sets Principled inputs {name: value} the first time a bake wires the material, and
-    keeps the values they replace for give_back(); a re-bake keeps the user's later edits."""
-    if SAVED in mat:
+def set_inputs(mat, shader, values, prefix):
+    """Sets a shader node's inputs {name: value} the first time the effect (role ``prefix``)
+    wires the material, and keeps the values they replace, per effect, for give_back(); a
+    re-bake keeps the user's later edits."""
+    saved = mat[SAVED].to_dict() if SAVED in mat else {}
+    if prefix in saved:
         return
+
     def plain(v):
         return float(v) if isinstance(v, (int, float)) else tuple(v)
-    mat[SAVED] = {k: plain(bsdf.inputs[k].default_value) for k in values}
+    saved[prefix] = {"node": shader.name,
+                     "values": {k: plain(shader.inputs[k].default_value) for k in values}}
+    mat[SAVED] = saved
     for k, v in values.items():
-        bsdf.inputs[k].default_value = v
+        shader.inputs[k].default_value = v
+
+
+def _has_wiring(mat):
+    return bool(mat.node_tree) and any(n.get(TAG) for n in mat.node_tree.nodes)
 
 
 def give_back(obj, mat, prefix):
-    """Free Bake's undo of ensure_material, use_nodes and set_inputs on ``mat`` (one of
-    ``obj``'s), once no node of the effect (role ``prefix``) is left in it: the inputs get
-    their values back, the nodes their off switch, and a material made for the object leaves
-    its slot (and the file, with no other user)."""
+    """Free Bake's undo of set_inputs for the effect (role ``prefix``), once none of its
+    nodes is left in ``mat`` (one of ``obj``'s); and, once no Hydrobake node of any effect is
+    left, of use_nodes and ensure_material: the nodes get their off switch back, and a
+    material made for the object leaves its slot (and the file, with no other user)."""
     tree = mat.node_tree
     if tree and any(str(n.get(TAG, "")).startswith(prefix) for n in tree.nodes):
         return
-    bsdf = principled(tree) if tree else None
-    if SAVED in mat:
-        for k, v in mat[SAVED].to_dict().items():
-            if bsdf is not None and k in bsdf.inputs:
-                bsdf.inputs[k].default_value = v
-        del mat[SAVED]
+    saved = mat[SAVED].to_dict() if SAVED in mat else {}
+    if prefix in saved:
+        node = tree.nodes.get(saved[prefix]["node"]) if tree else None
+        for k, v in saved[prefix]["values"].items():
+            if node is not None and k in node.inputs:
+                node.inputs[k].default_value = v
+        del saved[prefix]
+        if saved:
+            mat[SAVED] = saved
+        else:
+            del mat[SAVED]
+    if _has_wiring(mat) or saved:
+        return  # another effect's bake is still in it
     if NODES_WERE_OFF in mat:
         mat.use_nodes = False
         del mat[NODES_WERE_OFF]
     if MADE in mat:
         index = next((i for i, s in enumerate(obj.material_slots) if s.material == mat), None)
+        # A mesh other objects share keeps the slot where one of them shows its own material.
+        others = [o for o in bpy.data.objects if o != obj and o.data == obj.data]
+        kept = index is not None and any(
+            index < len(o.material_slots) and o.material_slots[index].link == "OBJECT" and
+            o.material_slots[index].material is not None for o in others)
         if index is not None:
             obj.material_slots[index].material = None
-            if mat[MADE] == "appended" and index == len(obj.data.materials) - 1:
+            if mat[MADE] == "appended" and index == len(obj.data.materials) - 1 and not kept:
                 # The operator drops the object's slot too (popping the mesh's list leaves
                 # an empty slot on the object, saved with the file).
                 obj.active_material_index = index
@@ -107,6 +128,9 @@ def own(obj, index, unwire):
     copy = mat.copy()
     copy.name = f"{shared} ({obj.name})"
     copy[COPY_OF], copy[COPY_FOR] = shared, obj.name
+    for key in (MADE, NODES_WERE_OFF):  # the original's record, not the copy's
+        if key in copy:
+            del copy[key]
     unwire(copy.node_tree)  # another object's, if the shared material had it
     if slot.link == "DATA" and obj.data.users > 1:
         slot.link = "OBJECT"  # the mesh's slot would show it on every object of the mesh
@@ -122,9 +146,9 @@ def restore(obj, prefix):
         mat = slot.material
         shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
             else None
-        if shared is None or (shared.node_tree and any(
+        if shared is None or _has_wiring(mat) or (shared.node_tree and any(
                 str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
-            continue
+            continue  # another effect's bake still in the copy, or another object's in it
         if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
             slot.material = None
             slot.link = "DATA"  # the mesh's own material shows again

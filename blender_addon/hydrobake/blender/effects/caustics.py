@@ -271,7 +271,13 @@ class CausticsBlender(BlenderEffect):
         frames = sorted(int(f) for f in manifest["frames"])
         grid = cls.grid(obj, manifest["params"]["water"]["width"])
         ground = settings.ground_object
-        if ground is not None and ground.type == "MESH":
+        if ground is not None and ground.type != "MESH":
+            ground = None
+        old = bpy.data.objects.get(settings.get("wired_ground", ""))
+        if old is not None and old != ground:  # the ground changed since the last bake
+            keep = {s.material for s in ground.material_slots} if ground else set()
+            cls._unwire_floors(obj.name, [old], keep=keep)
+        if ground is not None:
             cls._wire_floor(ground, obj, grid, folder, frames)
             settings["wired_ground"] = ground.name
         # The water: a clear refracting material with the baked surface normals (the pool's
@@ -282,7 +288,7 @@ class CausticsBlender(BlenderEffect):
         bsdf = materials.principled(tree)
         if bsdf is not None:
             materials.set_inputs(mat, bsdf, {"Transmission": 1.0, "Roughness": 0.0,
-                                             "IOR": 1.333})
+                                             "IOR": 1.333}, "caustics.")
             tex = cls._sequence_texture(tree, obj, grid, "caustics.surface", folder,
                                         "surface", frames, (bsdf.location.x - 500, 0))
             nm = materials.add_node(tree, "ShaderNodeNormalMap", "caustics.normal",
@@ -354,6 +360,25 @@ class CausticsBlender(BlenderEffect):
         else:
             mix.inputs["Color1"].default_value = base.default_value
         tree.links.new(mix.outputs["Color"], base)
+
+    @classmethod
+    def _unwire_floors(cls, pool, grounds, keep=()):
+        """Takes the pool's floor nodes out of every material but those in ``keep`` (its
+        ground may have been changed or deleted since the bake), and nodes from before they
+        had owners out of its grounds' materials; gives the grounds' materials back."""
+        floors = {s.material for g in grounds for s in g.material_slots if s.material}
+        for mat in bpy.data.materials:
+            if not mat.node_tree or mat in keep:
+                continue
+            tree = mat.node_tree
+            for owner in (pool, None) if mat in floors else (pool,):
+                mix = materials.tagged(tree, "caustics.multiply", owner)
+                if mix is not None:
+                    cls._unwire_multiply(tree, mix)
+                materials.remove_tagged(tree, "caustics.", owner=owner)
+        for g in dict.fromkeys(grounds):
+            for mat in {s.material for s in g.material_slots if s.material} - set(keep):
+                materials.give_back(g, mat, "caustics.")
 
     @staticmethod
     def _unwire_multiply(tree, mix):
@@ -482,24 +507,10 @@ class CausticsBlender(BlenderEffect):
                 materials.remove_tagged(mat.node_tree, "caustics.")
             materials.give_back(obj, mat, "caustics.")
         materials.restore(obj, "caustics.")
-        # The floors: this pool's nodes wherever they are (its ground may have been changed or
-        # deleted since the bake), and nodes from before they had owners in its grounds.
         grounds = [g for g in (settings.ground_object,
                                bpy.data.objects.get(settings.get("wired_ground", "")))
                    if g is not None and g.type == "MESH"]
-        floors = {s.material for g in grounds for s in g.material_slots if s.material}
-        for mat in bpy.data.materials:
-            if not mat.node_tree:
-                continue
-            tree = mat.node_tree
-            for owner in (pool, None) if mat in floors else (pool,):
-                mix = materials.tagged(tree, "caustics.multiply", owner)
-                if mix is not None:
-                    cls._unwire_multiply(tree, mix)
-                materials.remove_tagged(tree, "caustics.", owner=owner)
-        for g in dict.fromkeys(grounds):
-            for mat in {s.material for s in g.material_slots if s.material}:
-                materials.give_back(g, mat, "caustics.")
+        cls._unwire_floors(pool, grounds)
         settings.pop("wired_ground", None)
         if "hydrobake_shadow" in obj:
             obj.visible_shadow = bool(obj["hydrobake_shadow"])

@@ -198,8 +198,7 @@ class RainBlender(BlenderEffect):
             mod.use_even_offset = True
         # Every material of the glass gets the drops (a frit band is wet too); the glass
         # values go to the glass-like ones (Glass BSDF, or transmission), else to the first.
-        unwire = lambda tree: materials.remove_tagged(tree, "rain.")  # noqa: E731
-        mats = [materials.own(obj, i, unwire) for i in range(len(obj.material_slots))]
+        mats = [materials.own(obj, i, cls._unwire) for i in range(len(obj.material_slots))]
         mats = list(dict.fromkeys(m for m in mats if m is not None)) or \
             [materials.ensure_material(obj, f"HBK_{obj.name}_glass")]
         for mat in mats:
@@ -211,6 +210,18 @@ class RainBlender(BlenderEffect):
         if "preview" in manifest.get("streams", []) and settings.background_image is not None:
             images.load_unused_sequence(folder, "preview", frames[0], len(frames),
                                         f"HBK_{obj.name}_rain_preview")
+
+    @classmethod
+    def _unwire(cls, tree):
+        """Takes the drops out of a material: its own normal (a bump, say, that fed the
+        inner face) back into the shader."""
+        side = materials.tagged(tree, "rain.side")
+        shader = cls._shader(tree)
+        c1 = side.inputs["Color1"] if side is not None else None
+        if c1 is not None and c1.is_linked and shader is not None and \
+                not c1.links[0].from_node.get(materials.TAG):
+            tree.links.new(c1.links[0].from_socket, shader.inputs["Normal"])
+        materials.remove_tagged(tree, "rain.")
 
     @staticmethod
     def _glassy(shader):
@@ -225,7 +236,7 @@ class RainBlender(BlenderEffect):
             want = {"Roughness": 0.0, "IOR": 1.33}
             if "Transmission" in bsdf.inputs:
                 want["Transmission"] = 1.0
-            materials.set_inputs(mat, bsdf, want)
+            materials.set_inputs(mat, bsdf, want, "rain.")
         uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
         x, y = bsdf.location
         uvn = materials.add_node(tree, "ShaderNodeUVMap", "rain.uv", (x - 1100, y - 300))
@@ -263,13 +274,7 @@ class RainBlender(BlenderEffect):
             obj.modifiers.remove(mod)
         for mat in {s.material for s in obj.material_slots if s.material}:
             if mat.node_tree:
-                side = materials.tagged(mat.node_tree, "rain.side")
-                shader = cls._shader(mat.node_tree)
-                c1 = side.inputs["Color1"] if side is not None else None
-                if c1 is not None and c1.is_linked and shader is not None and \
-                        not c1.links[0].from_node.get(materials.TAG):
-                    mat.node_tree.links.new(c1.links[0].from_socket, shader.inputs["Normal"])
-                materials.remove_tagged(mat.node_tree, "rain.")
+                cls._unwire(mat.node_tree)
             materials.give_back(obj, mat, "rain.")
         materials.restore(obj, "rain.")
         for stream in ("preview", "normal"):

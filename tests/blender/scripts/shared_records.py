@@ -1,0 +1,187 @@
+"""Bakes that share a material, a mesh or a record, freed in the orders that once lost data:
+two effects in one material (freeing one leaves the other's values, node switch and made
+material), linked duplicates with no material, a Glass BSDF's values, a copy made for another
+bake keeping its effect's wiring, a Shift+D copy of a renamed pool, a newcomer's Free on a
+taken name, a renamed pool resumed under its old folder, and a ground changed between bakes."""
+import os
+
+import bpy
+
+import in_blender
+
+in_blender.enable()
+from hydrobake.blender.bridge import materials as M  # noqa: E402
+
+tmp = in_blender.args()[0]
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "records.blend"))
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+
+
+def plane(name, size=0.5, loc=(0, 0, 0)):
+    obj = in_blender.new_plane(name)
+    obj.scale, obj.location = (size, size, 1.0), loc
+    uv = obj.data.uv_layers.new(name="UVMap")
+    for loop, c in zip(uv.data, ((0, 0), (1, 0), (1, 1), (0, 1))):
+        loop.uv = c
+    return obj
+
+
+def rain(o):
+    s = o.hydrobake_rain
+    s.enabled, s.rain.cell_size, s.use_scene_range, s.frame_start, s.frame_end = \
+        True, 0.05, False, 1, 1
+    return s
+
+
+def snow(o):
+    s = o.hydrobake_snow
+    s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
+    s.snow.flake_count, s.snow.texture_width, s.snow.texture_height = 20000, 64, 64
+    return s
+
+
+def caustics(o, ground):
+    s = o.hydrobake_caustics
+    s.enabled, s.ground_object, s.use_scene_range, s.frame_start, s.frame_end = \
+        True, ground, False, 1, 2
+    s.water.width, s.map_resolution = 16, 32
+    return s
+
+
+def bake(o, effect, **kw):
+    assert bpy.ops.hydrobake.bake(effect=effect, object_name=o.name, **kw) == {"FINISHED"}
+
+
+def free(o, effect):
+    assert bpy.ops.hydrobake.free_bake(effect=effect, object_name=o.name) == {"FINISHED"}
+
+
+def tags(m):
+    return sorted(n["hydrobake"] for n in m.node_tree.nodes if n.get("hydrobake")) \
+        if m is not None and m.node_tree else []
+
+
+def values(m):
+    b = M.principled(m.node_tree)
+    return [round(b.inputs[k].default_value, 3) for k in ("Transmission", "Roughness", "IOR")]
+
+
+def floor_material(name, loc):
+    f = plane(name, 3.0, loc)
+    m = bpy.data.materials.new(f"{name}Tiles")
+    m.use_nodes = True
+    f.data.materials.append(m)
+    return f, m
+
+
+# Rain and snow in one material: freeing snow leaves rain's glass values; a glass with no
+# material keeps the one rain made until both are freed; nodes switched on stay on for rain.
+g = plane("Glass", loc=(0, 0, 1))
+gm = bpy.data.materials.new("GlassMat")
+gm.use_nodes = True
+g.data.materials.append(gm)
+rain(g), snow(g)
+bake(g, "rain"), bake(g, "snow"), free(g, "snow")
+assert values(gm) == [1.0, 0.0, 1.33], values(gm)
+free(g, "rain")
+assert values(gm) == [0.0, 0.5, 1.45], values(gm)
+bare = plane("Bare", loc=(3, 0, 1))
+rain(bare), snow(bare)
+bake(bare, "rain"), bake(bare, "snow"), free(bare, "snow")
+assert bare.active_material is not None and "rain.side" in tags(bare.active_material)
+free(bare, "rain")
+assert len(bare.material_slots) == 0
+off = plane("Off", loc=(6, 0, 1))
+om = bpy.data.materials.new("NodesOff")
+off.data.materials.append(om)
+rain(off), snow(off)
+bake(off, "rain"), bake(off, "snow"), free(off, "snow")
+assert om.use_nodes and "rain.side" in tags(om)
+free(off, "rain")
+assert not om.use_nodes
+
+# Linked duplicates without a material: freeing one leaves the other its material and drops.
+a = plane("GlassA", loc=(0, 3, 1))
+b = bpy.data.objects.new("GlassB", a.data)
+b.location = (3, 3, 1)
+bpy.context.scene.collection.objects.link(b)
+rain(a), rain(b)
+bake(a, "rain"), bake(b, "rain"), free(b, "rain")
+assert a.material_slots[0].material is not None and "rain.side" in tags(a.material_slots[0].material)
+free(a, "rain")
+
+# A Glass BSDF gets its own IOR and roughness back.
+gb = plane("GlassBSDF", loc=(6, 3, 1))
+bm = bpy.data.materials.new("GlassShader")
+bm.use_nodes = True
+bm.node_tree.nodes.remove(M.principled(bm.node_tree))
+shader = bm.node_tree.nodes.new("ShaderNodeBsdfGlass")
+shader.inputs["IOR"].default_value, shader.inputs["Roughness"].default_value = 1.52, 0.1
+bm.node_tree.links.new(shader.outputs[0], bm.node_tree.nodes["Material Output"].inputs[0])
+gb.data.materials.append(bm)
+rain(gb)
+bake(gb, "rain"), free(gb, "rain")
+assert [round(shader.inputs[k].default_value, 3) for k in ("IOR", "Roughness")] == [1.52, 0.1]
+
+# A material shared with another object: the copy keeps snow's wiring when rain is freed.
+sm = bpy.data.materials.new("Shared")
+sm.use_nodes = True
+g2, o2 = plane("Glass2", loc=(0, 6, 1)), plane("Other", loc=(3, 6, 1))
+g2.data.materials.append(sm), o2.data.materials.append(sm)
+rain(g2), snow(g2)
+bake(g2, "snow"), bake(g2, "rain"), free(g2, "rain")
+assert "snow.mix" in tags(g2.material_slots[0].material), tags(g2.material_slots[0].material)
+free(g2, "snow")
+
+# A Shift+D copy of a renamed pool: its Free lets go of the record only.
+floor, fm = floor_material("Floor", (0, -6, -0.5))
+pool = plane("Pool", 1.0, (0, -6, 0))
+ps = caustics(pool, floor)
+bake(pool, "caustics")
+folder = ps.bake_folder
+pool.name = "Pool2"
+for o in bpy.context.view_layer.objects:
+    o.select_set(o == pool)
+bpy.context.view_layer.objects.active = pool
+assert bpy.ops.object.duplicate() == {"FINISHED"}
+copy = bpy.context.view_layer.objects.active
+free(copy, "caustics")
+assert ps.is_baked and os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
+assert "caustics.multiply" in tags(fm) and not copy.hydrobake_caustics.is_baked
+free(pool, "caustics")  # now the only holder: the files go
+assert not os.path.exists(folder) and tags(fm) == []
+
+# A newcomer given a renamed pool's name: its Free touches nothing of the pool's; a resume
+# of the renamed pool keeps its old folder, and the newcomer cannot bake into it.
+pool = plane("Pool", 1.0, (0, -6, 0))
+ps = caustics(pool, floor)
+bake(pool, "caustics")
+folder = ps.bake_folder
+pool.name = "Big"
+ps.frame_end = 3
+bake(pool, "caustics", resume=True)
+assert ps.bake_folder == folder
+newcomer = plane("Pool", 1.0, (2.5, -6, 0))
+caustics(newcomer, floor)
+free(newcomer, "caustics")
+assert ps.is_baked and os.path.isfile(os.path.join(folder, "caustics_0003.exr"))
+try:
+    bake(newcomer, "caustics")
+    raise AssertionError("the newcomer baked into Big's folder")
+except RuntimeError as exc:
+    assert "Big records a caustics bake" in str(exc), str(exc)
+free(pool, "caustics")
+
+# The ground changed between two bakes: the old floor is unwired at once.
+fa, ma = floor_material("FloorA", (0, -12, -0.5))
+fb, mb = floor_material("FloorB", (0, -12, -0.8))
+p3 = plane("Pool3", 1.0, (0, -12, 0))
+s3 = caustics(p3, fa)
+bake(p3, "caustics")
+s3.ground_object = fb
+bake(p3, "caustics")
+assert tags(ma) == [] and "caustics.multiply" in tags(mb), (tags(ma), tags(mb))
+free(p3, "caustics")
+assert tags(mb) == []
+print("SHARED RECORDS OK")
