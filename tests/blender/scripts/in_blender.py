@@ -48,3 +48,14 @@ def dam_break(resolution, textures=2, frames=(1, 2), substeps=4):
     s.fluid.resolution, s.fluid.substeps, s.fluid.textures = resolution, substeps, textures
     s.use_scene_range, s.frame_start, s.frame_end = False, frames[0], frames[1]
     return domain, fill, s
+
+
+def snow(obj, frames, flakes, texture=64):
+    """The object's snow settings for a small test bake: enabled, the frame range, the
+    flakes and square textures of ``texture`` texels."""
+    s = obj.hydrobake_snow
+    s.enabled = True
+    s.use_scene_range, s.frame_start, s.frame_end = False, frames[0], frames[1]
+    s.snow.flake_count = flakes
+    s.snow.texture_width = s.snow.texture_height = texture
+    return s

@@ -22,10 +22,7 @@ cube.rotation_euler.x = math.pi
 cube.keyframe_insert("rotation_euler", frame=1)
 cube.rotation_euler.x = 0.0
 cube.keyframe_insert("rotation_euler", frame=2)
-s = cube.hydrobake_snow
-s.use_scene_range, s.frame_start, s.frame_end = False, 2, 5
-s.snow.flake_count = 100000
-s.snow.texture_width = s.snow.texture_height = 64
+s = in_blender.snow(cube, (2, 5), 100000, 64)
 s.snow.wind = (0.0, 0.0, 0.0)
 s.snow.flutter_amplitude = 0.0
 

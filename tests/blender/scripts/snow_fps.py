@@ -16,10 +16,7 @@ tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "fps.blend"))
 scene = bpy.context.scene
 cube = bpy.data.objects["Cube"]
-s = cube.hydrobake_snow
-s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
-s.snow.flake_count = 2000
-s.snow.texture_width = s.snow.texture_height = 64
+s = in_blender.snow(cube, (1, 3), 2000, 64)
 s.snow.wind = (0.0, 0.0, 0.0)
 s.snow.flutter_amplitude = 0.0
 s.snow.fall_speed = 1.0

@@ -33,10 +33,7 @@ def snow_output(mat):
 
 
 for o in (cube, old):
-    s = o.hydrobake_snow
-    s.use_scene_range, s.frame_start, s.frame_end = False, 1, 2
-    s.snow.flake_count = 20000
-    s.snow.texture_width = s.snow.texture_height = 64
+    s = in_blender.snow(o, (1, 2), 20000, 64)
     assert bpy.ops.hydrobake.bake(effect="snow", object_name=o.name) == {"FINISHED"}
     first = frames_of(s)
     mat = o.material_slots[0].material if o.material_slots else None

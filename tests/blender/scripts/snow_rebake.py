@@ -12,10 +12,7 @@ in_blender.enable()
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "rebake.blend"))
 cube = bpy.data.objects["Cube"]
-s = cube.hydrobake_snow
-s.use_scene_range, s.frame_start, s.frame_end = False, 1, 2
-s.snow.flake_count = 2000
-s.snow.texture_width = s.snow.texture_height = 64
+s = in_blender.snow(cube, (1, 2), 2000, 64)
 tree = bpy.data.materials["Material"].node_tree
 
 
