@@ -109,7 +109,7 @@ assert after == before, (before, after)  # a material made for the bake is gone 
 assert all(m is None or not any(n.get("hydrobake") for n in m.node_tree.nodes)
            for m in water.data.materials)
 assert water.visible_shadow and not s.is_baked
-assert "HBK Displace" not in water.modifiers and "HBK_UV" not in water.data.uv_layers
+assert "HBK Displace" not in water.modifiers and "HBK_Water_grid" not in bpy.data.objects
 assert "HBK_Water_projector" not in bpy.data.objects
 assert "HBK_Water_view" not in bpy.data.images
 assert "HBK_Water_height" not in bpy.data.textures  # the Displace's texture

@@ -190,6 +190,31 @@ bpy.data.objects.remove(other)
 free(bare)
 assert tags(other_mat) == [], tags(other_mat)
 
+# Displace Surface on a water whose other half a Mirror makes: the dent under a stone in the
+# mirrored half shows there (each vertex reads its own place on the grid).
+half = in_blender.new_plane("Half")  # x 0..2, mirrored to -2..0
+for v in half.data.vertices:
+    v.co.x += 1.0
+half.location = (0.0, 8.0, 0.0)
+half.modifiers.new("Mirror", "MIRROR")
+hfloor = in_blender.new_plane("HalfFloor")
+hfloor.scale, hfloor.location = (3.0, 3.0, 1.0), (0.0, 8.0, -0.5)
+pebble = in_blender.new_box("Pebble", (0.3, 0.3, 0.2), (-1.0, 8.3, 0.02))
+hs = half.hydrobake_caustics
+hs.enabled, hs.ground_object, hs.disturber_object, hs.disturber_depth = True, hfloor, pebble, 0.08
+hs.use_scene_range, hs.frame_start, hs.frame_end = False, 1, 2
+hs.water.width, hs.map_resolution, hs.displace_surface = 64, 64, True
+bake(half)
+scene.frame_set(2)
+dg = bpy.context.evaluated_depsgraph_get()
+ev = half.evaluated_get(dg).to_mesh()
+low = min(ev.vertices, key=lambda v: v.co.z)
+assert low.co.z < -0.01 and abs(low.co.x + 1.0) < 0.2 and abs(low.co.y - 0.3) < 0.2, \
+    tuple(low.co)
+half.evaluated_get(dg).to_mesh_clear()
+free(half)
+pebble.hide_render = True
+
 # A disturber wholly under the water moves no surface; through it, it dents it.
 b.ground_object, b.frame_end = plain, 2
 rock = in_blender.new_box("Rock", (0.5, 0.5, 0.2), (8.0, 0.0, -0.2))  # z -0.3..-0.1

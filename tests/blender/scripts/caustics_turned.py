@@ -60,12 +60,21 @@ d = params["light"]["light_direction"]
 up = math.radians(20.0)
 want = (-math.sin(up) * s, -math.sin(up) * c, math.cos(up))
 assert max(abs(a - b) for a, b in zip(d, want)) < 1e-5, (d, want)
-# The displacement's UV map spans the grid: the pool's corners are its corners.
-uv = pool.data.uv_layers["HBK_UV"]
-for loop in pool.data.loops:
-    co = pool.data.vertices[loop.vertex_index].co
-    want = ((co.x + 1.0) / 2.0, (co.y + 1.0) / 2.0)  # the plane's own -1..1 corners
-    assert max(abs(a - b) for a, b in zip(uv.data[loop.index].uv, want)) < 1e-5
+# The displacement reads the grid through an Empty spanning it: the pool's corners are its
+# -1..1 corners (the image's 0..1); the displaced surface dips under the stone.
+grid_frame = bpy.data.objects["HBK_Pool_grid"]
+inv = grid_frame.matrix_world.inverted()
+for v in pool.data.vertices:
+    local = inv @ (pool.matrix_world @ v.co)
+    assert max(abs(abs(local.x) - 1.0), abs(abs(local.y) - 1.0)) < 1e-5, tuple(local)
+bpy.context.scene.frame_set(2)
+dg = bpy.context.evaluated_depsgraph_get()
+ev = pool.evaluated_get(dg).to_mesh()
+low = min(ev.vertices, key=lambda v: v.co.z)
+at = pool.matrix_world @ low.co
+assert at.z < -0.01 and math.hypot(at.x - stone.location.x, at.y - stone.location.y) < 0.15, \
+    (tuple(at), tuple(stone.location))
+pool.evaluated_get(dg).to_mesh_clear()
 # The projector above the pool's centre, turned with it.
 proj = bpy.data.objects["HBK_Pool_projector"]
 assert abs(proj.location.x - 1.0) < 1e-5 and abs(proj.location.y - 2.0) < 1e-5

@@ -392,17 +392,23 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def _displace(cls, obj, folder, frames, grid):
-        """Subdivision + Displace modifiers reading the height sequence through a UV map that
-        spans the water grid (made here, removed by Free Bake)."""
+        """Subdivision + Displace modifiers reading the height sequence at each vertex's place
+        on the water grid: the texture coordinates of an Empty spanning the grid (-1..1 is the
+        image), so vertices other modifiers make (a Mirror, an Array) read their own place.
+        All made here, removed by Free Bake."""
         shape = grid.shape
         mesh = obj.data
-        uv = mesh.uv_layers.get("HBK_UV") or mesh.uv_layers.new(name="HBK_UV")
-        mw = obj.matrix_world
+        name = f"HBK_{obj.name}_grid"
+        frame = bpy.data.objects.get(name) or bpy.data.objects.new(name, None)
+        if frame.name not in bpy.context.scene.collection.all_objects:
+            (obj.users_collection[0] if obj.users_collection else
+             bpy.context.scene.collection).objects.link(frame)
         w, h = grid.size
-        for loop in mesh.loops:
-            p = mw @ mesh.vertices[loop.vertex_index].co
-            u, v = grid.to_grid(p.x, p.y)
-            uv.data[loop.index].uv = (u / w, v / h)
+        frame.location = (*grid.to_world(w / 2, h / 2), 0.0)
+        frame.rotation_euler = (0.0, 0.0, grid.angle)
+        frame.scale = (w / 2, h / 2, 1.0)
+        frame.empty_display_type, frame.hide_render = "PLAIN_AXES", True
+        frame.hide_viewport = True
         tex = bpy.data.textures.get(f"HBK_{obj.name}_height") or bpy.data.textures.new(
             f"HBK_{obj.name}_height", "IMAGE")
         tex.image = images.load_sequence(folder, "height", frames[0], len(frames),
@@ -421,8 +427,8 @@ class CausticsBlender(BlenderEffect):
                                                                   np.log(4.0)))))
         disp = obj.modifiers.get("HBK Displace") or obj.modifiers.new("HBK Displace", "DISPLACE")
         disp.texture = tex
-        disp.texture_coords = "UV"
-        disp.uv_layer = "HBK_UV"
+        disp.texture_coords = "OBJECT"
+        disp.texture_coords_object = frame
         disp.direction = "Z"
         disp.space = "GLOBAL"  # heights are world metres
         disp.mid_level = 0.0
@@ -500,8 +506,10 @@ class CausticsBlender(BlenderEffect):
         height = bpy.data.textures.get(f"{prefix}_height")  # the Displace's, now unused
         if height is not None and height.users == 0:
             bpy.data.textures.remove(height)
-        if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):
+        if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):  # from older bakes
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
+        if f"{prefix}_grid" in bpy.data.objects:
+            bpy.data.objects.remove(bpy.data.objects[f"{prefix}_grid"])
         for mat in {s.material for s in obj.material_slots if s.material}:
             if mat.node_tree:
                 materials.remove_tagged(mat.node_tree, "caustics.")
