@@ -208,7 +208,17 @@ def free(context, obj, effect_name):
                 beffect.remove(context, obj, settings)  # the wiring named after this object
             forget(obj, effect_name)
         return []
-    removed = BakeCache(folder).free()
+    cache = BakeCache(folder)
+    if not settings.is_baked:
+        # No record: nothing of this object's is wired (a bake is wired when recorded), and
+        # its slots may be a baked object's (a freed Shift+D copy). Only files a bake of this
+        # object left unrecorded (Blender died before it finished) are removed.
+        try:
+            m = cache.read_manifest()
+        except ValueError:
+            m = None
+        return cache.free() if m is not None and m.get("object") == obj.name else []
+    removed = cache.free()
     beffect.remove(context, obj, settings)
     settings.is_baked = False
     settings.bake_folder = ""

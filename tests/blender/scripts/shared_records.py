@@ -110,6 +110,24 @@ rain(a), rain(b)
 bake(a, "rain"), bake(b, "rain"), free(b, "rain")
 assert a.material_slots[0].material is not None and "rain.side" in tags(a.material_slots[0].material)
 free(a, "rain")
+bake(a, "rain"), bake(b, "rain"), free(a, "rain"), free(b, "rain")  # the other order: clean
+assert len(a.data.materials) == 0 and len(b.material_slots) == 0, (len(a.data.materials),
+                                                                   len(b.material_slots))
+assert not [m.name for m in bpy.data.materials if m.name.startswith("HBK_GlassA")]
+
+# Freeing a Shift+D copy that no longer records anything leaves the original's wiring.
+pc_floor = plane("PcFloor", 3.0, (0, 10, -0.5))
+pc = plane("Pc", 1.0, (0, 10, 0))
+caustics(pc, pc_floor)
+bake(pc, "caustics")
+for o in bpy.context.view_layer.objects:
+    o.select_set(o == pc)
+bpy.context.view_layer.objects.active = pc
+assert bpy.ops.object.duplicate() == {"FINISHED"}
+pc_copy = bpy.context.view_layer.objects.active
+free(pc_copy, "caustics"), free(pc_copy, "caustics")  # the second one has no record at all
+assert pc.hydrobake_caustics.is_baked and "caustics.surface" in tags(pc.active_material)
+free(pc, "caustics")
 
 # A Glass BSDF gets its own IOR and roughness back.
 gb = plane("GlassBSDF", loc=(6, 3, 1))

@@ -67,6 +67,10 @@ def give_back(obj, mat, prefix):
     if tree and any(str(n.get(TAG, "")).startswith(prefix) for n in tree.nodes):
         return
     saved = mat[SAVED].to_dict() if SAVED in mat else {}
+    if saved and not all(isinstance(v, dict) and "values" in v for v in saved.values()):
+        # The first format (one effect's values, flat, Principled): read as this effect's.
+        shader = principled(tree) if tree else None
+        saved = {prefix: {"node": shader.name if shader else "", "values": saved}}
     if prefix in saved:
         node = tree.nodes.get(saved[prefix]["node"]) if tree else None
         for k, v in saved[prefix]["values"].items():
@@ -91,6 +95,8 @@ def give_back(obj, mat, prefix):
             o.material_slots[index].material is not None for o in others)
         if index is not None:
             obj.material_slots[index].material = None
+            if mat[MADE] == "appended" and kept:
+                obj.data[EMPTY_SLOT] = index  # for the last object showing it (restore)
             if mat[MADE] == "appended" and index == len(obj.data.materials) - 1 and not kept:
                 # The operator drops the object's slot too (popping the mesh's list leaves
                 # an empty slot on the object, saved with the file).
@@ -106,6 +112,7 @@ def give_back(obj, mat, prefix):
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
 COPY_FOR = "hydrobake_copy_for"  # ... and the object it was made for
 LINK_WAS = "hydrobake_link_was"  # ... put on the object's own slot of a shared mesh
+EMPTY_SLOT = "hydrobake_empty_slot"  # on a mesh: the slot a made material left, others using it
 
 
 def own(obj, index, unwire):
@@ -146,6 +153,23 @@ def restore(obj, prefix):
         mat = slot.material
         shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
             else None
+        if mat is not None and COPY_OF in mat and shared is None and not _has_wiring(mat) \
+                and mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
+            # The shared one was a material made for the other object of the mesh, gone
+            # with its bake: the mesh's slot shows again (empty).
+            slot.material = None
+            slot.link = "DATA"
+            if mat.users == 0:
+                bpy.data.materials.remove(mat)
+            index = obj.data.get(EMPTY_SLOT)
+            users = [o for o in bpy.data.objects if o.data == obj.data]
+            if index is not None and index == len(obj.data.materials) - 1 and not any(
+                    o.material_slots[index].material for o in users):
+                del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes
+                obj.active_material_index = index
+                with bpy.context.temp_override(object=obj):
+                    bpy.ops.object.material_slot_remove()
+            continue
         if shared is None or _has_wiring(mat) or (shared.node_tree and any(
                 str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
             continue  # another effect's bake still in the copy, or another object's in it
