@@ -110,8 +110,9 @@ class Job:
             if holder is not None:  # its files and wiring would be taken for this object's
                 raise ValueError(
                     f"{obj.name}: {holder.name} records a {effect_name} bake made under this "
-                    f"name or in this folder ({self.folder}); free or re-bake {holder.name} "
-                    "first, or rename this object")
+                    f"name or in this folder ({self.folder}) (it was renamed, or is a Shift+D "
+                    f"copy keeping the record); free or re-bake {holder.name} first, or "
+                    "rename this object")
         self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
         if resume and self.copy_of is not None:
             raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
