@@ -44,12 +44,27 @@ def holders(folder, effect_name, but=None):
             and _same_folder(settings_of(o, effect_name).bake_folder, folder)]
 
 
+HOLDER = "holder_id"  # in a bake's settings: the object it was recorded on, this session
+
+
+def _identity(obj):
+    """The object's identity for this session (its address): a Shift+D copy has its own,
+    though it copies every property. Blender 3.4 has no persistent one; undo may change it,
+    and then the names decide."""
+    return str(obj.as_pointer())
+
+
 def wiring_owner(obj, effect_name):
     """The object whose bake's wiring (named after the name it was baked under) the record
-    in ``obj``'s settings describes: the holder still called by that name, or None when none
-    is (renamed since; or a copy's original was)."""
+    in ``obj``'s settings describes: the holder the bake was recorded on (known this session
+    by its identity), else the holder still called by that name, or None when none is
+    (renamed since; or a copy's original was)."""
     s = settings_of(obj, effect_name)
     name = s.get("baked_as") or obj.name
+    group = holders(s.bake_folder, effect_name) if s.is_baked else []
+    recorded_on = [h for h in group if settings_of(h, effect_name).get(HOLDER) == _identity(h)]
+    if len(recorded_on) == 1:
+        return recorded_on[0]
     if obj.name == name:
         return obj
     other = bpy.data.objects.get(name)
@@ -79,6 +94,24 @@ def forget(obj, effect_name):
     s.is_baked = False
     s.bake_folder = ""
     s.pop("baked_as", None)
+    s.pop(HOLDER, None)
+
+
+def refresh_holders():
+    """After a file is opened, addresses are new: a bake recorded by one object only, or by
+    several of which one still has the name it was baked under, is known to be that one's
+    again (load_post)."""
+    for effect_name in effects.load_all():
+        groups = {}
+        for o in bpy.data.objects:
+            s = settings_of(o, effect_name)
+            if s.is_baked and s.bake_folder:
+                groups.setdefault(os.path.realpath(s.bake_folder), []).append(o)
+        for group in groups.values():
+            named = [o for o in group if settings_of(o, effect_name).get("baked_as") == o.name]
+            owner = group if len(group) == 1 else named
+            if len(owner) == 1:
+                settings_of(owner[0], effect_name)[HOLDER] = _identity(owner[0])
 
 
 def name_holder(obj, effect_name, folder):
@@ -160,6 +193,7 @@ class Job:
             with scene_context(context, scene):
                 self.beffect.apply(context, obj, settings, self.folder, manifest)
             settings["baked_as"] = obj.name
+            settings[HOLDER] = _identity(obj)
             paths.relink(self.folder, self.recorded)
 
     def _free_superseded(self, obj, folder, name):
@@ -221,9 +255,7 @@ def free(context, obj, effect_name):
         return cache.free() if m is not None and m.get("object") == obj.name else []
     removed = cache.free()
     beffect.remove(context, obj, settings)
-    settings.is_baked = False
-    settings.bake_folder = ""
-    settings.pop("baked_as", None)
+    forget(obj, effect_name)
     return removed
 
 

@@ -14,6 +14,13 @@ def _cancel_on_load(*_args):
     jobs.cancel_all()
 
 
+@bpy.app.handlers.persistent
+def _refresh_on_load(*_args):
+    """The objects' addresses are new in an opened file: tell bakes their holders again."""
+    from . import jobs
+    jobs.refresh_holders()
+
+
 def register():
     classes, settings = [properties.HydrobakeSceneSettings, *operators.CLASSES], {}
     for name, beffect in effects.load_all().items():
@@ -32,6 +39,7 @@ def register():
         _object_props.append(f"hydrobake_{name}")
         effects.BLENDER_EFFECTS[name].register_extra()
     bpy.app.handlers.load_pre.append(_cancel_on_load)
+    bpy.app.handlers.load_post.append(_refresh_on_load)
 
 
 def unregister():
@@ -39,6 +47,8 @@ def unregister():
     jobs.cancel_all()
     if _cancel_on_load in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.remove(_cancel_on_load)
+    if _refresh_on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_refresh_on_load)
     for attr in _object_props:
         delattr(bpy.types.Object, attr)
         effects.BLENDER_EFFECTS[attr[len("hydrobake_"):]].unregister_extra()

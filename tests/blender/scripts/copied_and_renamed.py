@@ -84,4 +84,46 @@ assert os.path.isfile(os.path.join(folder, "caustics_0001.exr")) and owners().co
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="PoolA") == {"FINISHED"}
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool") == {"FINISHED"}
 assert owners() == sorted(["Pool", "PoolA", second.name]), owners()
+
+# Shift+D, then the original renamed: the bake was recorded on the original, so it resumes,
+# its Free unwires its own material (the copy keeps the files), and the copy's Free removes
+# them.
+floor2 = in_blender.new_plane("Floor2")
+floor2.scale, floor2.location = (3.0, 3.0, 1.0), (0.0, 10.0, -0.5)
+orig = in_blender.new_plane("Orig")
+orig.location.y = 10.0
+water = bpy.data.materials.new("OrigWater")
+water.use_nodes = True
+orig.data.materials.append(water)
+o = orig.hydrobake_caustics
+o.enabled, o.ground_object, o.use_scene_range, o.frame_start, o.frame_end = \
+    True, floor2, False, 1, 2
+o.water.width, o.map_resolution = 16, 32
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Orig") == {"FINISHED"}
+ofolder = o.bake_folder
+for ob in bpy.context.view_layer.objects:
+    ob.select_set(ob == orig)
+bpy.context.view_layer.objects.active = orig
+assert bpy.ops.object.duplicate() == {"FINISHED"}
+twin = bpy.context.view_layer.objects.active
+twin.material_slots[0].material = water.copy()  # a material of its own
+orig.name = "Renamed"
+o.frame_end = 3
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Renamed", resume=True) == \
+    {"FINISHED"}
+assert os.path.isfile(os.path.join(ofolder, "caustics_0003.exr"))
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Renamed") == {"FINISHED"}
+assert not any(n.get("hydrobake") for n in water.node_tree.nodes)
+assert os.path.isdir(ofolder) and twin.hydrobake_caustics.is_baked
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=twin.name) == {"FINISHED"}
+assert not os.path.exists(ofolder)
+
+# After the file is opened again (new addresses), a bake's holder is known again.
+from hydrobake.blender import jobs  # noqa: E402
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Renamed") == {"FINISHED"}
+bpy.ops.wm.save_mainfile()
+bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
+again = bpy.data.objects["Renamed"]
+s = again.hydrobake_caustics
+assert s.is_baked and s[jobs.HOLDER] == str(again.as_pointer())
 print("COPIED AND RENAMED OK")
