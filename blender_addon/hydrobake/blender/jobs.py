@@ -241,6 +241,9 @@ def free(context, obj, effect_name):
         if settings.is_baked:
             if wiring_owner(obj, effect_name) == obj:
                 beffect.remove(context, obj, settings)  # the wiring named after this object
+            else:  # a copy: what the bake changed on it alone
+                keep = {s.material for o in others for s in o.material_slots if s.material}
+                beffect.let_go(context, obj, settings, keep)
             forget(obj, effect_name)
         return []
     cache = BakeCache(folder)

@@ -129,6 +129,38 @@ free(pc_copy, "caustics"), free(pc_copy, "caustics")  # the second one has no re
 assert pc.hydrobake_caustics.is_baked and "caustics.surface" in tags(pc.active_material)
 free(pc, "caustics")
 
+# A copy freed before its original takes out what the bake changed on it alone: its
+# modifiers and shadow flag (caustics), its glass thickness (rain).
+pd_floor = plane("PdFloor", 3.0, (0, 14, -0.5))
+pd = plane("Pd", 1.0, (0, 14, 0))
+ds = caustics(pd, pd_floor)
+ds.displace_surface = True
+bake(pd, "caustics")
+for o in bpy.context.view_layer.objects:
+    o.select_set(o == pd)
+bpy.context.view_layer.objects.active = pd
+assert bpy.ops.object.duplicate() == {"FINISHED"}
+pd_copy = bpy.context.view_layer.objects.active
+assert "HBK Displace" in pd_copy.modifiers and not pd_copy.visible_shadow
+free(pd_copy, "caustics")
+assert "HBK Displace" not in pd_copy.modifiers and pd_copy.visible_shadow
+assert "hydrobake_shadow" not in pd_copy.keys()
+assert "HBK Displace" in pd.modifiers and pd.hydrobake_caustics.is_baked
+assert "caustics.surface" in tags(pd.active_material)  # shared with the copy: kept
+free(pd, "caustics")
+assert "HBK Displace" not in pd.modifiers and pd.visible_shadow
+rg = plane("Rg", loc=(6, 14, 1))
+rain(rg)
+bake(rg, "rain")
+for o in bpy.context.view_layer.objects:
+    o.select_set(o == rg)
+bpy.context.view_layer.objects.active = rg
+assert bpy.ops.object.duplicate() == {"FINISHED"}
+rg_copy = bpy.context.view_layer.objects.active
+free(rg_copy, "rain")
+assert "HBK Glass Thickness" not in rg_copy.modifiers and "HBK Glass Thickness" in rg.modifiers
+free(rg, "rain")
+
 # A Glass BSDF gets its own IOR and roughness back.
 gb = plane("GlassBSDF", loc=(6, 3, 1))
 bm = bpy.data.materials.new("GlassShader")

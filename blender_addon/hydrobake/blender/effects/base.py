@@ -52,6 +52,12 @@ class BlenderEffect:
         """Undoes ``apply`` (Free Bake). Main thread. What apply named after the object is
         found under baked_name: the object may have been renamed since."""
 
+    @classmethod
+    def let_go(cls, context, obj, settings, keep):
+        """Undoes what ``apply`` changed on this object alone (its modifiers, flags, and the
+        materials not in ``keep``, which other objects recording the same bake show), when it
+        lets go of a bake record others hold (a Shift+D copy's Free). Main thread."""
+
     @staticmethod
     def baked_name(obj, settings):
         """The object's name when its bake was wired (jobs.finalize records it)."""

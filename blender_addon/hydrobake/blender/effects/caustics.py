@@ -491,6 +491,25 @@ class CausticsBlender(BlenderEffect):
         tree.links.new(tex.outputs["Color"], emit.inputs["Color"])
 
     @classmethod
+    def let_go(cls, context, obj, settings, keep):
+        for name in ("HBK Displace", "HBK Subdivision"):
+            mod = obj.modifiers.get(name)
+            if mod is not None:
+                obj.modifiers.remove(mod)
+        for mat in {s.material for s in obj.material_slots if s.material} - set(keep):
+            if mat.node_tree:
+                materials.remove_tagged(mat.node_tree, "caustics.")
+            materials.give_back(obj, mat, "caustics.")
+        materials.restore(obj, "caustics.")
+        cls._give_shadow_back(obj)
+
+    @staticmethod
+    def _give_shadow_back(obj):
+        if "hydrobake_shadow" in obj:
+            obj.visible_shadow = bool(obj["hydrobake_shadow"])
+            del obj["hydrobake_shadow"]
+
+    @classmethod
     def remove(cls, context, obj, settings):
         pool = cls.baked_name(obj, settings)
         prefix = f"HBK_{pool}"
@@ -520,9 +539,7 @@ class CausticsBlender(BlenderEffect):
                    if g is not None and g.type == "MESH"]
         cls._unwire_floors(pool, grounds)
         settings.pop("wired_ground", None)
-        if "hydrobake_shadow" in obj:
-            obj.visible_shadow = bool(obj["hydrobake_shadow"])
-            del obj["hydrobake_shadow"]
+        cls._give_shadow_back(obj)
         for stream in ("view", "caustics", "surface", "height"):
             images.remove(f"{prefix}_{stream}")
 

@@ -444,6 +444,11 @@ class FluidBlender(BlenderEffect):
         return mat
 
     @classmethod
+    def let_go(cls, context, obj, settings, keep):
+        obj.display_type = "TEXTURED"
+        obj.hide_render = False
+
+    @classmethod
     def remove(cls, context, obj, settings):
         prefix = f"HBK_{cls.baked_name(obj, settings)}"
         frame_meshes.detach(f"{prefix}_surface")

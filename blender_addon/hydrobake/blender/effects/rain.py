@@ -268,6 +268,17 @@ class RainBlender(BlenderEffect):
         tree.links.new(side.outputs["Color"], normal)
 
     @classmethod
+    def let_go(cls, context, obj, settings, keep):
+        mod = obj.modifiers.get(THICKNESS)
+        if mod is not None:
+            obj.modifiers.remove(mod)
+        for mat in {s.material for s in obj.material_slots if s.material} - set(keep):
+            if mat.node_tree:
+                cls._unwire(mat.node_tree)
+            materials.give_back(obj, mat, "rain.")
+        materials.restore(obj, "rain.")
+
+    @classmethod
     def remove(cls, context, obj, settings):
         mod = obj.modifiers.get(THICKNESS)
         if mod is not None:

@@ -511,6 +511,16 @@ class SnowBlender(BlenderEffect):
                           material=white)
 
     @classmethod
+    def let_go(cls, context, obj, settings, keep):
+        cls._remove_box(obj)
+        for mat in {s.material for s in obj.material_slots if s.material is not None} - \
+                set(keep):
+            if mat.node_tree:
+                _unwire(mat.node_tree)
+            materials.give_back(obj, mat, "snow.")
+        materials.restore(obj, "snow.")
+
+    @classmethod
     def remove(cls, context, obj, settings):
         points.detach(f"HBK_{cls.baked_name(obj, settings)}_flakes")
         cls._remove_box(obj)
