@@ -185,8 +185,9 @@ class Job:
                 pass  # the record was a copy of another object's bake: nothing of ours
             elif old_name != obj.name:  # renamed: unwire the old
                 self.beffect.remove(context, obj, settings)
-                if manifest.get("complete"):
-                    self._free_superseded(obj, old_folder, old_name)
+                if manifest.get("complete") and old_folder and \
+                        not _same_folder(old_folder, self.folder):
+                    settings[SUPERSEDED] = [old_folder, old_name]  # freed once saved
             settings.is_baked = True
             settings.bake_folder = self.recorded
             scene = bpy.data.scenes.get(self.scene_name) or context.scene
@@ -196,25 +197,34 @@ class Job:
             settings[HOLDER] = _identity(obj)
             paths.relink(self.folder, self.recorded)
 
-    def _free_superseded(self, obj, folder, name):
-        """A renamed object's re-bake went to a folder under its new name. Once it is complete,
-        the bake it replaces is freed, as a re-bake in place would have replaced it: else it
-        stays on disk, and an object later given the old name finds it there. Only a bake
-        made for that name and effect, and that no other object now uses."""
-        if not folder or os.path.realpath(folder) == os.path.realpath(self.folder):
-            return
-        cache = BakeCache(folder)
-        try:
-            old = cache.read_manifest()
-        except ValueError:
-            return
-        if not old or old.get("object") != name or old.get("effect") != self.effect_name:
-            return
-        if any(os.path.realpath(settings_of(o, self.effect_name).bake_folder or "/") ==
-               os.path.realpath(folder) for o in bpy.data.objects
-               if o != obj and hasattr(o, f"hydrobake_{self.effect_name}")):
-            return
-        cache.free()
+
+
+SUPERSEDED = "superseded"  # in a bake's settings: [folder, name] of the bake it replaced
+
+
+def free_superseded():
+    """After the .blend is saved (save_post): frees the bakes that renamed objects' complete
+    re-bakes replaced, as a re-bake in place would have replaced them; else they stay on disk,
+    and an object later given the old name finds them there. Not before the save: the file
+    on disk still records the old bake until then (quit without saving, and it is intact).
+    Only a bake made for that name and effect, and that no object records now."""
+    for effect_name in effects.load_all():
+        for obj in bpy.data.objects:
+            settings = settings_of(obj, effect_name)
+            if SUPERSEDED not in settings:
+                continue
+            folder, name = settings[SUPERSEDED]
+            del settings[SUPERSEDED]
+            if not settings.is_baked or _same_folder(folder, settings.bake_folder) or \
+                    holders(folder, effect_name):
+                continue
+            cache = BakeCache(folder)
+            try:
+                old = cache.read_manifest()
+            except ValueError:
+                continue
+            if old and old.get("object") == name and old.get("effect") == effect_name:
+                cache.free()
 
 
 def bake_state(obj, effect_name):

@@ -21,6 +21,13 @@ def _refresh_on_load(*_args):
     jobs.refresh_holders()
 
 
+@bpy.app.handlers.persistent
+def _free_superseded_on_save(*_args):
+    """The saved file records renamed objects' new bakes: their old ones can go."""
+    from . import jobs
+    jobs.free_superseded()
+
+
 def register():
     classes, settings = [properties.HydrobakeSceneSettings, *operators.CLASSES], {}
     for name, beffect in effects.load_all().items():
@@ -40,6 +47,7 @@ def register():
         effects.BLENDER_EFFECTS[name].register_extra()
     bpy.app.handlers.load_pre.append(_cancel_on_load)
     bpy.app.handlers.load_post.append(_refresh_on_load)
+    bpy.app.handlers.save_post.append(_free_superseded_on_save)
 
 
 def unregister():
@@ -49,6 +57,8 @@ def unregister():
         bpy.app.handlers.load_pre.remove(_cancel_on_load)
     if _refresh_on_load in bpy.app.handlers.load_post:
         bpy.app.handlers.load_post.remove(_refresh_on_load)
+    if _free_superseded_on_save in bpy.app.handlers.save_post:
+        bpy.app.handlers.save_post.remove(_free_superseded_on_save)
     for attr in _object_props:
         delattr(bpy.types.Object, attr)
         effects.BLENDER_EFFECTS[attr[len("hydrobake_"):]].unregister_extra()

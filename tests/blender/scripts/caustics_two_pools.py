@@ -103,6 +103,8 @@ try:
 except RuntimeError as exc:
     assert "Pond records a caustics bake made under this name" in str(exc), str(exc)
 bake(left)
+assert os.path.isdir(folder)  # the saved file still records it
+bpy.ops.wm.save_mainfile()
 assert not os.path.exists(folder) and os.path.isdir(left.hydrobake_caustics.bake_folder)
 bake(newcomer)
 assert os.path.realpath(ns.bake_folder) == os.path.realpath(folder)

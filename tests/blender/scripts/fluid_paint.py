@@ -75,9 +75,11 @@ old_folder = s.bake_folder
 domain.name = "Tank"
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Tank") == {"FINISHED"}
 assert made("HBK_Domain_") == [] and made("HBK_Tank_") == ["HBK_Tank_surface", "HBK_Tank_volume"]
-# The bake under the old name is replaced, as a re-bake in place would be: not left on disk
-# for an object later named Domain to find.
+# The bake under the old name is replaced, as a re-bake in place would be, once the file
+# records the new one (saved): until then the file on disk still needs it.
 assert s.bake_folder != old_folder and os.path.isdir(s.bake_folder)
+assert os.path.isfile(os.path.join(old_folder, "manifest.json"))
+bpy.ops.wm.save_mainfile()
 assert not os.path.exists(old_folder), os.listdir(old_folder)
 domain.name = "Pool"
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Pool") == {"FINISHED"}
