@@ -34,11 +34,7 @@ def owners():
 
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool") == {"FINISHED"}
 folder = s.bake_folder
-for o in bpy.context.view_layer.objects:
-    o.select_set(o == pool)
-bpy.context.view_layer.objects.active = pool
-assert bpy.ops.object.duplicate() == {"FINISHED"}
-copy = bpy.context.view_layer.objects.active
+copy = in_blender.duplicate(pool)
 copy.location.x = 3.0
 c = copy.hydrobake_caustics
 assert copy.name == "Pool.001" and c.is_baked and c.bake_folder == folder  # Blender copied it
@@ -55,11 +51,7 @@ assert s.is_baked and os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
 assert owners() == ["Pool"] and materials.tagged(pool.active_material.node_tree,
                                                  "caustics.surface") is not None
 # A re-bake of a fresh copy (record still copied) makes its own bake beside the original's.
-for o in bpy.context.view_layer.objects:
-    o.select_set(o == pool)
-bpy.context.view_layer.objects.active = pool
-assert bpy.ops.object.duplicate() == {"FINISHED"}
-second = bpy.context.view_layer.objects.active
+second = in_blender.duplicate(pool)
 second.location.x = -3.0
 assert second.hydrobake_caustics.is_baked
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name=second.name) == {"FINISHED"}
@@ -101,11 +93,7 @@ o.enabled, o.ground_object, o.use_scene_range, o.frame_start, o.frame_end = \
 o.water.width, o.map_resolution = 16, 32
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Orig") == {"FINISHED"}
 ofolder = o.bake_folder
-for ob in bpy.context.view_layer.objects:
-    ob.select_set(ob == orig)
-bpy.context.view_layer.objects.active = orig
-assert bpy.ops.object.duplicate() == {"FINISHED"}
-twin = bpy.context.view_layer.objects.active
+twin = in_blender.duplicate(orig)
 twin.material_slots[0].material = water.copy()  # a material of its own
 orig.name = "Renamed"
 o.frame_end = 3

@@ -59,3 +59,13 @@ def snow(obj, frames, flakes, texture=64):
     s.snow.flake_count = flakes
     s.snow.texture_width = s.snow.texture_height = texture
     return s
+
+
+def duplicate(obj):
+    """Shift+D on ``obj`` alone, as the artist does it (the copy keeps every property, a bake
+    record too); returns the copy."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    return bpy.context.view_layer.objects.active

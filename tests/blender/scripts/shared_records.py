@@ -120,11 +120,7 @@ pc_floor = plane("PcFloor", 3.0, (0, 10, -0.5))
 pc = plane("Pc", 1.0, (0, 10, 0))
 caustics(pc, pc_floor)
 bake(pc, "caustics")
-for o in bpy.context.view_layer.objects:
-    o.select_set(o == pc)
-bpy.context.view_layer.objects.active = pc
-assert bpy.ops.object.duplicate() == {"FINISHED"}
-pc_copy = bpy.context.view_layer.objects.active
+pc_copy = in_blender.duplicate(pc)
 free(pc_copy, "caustics"), free(pc_copy, "caustics")  # the second one has no record at all
 assert pc.hydrobake_caustics.is_baked and "caustics.surface" in tags(pc.active_material)
 free(pc, "caustics")
@@ -136,11 +132,7 @@ pd = plane("Pd", 1.0, (0, 14, 0))
 ds = caustics(pd, pd_floor)
 ds.displace_surface = True
 bake(pd, "caustics")
-for o in bpy.context.view_layer.objects:
-    o.select_set(o == pd)
-bpy.context.view_layer.objects.active = pd
-assert bpy.ops.object.duplicate() == {"FINISHED"}
-pd_copy = bpy.context.view_layer.objects.active
+pd_copy = in_blender.duplicate(pd)
 assert "HBK Displace" in pd_copy.modifiers and not pd_copy.visible_shadow
 free(pd_copy, "caustics")
 assert "HBK Displace" not in pd_copy.modifiers and pd_copy.visible_shadow
@@ -152,11 +144,7 @@ assert "HBK Displace" not in pd.modifiers and pd.visible_shadow
 rg = plane("Rg", loc=(6, 14, 1))
 rain(rg)
 bake(rg, "rain")
-for o in bpy.context.view_layer.objects:
-    o.select_set(o == rg)
-bpy.context.view_layer.objects.active = rg
-assert bpy.ops.object.duplicate() == {"FINISHED"}
-rg_copy = bpy.context.view_layer.objects.active
+rg_copy = in_blender.duplicate(rg)
 free(rg_copy, "rain")
 assert "HBK Glass Thickness" not in rg_copy.modifiers and "HBK Glass Thickness" in rg.modifiers
 free(rg, "rain")
@@ -191,11 +179,7 @@ ps = caustics(pool, floor)
 bake(pool, "caustics")
 folder = ps.bake_folder
 pool.name = "Pool2"
-for o in bpy.context.view_layer.objects:
-    o.select_set(o == pool)
-bpy.context.view_layer.objects.active = pool
-assert bpy.ops.object.duplicate() == {"FINISHED"}
-copy = bpy.context.view_layer.objects.active
+copy = in_blender.duplicate(pool)
 free(copy, "caustics")
 assert ps.is_baked and os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
 assert "caustics.multiply" in tags(fm) and not copy.hydrobake_caustics.is_baked
