@@ -379,10 +379,10 @@ def _bake(args, resume, stop):
             break
         t0 = time.monotonic()
         scene = obj.users_scene[0] if obj.users_scene else bpy.context.scene
-        if resume and jobs.copied_from(obj, name) is not None:  # a Shift+D copy's record
+        original = jobs.copied_from(obj, name) if resume else None
+        if original is not None:  # a Shift+D copy's record
             print(f"hydrobake: {obj.name}/{name} skipped: its record is a copy of "
-                  f"{jobs.copied_from(obj, name).name}'s bake; nothing of its own to resume",
-                  flush=True)
+                  f"{original.name}'s bake; nothing of its own to resume", flush=True)
             continue
         try:  # a target that cannot be set up is reported; the others still bake
             job = jobs.Job(bpy.context, obj, name, frames=args.frames,

@@ -82,9 +82,9 @@ def copied_from(obj, effect_name):
     if not s.is_baked:
         return None
     others = holders(s.bake_folder, effect_name, but=obj)
-    if not others or wiring_owner(obj, effect_name) == obj:
+    owner = wiring_owner(obj, effect_name) if others else obj
+    if owner == obj:
         return None
-    owner = wiring_owner(obj, effect_name)
     return owner if owner is not None else others[0]
 
 

@@ -18,16 +18,12 @@ in_blender.enable()
 from hydrobake.blender.bridge import materials  # noqa: E402
 from hydrobake.core import exr  # noqa: E402
 
-tmp = in_blender.args()[0]
-bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "free.blend"))
+tmp = in_blender.empty_file("free.blend")
 scene = bpy.context.scene
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
 
 
 def node_material(name, colour=(0.8, 0.8, 0.8, 1.0)):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
+    m = in_blender.node_material(name)
     materials.principled(m.node_tree).inputs["Base Color"].default_value = colour
     return m
 

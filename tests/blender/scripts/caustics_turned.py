@@ -14,11 +14,8 @@ import in_blender
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
 
-tmp = in_blender.args()[0]
-bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "turned.blend"))
+tmp = in_blender.empty_file("turned.blend")
 scene = bpy.context.scene
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
 ANGLE = math.radians(30.0)
 pool = in_blender.new_plane("Pool")  # 2 m x 1 m, turned 30 degrees, centred at (1, 2)
 pool.scale = (1.0, 0.5, 1.0)

@@ -11,21 +11,16 @@ import in_blender
 in_blender.enable()
 from hydrobake.blender.bridge import materials  # noqa: E402
 
-tmp = in_blender.args()[0]
-bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "pools.blend"))
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
+in_blender.empty_file("pools.blend")
 floor = in_blender.new_plane("Floor")
 floor.scale, floor.location = (4.0, 2.0, 1.0), (0.0, 0.0, -0.5)
-fmat = bpy.data.materials.new("Tiles")
-fmat.use_nodes = True
+fmat = in_blender.node_material("Tiles")
 floor.data.materials.append(fmat)
 ftree = fmat.node_tree
 bsdf = materials.principled(ftree)
 tiles = ftree.nodes.new("ShaderNodeTexChecker")
 ftree.links.new(tiles.outputs["Color"], bsdf.inputs["Base Color"])
-water = bpy.data.materials.new("Water")
-water.use_nodes = True
+water = in_blender.node_material("Water")
 pools = []
 for name, x in (("Left", -1.5), ("Right", 1.5)):
     pool = in_blender.new_plane(name)

@@ -11,14 +11,10 @@ import in_blender
 in_blender.enable()
 from hydrobake.blender.bridge import materials  # noqa: E402
 
-tmp = in_blender.args()[0]
-bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "copies.blend"))
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
+in_blender.empty_file("copies.blend")
 floor = in_blender.new_plane("Floor")
 floor.scale, floor.location = (6.0, 3.0, 1.0), (0.0, 0.0, -0.5)
-fmat = bpy.data.materials.new("Tiles")
-fmat.use_nodes = True
+fmat = in_blender.node_material("Tiles")
 floor.data.materials.append(fmat)
 pool = in_blender.new_plane("Pool")
 s = pool.hydrobake_caustics
@@ -84,8 +80,7 @@ floor2 = in_blender.new_plane("Floor2")
 floor2.scale, floor2.location = (3.0, 3.0, 1.0), (0.0, 10.0, -0.5)
 orig = in_blender.new_plane("Orig")
 orig.location.y = 10.0
-water = bpy.data.materials.new("OrigWater")
-water.use_nodes = True
+water = in_blender.node_material("OrigWater")
 orig.data.materials.append(water)
 o = orig.hydrobake_caustics
 o.enabled, o.ground_object, o.use_scene_range, o.frame_start, o.frame_end = \

@@ -69,3 +69,21 @@ def duplicate(obj):
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.object.duplicate() == {"FINISHED"}
     return bpy.context.view_layer.objects.active
+
+
+def empty_file(name):
+    """Saves the session as ``name`` in the test's folder (bakes go next to it) and removes
+    every object (the factory Cube, camera and light); returns the folder."""
+    import os
+    tmp = args()[0]
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, name))
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    return tmp
+
+
+def node_material(name):
+    """A new material with its nodes on (a Principled BSDF)."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    return mat

@@ -17,11 +17,8 @@ from hydrobake.blender import jobs  # noqa: E402
 from hydrobake.blender.bridge import materials  # noqa: E402
 from hydrobake.core import exr  # noqa: E402
 
-tmp = in_blender.args()[0]
-bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "glass.blend"))
+tmp = in_blender.empty_file("glass.blend")
 scene = bpy.context.scene
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
 
 
 def glass(name, x=0.0, mesh=None):
@@ -43,8 +40,7 @@ def glass(name, x=0.0, mesh=None):
 
 
 def node_material(name, transmission=0.0):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
+    m = in_blender.node_material(name)
     materials.principled(m.node_tree).inputs["Transmission"].default_value = transmission
     return m
 
@@ -106,8 +102,7 @@ free(two)
 assert cbsdf.inputs["Normal"].links[0].from_node == bump
 assert abs(cbsdf.inputs["IOR"].default_value - 1.45) < 1e-6
 gl = glass("GlassBSDF", 6.0)
-gm = bpy.data.materials.new("GlassShader")
-gm.use_nodes = True
+gm = in_blender.node_material("GlassShader")
 gm.node_tree.nodes.remove(materials.principled(gm.node_tree))
 gnode = gm.node_tree.nodes.new("ShaderNodeBsdfGlass")
 gm.node_tree.links.new(gnode.outputs[0], gm.node_tree.nodes["Material Output"].inputs[0])

@@ -12,10 +12,7 @@ import in_blender
 in_blender.enable()
 from hydrobake.blender.bridge import materials as M  # noqa: E402
 
-tmp = in_blender.args()[0]
-bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "records.blend"))
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
+in_blender.empty_file("records.blend")
 
 
 def plane(name, size=0.5, loc=(0, 0, 0)):
@@ -69,8 +66,7 @@ def values(m):
 
 def floor_material(name, loc):
     f = plane(name, 3.0, loc)
-    m = bpy.data.materials.new(f"{name}Tiles")
-    m.use_nodes = True
+    m = in_blender.node_material(f"{name}Tiles")
     f.data.materials.append(m)
     return f, m
 
@@ -78,8 +74,7 @@ def floor_material(name, loc):
 # Rain and snow in one material: freeing snow leaves rain's glass values; a glass with no
 # material keeps the one rain made until both are freed; nodes switched on stay on for rain.
 g = plane("Glass", loc=(0, 0, 1))
-gm = bpy.data.materials.new("GlassMat")
-gm.use_nodes = True
+gm = in_blender.node_material("GlassMat")
 g.data.materials.append(gm)
 rain(g), snow(g)
 bake(g, "rain"), bake(g, "snow"), free(g, "snow")
@@ -151,8 +146,7 @@ free(rg, "rain")
 
 # A Glass BSDF gets its own IOR and roughness back.
 gb = plane("GlassBSDF", loc=(6, 3, 1))
-bm = bpy.data.materials.new("GlassShader")
-bm.use_nodes = True
+bm = in_blender.node_material("GlassShader")
 bm.node_tree.nodes.remove(M.principled(bm.node_tree))
 shader = bm.node_tree.nodes.new("ShaderNodeBsdfGlass")
 shader.inputs["IOR"].default_value, shader.inputs["Roughness"].default_value = 1.52, 0.1
@@ -163,8 +157,7 @@ bake(gb, "rain"), free(gb, "rain")
 assert [round(shader.inputs[k].default_value, 3) for k in ("IOR", "Roughness")] == [1.52, 0.1]
 
 # A material shared with another object: the copy keeps snow's wiring when rain is freed.
-sm = bpy.data.materials.new("Shared")
-sm.use_nodes = True
+sm = in_blender.node_material("Shared")
 g2, o2 = plane("Glass2", loc=(0, 6, 1)), plane("Other", loc=(3, 6, 1))
 g2.data.materials.append(sm), o2.data.materials.append(sm)
 rain(g2), snow(g2)
