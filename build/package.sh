@@ -10,7 +10,7 @@ src = os.path.join(root, "blender_addon")
 init = open(os.path.join(src, "hydrobake", "__init__.py")).read()
 version = ".".join(re.search(r'"version": \((\d+), (\d+), (\d+)\)', init).groups())
 out = os.path.join(root, "dist", f"hydrobake-{version}.zip")
-tmp = out + ".tmp"
+tmp = f"{out}.{os.getpid()}.tmp"  # concurrent runs do not share it
 with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
     for d, dirs, files in os.walk(os.path.join(src, "hydrobake")):
         dirs[:] = sorted(x for x in dirs if x != "__pycache__")
