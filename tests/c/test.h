@@ -69,6 +69,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(image, normal_map_sphere)          \
     X(image, normal_map_rejects)         \
     X(exr, roundtrip_float_half)         \
+    X(exr, partly_compressible_chunks)   \
     X(exr, orientation_and_strides)      \
     X(exr, atomic_failure_keeps_old)     \
     X(exr, rejects_bad_input)            \

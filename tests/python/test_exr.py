@@ -62,3 +62,34 @@ def test_a_closed_reader_refuses_to_read(tmp_path):
     r.close()  # twice is harmless
     with pytest.raises(errors.StateError, match="closed"):
         r.read("A")
+
+
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+
+
+@pytest.mark.parametrize("compression", ["ZIP", "ZIPS"])
+def test_a_chunk_zlib_cannot_shorten_reads_back_exactly(tmp_path, compression):
+    """Sixteen rows of a snow depth map whose ZIP chunk deflates to exactly its raw length:
+    OpenEXRCore 3.1.5 stored the zlib stream, which every reader takes for raw pixels, and
+    read back noise and NaN (openexr#2306). The writer stores such a chunk raw."""
+    depth = np.load(os.path.join(DATA, "exr_zip_chunk_as_long_as_raw.npy"))
+    exr.write(tmp_path / "d.exr", {"Y": depth}, compression=compression)
+    np.testing.assert_array_equal(exr.read(tmp_path / "d.exr")["Y"], depth)
+
+
+def test_many_partly_compressible_images_read_back_exactly(tmp_path):
+    """Rows of smooth values with random low bits, as the bakes' maps are, near the size
+    where deflate stops paying: every chunk reads back bit for bit, in float and half."""
+    rng = np.random.default_rng(7)
+    for k in range(120):
+        h, w = int(rng.integers(1, 40)), int(rng.integers(1, 70))
+        smooth = np.cumsum(rng.normal(0, 1e-4, (h, w)), axis=1).astype(np.float32)
+        noise = rng.random((h, w)) < rng.random()  # from all smooth to all noise
+        img = np.where(noise, rng.random((h, w)), smooth).astype(np.float32)
+        half = bool(k % 2)
+        if half:
+            img = img.astype(np.float16).astype(np.float32)
+        p = tmp_path / f"r{k}.exr"
+        exr.write(p, {"Y": img}, half=True if half else (),
+                  compression=("ZIP", "ZIPS")[k % 3 == 0])
+        np.testing.assert_array_equal(exr.read(p)["Y"], img, err_msg=f"image {k}")

@@ -140,6 +140,24 @@ static hbk_result_t fail_exr(hbk_message_t *msg, const hbk_exr_detail_t *d, exr_
     return hbk_fail(msg, code_for(rv), "\"%s\": %s: %s", path, what, hbk_exr_detail_text(d, rv));
 }
 
+/* OpenEXRCore up to 3.4.7 (Debian 12 has 3.1.5) keeps a zlib stream exactly as long as the
+ * packed chunk, but a chunk whose stored size equals its unpacked size is raw to every reader,
+ * so the chunk read back as noise (openexr#2306; a snow depth map showed it). Stored raw
+ * instead, as the fixed library does. The library's own compressor runs first. */
+typedef struct {
+    exr_result_t (*compress)(exr_encode_pipeline_t *);
+} zip_guard_t;
+
+static exr_result_t compress_never_ambiguous(exr_encode_pipeline_t *enc)
+{
+    const zip_guard_t *g = enc->encoding_user_data;
+    exr_result_t rv = g->compress(enc);
+    if (rv == EXR_ERR_SUCCESS && enc->compressed_bytes == enc->packed_bytes &&
+        enc->compressed_buffer != enc->packed_buffer)
+        memcpy(enc->compressed_buffer, enc->packed_buffer, enc->packed_bytes);
+    return rv;
+}
+
 /* Copies rows [y0, y0 + n) of the file (row 0 = top) from the caller's buffer (row 0 = bottom)
  * into a planar scratch block of n rows of `width` floats. */
 static void gather_rows(float *dst, const hbk_exr_channel_t *c, int32_t width, int32_t height,
@@ -177,6 +195,7 @@ static hbk_result_t encode_file(const char *path, const char *tmp, int32_t width
 
     hbk_result_t r = HBK_OK;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    zip_guard_t guard = {NULL};
     int have_enc = 0, part = 0, long_names = 0;
     int32_t lines = 0, chunk_count = 0, written = 0;
     size_t plane = 0; /* floats in one chunk of one channel */
@@ -262,6 +281,11 @@ static hbk_result_t encode_file(const char *path, const char *tmp, int32_t width
             }
             TRY(exr_encoding_choose_default_routines(ctx, part, &enc),
                 "exr_encoding_choose_default_routines");
+            if (enc.compress_fn) {
+                guard.compress = enc.compress_fn;
+                enc.encoding_user_data = &guard;
+                enc.compress_fn = compress_never_ambiguous;
+            }
         } else {
             TRY(exr_encoding_update(ctx, part, &ci, &enc), "exr_encoding_update");
         }
