@@ -38,7 +38,8 @@ HBK_EXPORT float hbk_image_sample(const hbk_image_t *img, float x, float y, int3
  * strength scales the slopes (1 = true geometry).
  * out: 3 or 4 channels, same width/height: tangent-space unit normal (x along u, y along v,
  * z out of the surface). With `encode` set, written as n * 0.5 + 0.5, as Blender's Normal Map
- * node expects; alpha (if 4 channels) is set to 1. Edges follow `edge`. */
+ * node expects; alpha (if 4 channels) is set to 1. Edges follow `edge`.
+ * HBK_ERR_INVALID_ARGUMENT also when strength / (2 texel_size) is past float's range. */
 HBK_EXPORT hbk_result_t hbk_normal_map(const hbk_image_t *height, float texel_size_x,
                                        float texel_size_y, float strength, int32_t edge,
                                        int32_t encode, hbk_image_t *out, hbk_message_t *msg);

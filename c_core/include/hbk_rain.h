@@ -260,7 +260,8 @@ HBK_EXPORT hbk_result_t hbk_rain_wetness(hbk_rain_t *h, hbk_image_t *out);
  * height), so a drop shows the background flipped as a real one does. normals: 3 or 4
  * channels, unit normals as hbk_normal_map writes them with encode = 0; out: the normals'
  * size, the background's channel count; background: any size (stretched over out). strength:
- * 0..10, about 0.05. Stateless; threads as hbk_normal_map. HBK_ERR_INVALID_ARGUMENT. */
+ * 0..10, about 0.05. Stateless; threads as hbk_normal_map. HBK_ERR_INVALID_ARGUMENT (also a
+ * normal whose x or y is not in [-1, 1], naming its pixel). */
 HBK_EXPORT hbk_result_t hbk_rain_refraction(const hbk_image_t *normals,
                                             const hbk_image_t *background, float strength,
                                             hbk_image_t *out, hbk_message_t *msg);

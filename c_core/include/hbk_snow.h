@@ -188,8 +188,9 @@ HBK_EXPORT hbk_result_t hbk_snow_set_materials(hbk_snow_t *h, const hbk_snow_mat
  * indices per triangle; uvs: 2 per triangle corner (u, v of corner k of triangle t at
  * uvs[6t + 2k]), required in TRIANGLES mode, may be NULL in BOX mode; material_index: a slot
  * per triangle, NULL = all 0. triangle_count 0 removes the mesh.
- * HBK_ERR_INVALID_ARGUMENT (NULL, an index out of range, a non-finite value, counts out of
- * range), HBK_ERR_OUT_OF_MEMORY. On failure the previous mesh stays. */
+ * HBK_ERR_INVALID_ARGUMENT (NULL, an index out of range, a non-finite value, a position
+ * beyond 1e6 m, counts out of range), HBK_ERR_OUT_OF_MEMORY. On failure the previous mesh
+ * stays. */
 HBK_EXPORT hbk_result_t hbk_snow_set_mesh(hbk_snow_t *h, const float *positions,
                                           int32_t vertex_count, const int32_t *triangles,
                                           const float *uvs, const int32_t *material_index,

@@ -68,6 +68,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(image, normal_map_plane)           \
     X(image, normal_map_sphere)          \
     X(image, normal_map_rejects)         \
+    X(image, normal_map_tiny_texel)      \
     X(exr, roundtrip_float_half)         \
     X(exr, partly_compressible_chunks)   \
     X(exr, orientation_and_strides)      \
@@ -99,6 +100,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(caustics, point_light)             \
     X(caustics, view_uv)                 \
     X(caustics, lit_ground)              \
+    X(caustics, tiny_extent)             \
     X(caustics, cancel)                  \
     X(caustics, workspace_reuse)         \
     X(caustics, paths_same_bytes)        \
@@ -116,6 +118,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(snow, state_roundtrip)             \
     X(snow, cancel)                      \
     X(snow, mesh_rejects)                \
+    X(snow, mesh_rejects_far_vertices)   \
     X(snow, box_mode)                    \
     X(snow, box_slots_fit_the_image)     \
     X(snow, bvh_brute_force)             \
@@ -125,14 +128,17 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(rain, flows_along_gravity)         \
     X(rain, tangent_field)               \
     X(rain, merge)                       \
+    X(rain, mask_after_merge)            \
     X(rain, trails_fade)                 \
     X(rain, wiper_sweep)                 \
     X(rain, holdback)                    \
     X(rain, car_motion)                  \
     X(rain, threads_identical)           \
     X(rain, state_roundtrip)             \
+    X(rain, state_refuses_absurd_motion) \
     X(rain, cancel)                      \
     X(rain, refraction)                  \
+    X(rain, refraction_rejects_bad_normals) \
     X(rain, paths_same_bytes)            \
     X(fluid, params_rejects)             \
     X(fluid, uniform_flow_shift)         \

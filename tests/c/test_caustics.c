@@ -519,6 +519,28 @@ void test_caustics_view_uv(void)
     free(w.v); free(g.v); free(uv.v); free(rf.v);
 }
 
+void test_caustics_tiny_extent(void)
+{
+    /* A map 1e-38 m wide puts the wavy surface's images some 1e38 pixels away; a degenerate
+     * one among them reached the int64 conversion of the raster's floor (undefined; seen
+     * with -fsanitize=float-cast-overflow). Drawn nowhere instead: a finite map. */
+    grid_t w = grid_new(24, 20, 1), g = grid_new(24, 20, 1), out = grid_new(64, 64, 4);
+    for (int y = 0; y < 20; ++y)
+        for (int x = 0; x < 24; ++x) {
+            g.v[y * 24 + x] = 0.02f * (float)x - 0.2f;
+            w.v[y * 24 + x] = 0.1f + 0.01f * sinf((float)x * 0.7f) * cosf((float)y * 0.5f);
+        }
+    hbk_caustics_params_t p = sun(0.0, 0.0);
+    p.auto_extent = 0;
+    p.extent[2] = p.extent[3] = 1e-38f;
+    hbk_message_t m;
+    CHECK_OK(hbk_caustics_render(&p, &w.img, &g.img, 0.05f, &out.img, NULL, NULL, &m));
+    for (int i = 0; i < 64 * 64 * 4; ++i) CHECK(isfinite(out.v[i]));
+    free(w.v);
+    free(g.v);
+    free(out.v);
+}
+
 void test_caustics_lit_ground(void)
 {
     grid_t tex = grid_new(8, 6, 4), map = grid_new(4, 3, 3), out = grid_new(8, 6, 4);

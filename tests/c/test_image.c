@@ -74,6 +74,19 @@ void test_image_normal_map_sphere(void)
     CHECK(worst < 2e-4);
 }
 
+void test_image_normal_map_tiny_texel(void)
+{
+    /* A texel so small that strength / (2 texel_size) overflows made every normal of a flat
+     * field 0 * inf = NaN: refused by name. */
+    float h[16] = {0}, o[48];
+    hbk_image_t hi = {h, 4, 4, 1, 4}, oi = {o, 4, 4, 3, 12};
+    hbk_message_t m;
+    CHECK(hbk_normal_map(&hi, 1e-38f, 1.0f, 1000.0f, 0, 0, &oi, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(m.text, "texel_size = (1e-38, 1): too small for strength = 1000", 54));
+    CHECK_OK(hbk_normal_map(&hi, 1e-30f, 1.0f, 1000.0f, 0, 0, &oi, &m));
+    for (int i = 0; i < 48; ++i) CHECK(isfinite(o[i]));
+}
+
 void test_image_normal_map_rejects(void)
 {
     float h[4] = {0}, o[12];

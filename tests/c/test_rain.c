@@ -567,6 +567,29 @@ void test_rain_tangent_field(void)
     free(mask.v);
 }
 
+void test_rain_mask_after_merge(void)
+{
+    /* A drop merged into another is dead but stays in the array until the next compaction; a
+     * mask that takes the glass away must run off the surviving drop's water once, not the
+     * merged drop's too. */
+    hbk_rain_params_t p = params(64, 64);
+    hbk_rain_t *h = make(&p);
+    CHECK(h);
+    CHECK_OK(hbk_rain_add_drop(h, 0.0305f, 0.0305f, 5.0f));
+    CHECK_OK(hbk_rain_add_drop(h, 0.0315f, 0.0305f, 7.0f)); /* touching: merges */
+    CHECK_OK(hbk_rain_add_drop(h, 0.0105f, 0.0505f, 3.0f));
+    CHECK(hbk_rain_drop_count(h) == 2);
+    grid_t mask = grid_new(64, 64, 1); /* all zero: no glass left */
+    CHECK_OK(hbk_rain_set_tangents(h, NULL, &mask.img));
+    free(mask.v);
+    hbk_rain_water_t w;
+    CHECK_OK(hbk_rain_water(h, &w));
+    hbk_rain_destroy(h);
+    CHECK_NEAR(w.rain_in, 15.0, 1e-9);
+    CHECK_NEAR(w.on_glass, 0.0, 1e-9);
+    CHECK_NEAR(w.run_off, 15.0, 1e-9);
+}
+
 void test_rain_merge(void)
 {
     /* The paper's rule: two drops in one cell are one drop with both masses. */
@@ -1019,6 +1042,54 @@ static void *toggle(void *arg)
     return NULL;
 }
 
+/* Replaces every float equal to `from` in the buffer by `to`; returns how many. */
+static int poke_floats(unsigned char *b, size_t n, float from, float to)
+{
+    int k = 0;
+    for (size_t i = 0; i + 4 <= n; i += 4) {
+        float f;
+        memcpy(&f, b + i, 4);
+        if (f == from) {
+            memcpy(b + i, &to, 4);
+            ++k;
+        }
+    }
+    return k;
+}
+
+void test_rain_state_refuses_absurd_motion(void)
+{
+    /* A checkpoint whose blade or car is far past what the setters take is no run's: a blade
+     * 1e30 degrees on made the wiper substep count overflow its integer (undefined). */
+    hbk_rain_params_t p = params(64, 64);
+    p.wiper_count = 1;
+    p.wiper_pivot[0] = 0.03f;
+    p.wiper_pivot[1] = 0.0f;
+    p.blade_length = 0.01f;
+    p.blade_width = 0.002f;
+    p.blade_offset = 0.005f;
+    hbk_rain_t *h = make(&p);
+    CHECK(h);
+    const float angle = 1234.5f, speed = 77.25f;
+    CHECK_OK(hbk_rain_set_wiper_angles(h, &angle, 1));
+    CHECK_OK(hbk_rain_set_car(h, speed, 0.0f, NULL));
+    CHECK_OK(hbk_rain_step(h, 0.01f, NULL));
+    size_t n;
+    unsigned char *good = state_of(h, &n), *bad = malloc(n);
+    CHECK(good && bad);
+    const float far[2][2] = {{angle, 1e30f}, {speed, 1e30f}};
+    for (int k = 0; k < 2; ++k) {
+        memcpy(bad, good, n);
+        CHECK(poke_floats(bad, n, far[k][0], far[k][1]) >= 1);
+        CHECK(hbk_rain_load_state(h, bad, n) == HBK_ERR_FORMAT);
+    }
+    CHECK_OK(hbk_rain_load_state(h, good, n));
+    CHECK_OK(hbk_rain_step(h, 0.01f, NULL));
+    free(good);
+    free(bad);
+    hbk_rain_destroy(h);
+}
+
 void test_rain_cancel(void)
 {
     hbk_rain_params_t p = storm(1, 3);
@@ -1073,6 +1144,31 @@ void test_rain_cancel(void)
 }
 
 /* ---- Maps ---------------------------------------------------------------------------- */
+
+void test_rain_refraction_rejects_bad_normals(void)
+{
+    /* A NaN or far-off normal shifted the lookup by NaN or past int32, converted to a texel
+     * index (undefined), and put NaN in the preview: such normals are refused by pixel. */
+    const int32_t W = 8, H = 6;
+    grid_t bg = grid_new(W, H, 3), nrm = grid_new(W, H, 3), out = grid_new(W, H, 3);
+    for (int i = 0; i < W * H; ++i) nrm.v[3 * i + 2] = 1.0f;
+    hbk_message_t m;
+    const float bad[] = {NAN, INFINITY, -3e38f, 2.0f};
+    for (int k = 0; k < 4; ++k) {
+        nrm.v[3 * (2 * W + 5) + 1] = bad[k];
+        CHECK(hbk_rain_refraction(&nrm.img, &bg.img, 0.05f, &out.img, &m) ==
+              HBK_ERR_INVALID_ARGUMENT);
+        CHECK(!strncmp(m.text, "normals at pixel (5, 2)", 23));
+    }
+    nrm.v[3 * (2 * W + 5) + 1] = 1.0f;
+    CHECK_OK(hbk_rain_refraction(&nrm.img, &bg.img, 0.05f, &out.img, &m));
+    /* hbk_image_sample itself is defined for any coordinate. */
+    CHECK(hbk_image_sample(&bg.img, 3e9f, -3e9f, 0, HBK_EDGE_MIRROR) == 0.0f);
+    CHECK(isnan(hbk_image_sample(&bg.img, NAN, 1.0f, 0, HBK_EDGE_WRAP)));
+    free(bg.v);
+    free(nrm.v);
+    free(out.v);
+}
 
 void test_rain_refraction(void)
 {

@@ -721,6 +721,27 @@ void test_snow_cancel(void)
 
 /* ---- mesh and materials input ---- */
 
+void test_snow_mesh_rejects_far_vertices(void)
+{
+    /* Finite positions whose span passes FLT_MAX (a ground quad 2e38 m either side) made the
+     * occupancy grid's cell count NaN, converted to int (undefined); such a mesh is refused
+     * by name, and the largest accepted one still steps. */
+    hbk_snow_params_t p = small_params();
+    hbk_snow_t *h;
+    CHECK_OK(hbk_snow_create(&h, &p, NULL));
+    mesh_t *m = calloc(1, sizeof *m);
+    add_quad(m, -2e38f, -2e38f, 2e38f, 2e38f, 0.5f, 0, 0, 1, 1, 0);
+    CHECK(set_mesh(h, m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(hbk_snow_message(h), "positions[0] = (-2e+38, -2e+38, 0.5): must be finite, "
+                   "|x|, |y|, |z| <= 1e6 m", 80));
+    m->nv = m->nt = 0;
+    add_quad(m, -1e6f, -1e6f, 1e6f, 1e6f, 0.5f, 0, 0, 1, 1, 0);
+    CHECK_OK(set_mesh(h, m));
+    CHECK_OK(hbk_snow_step(h, 4, NULL));
+    free(m);
+    hbk_snow_destroy(h);
+}
+
 void test_snow_mesh_rejects(void)
 {
     hbk_snow_params_t p = small_params();

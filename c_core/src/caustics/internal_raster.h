@@ -5,6 +5,7 @@
 #define HBK_INTERNAL_RASTER_H
 
 #include "internal_caustics.h"
+#include <math.h>
 #include <string.h>
 
 enum { IT_H, IT_V, IT_D, IT_LOOSE };
@@ -54,9 +55,12 @@ static inline void edge_verts(const hbk_caustics_ctx_t *c, int kind, int32_t j, 
     *v1 = *v0 + (kind == IT_H ? 1 : kind == IT_V ? (size_t)c->nvx : (size_t)c->nvx + 1);
 }
 
-/* floor for |x| < 2^62, inline (libm's floor is a call without SSE4.1). */
+/* floor, inline (libm's floor is a call without SSE4.1). From 2^52 on every double is a whole
+ * number: x itself, as for NaN and inf, which the callers' range checks then drop (a degenerate
+ * triangle's image far off the map reached the int64 conversion: undefined). */
 static inline double ffloor(double x)
 {
+    if (!(fabs(x) < 4503599627370496.0)) return x;
     const double t = (double)(int64_t)x;
     return t > x ? t - 1.0 : t;
 }

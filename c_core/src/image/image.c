@@ -47,7 +47,10 @@ static inline float texel(const hbk_image_t *img, int32_t x, int32_t y, int32_t 
 
 float hbk_image_sample(const hbk_image_t *img, float x, float y, int32_t c, int32_t edge)
 {
-    float fx = floorf(x), fy = floorf(y);
+    /* Held within the floats that convert to int32 (NaN too, which then gives NaN): a texel
+     * index past them would be undefined. No coordinate that converted before changes. */
+    float fx = fminf(fmaxf(floorf(x), -2147483648.0f), 2147483520.0f);
+    float fy = fminf(fmaxf(floorf(y), -2147483648.0f), 2147483520.0f);
     int32_t x0 = (int32_t)fx, y0 = (int32_t)fy;
     float tx = x - fx, ty = y - fy;
     float a = texel(img, x0, y0, c, edge), b = texel(img, x0 + 1, y0, c, edge);
@@ -134,6 +137,11 @@ hbk_result_t hbk_normal_map(const hbk_image_t *height, float texel_size_x, float
 
     const int32_t w = height->width, h = height->height, nc = out->channels;
     const float sx = strength / (2.0f * texel_size_x), sy = strength / (2.0f * texel_size_y);
+    if (!isfinite(sx) || !isfinite(sy)) /* else a flat field gives 0 * inf = NaN normals */
+        return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
+                        "texel_size = (%g, %g): too small for strength = %g (strength / (2 "
+                        "texel_size) must be a finite float)", (double)texel_size_x,
+                        (double)texel_size_y, (double)strength);
 #pragma omp parallel for schedule(static)
     for (int32_t y = 0; y < h; ++y) {
         float *row = out->data + (size_t)y * out->row_stride;

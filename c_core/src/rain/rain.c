@@ -165,6 +165,7 @@ hbk_result_t hbk_rain_set_tangents(hbk_rain_t *h, const hbk_image_t *gravity_dir
     /* What now lies off the glass has run off. */
     for (int64_t i = 0; i < h->drop_count; ++i) {
         const rain_drop_t *d = &h->drops[i];
+        if (d->flags & DROP_DEAD) continue; /* merged away: its water is in another drop */
         if (!rain_is_glass(h, (int32_t)floorf(d->x), (int32_t)floorf(d->y))) {
             h->run_off += d->mass;
             rain_kill_drop(h, i);
@@ -550,11 +551,15 @@ static const char *state_bad_number(const state_header_t *hd, const rain_drop_t 
                                     size_t n)
 {
     if (!(fabs(hd->time) <= 1e12 && isfinite(hd->rain_in) && isfinite(hd->wiped) &&
-          isfinite(hd->run_off) && isfinite(hd->car_speed) && isfinite(hd->car_accel)))
+          isfinite(hd->run_off)))
         return "time or water books";
+    /* The ranges hbk_rain_set_car and hbk_rain_set_wiper_angles take (a blade a run moves
+     * by its period stays within them too). */
+    if (!(hd->car_speed >= 0.0f && hd->car_speed <= 100.0f && fabsf(hd->car_accel) <= 50.0f))
+        return "car speed or acceleration";
     for (int k = 0; k < 2; ++k)
-        if (!(isfinite(hd->wind[k]) && isfinite(hd->wiper_value[k]) &&
-              isfinite(hd->wiper_target[k])))
+        if (!(fabsf(hd->wind[k]) <= 100.0f && fabsf(hd->wiper_value[k]) <= 1e6f &&
+              fabsf(hd->wiper_target[k]) <= 1e6f))
             return "wind or wiper";
     for (int64_t i = 0; i < hd->drop_count; ++i) {
         const rain_drop_t *d = &drops[i];

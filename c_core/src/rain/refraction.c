@@ -27,6 +27,17 @@ hbk_result_t hbk_rain_refraction(const hbk_image_t *normals, const hbk_image_t *
                         (double)strength);
     const int32_t W = out->width, H = out->height, nc = out->channels;
     const int32_t nn = normals->channels;
+    /* Unit normals (a little rounding allowed): anything else would shift the lookup by
+     * NaN or past any image. */
+    for (int32_t y = 0; y < H; ++y)
+        for (int32_t x = 0; x < W; ++x) {
+            const float *n =
+                normals->data + (size_t)y * normals->row_stride + (size_t)x * (size_t)nn;
+            if (!(fabsf(n[0]) <= 1.001f && fabsf(n[1]) <= 1.001f))
+                return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "normals at pixel (%d, %d) = "
+                                "(%g, %g): must be finite unit normals, x and y in [-1, 1]", x,
+                                y, (double)n[0], (double)n[1]);
+        }
     const float bw = (float)background->width, bh = (float)background->height;
     const float fx = bw / (float)W, fy = bh / (float)H;
 #pragma omp parallel for schedule(static)

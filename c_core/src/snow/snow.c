@@ -158,7 +158,13 @@ hbk_result_t hbk_snow_set_materials(hbk_snow_t *h, const hbk_snow_material_t *m,
     return store_materials(h, m, count);
 }
 
-static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
+/* Finite and within 1e6 m: the mesh's extent, its edges' cross products and the occupancy
+ * grid's cells then all stay finite floats (a mesh spanning more than FLT_MAX made NaN cell
+ * counts). The snow volume itself is at most 1e5 m from the origin. */
+static int position_ok(const float *v)
+{
+    return fabsf(v[0]) <= 1e6f && fabsf(v[1]) <= 1e6f && fabsf(v[2]) <= 1e6f;
+}
 
 /* Texels per metre along the texture's x and y at this triangle: the rows of the Jacobian
  * from orthonormal surface coordinates to texel coordinates. */
@@ -218,9 +224,10 @@ hbk_result_t hbk_snow_set_mesh(hbk_snow_t *h, const float *positions, int32_t ve
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "uvs: must not be NULL in TRIANGLES mode (snow goes into the UV map)");
     for (int32_t i = 0; i < vertex_count; ++i)
-        if (!finite3(positions + 3 * (size_t)i))
+        if (!position_ok(positions + 3 * (size_t)i))
             return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
-                            "positions[%d] = (%g, %g, %g): must be finite", i,
+                            "positions[%d] = (%g, %g, %g): must be finite, |x|, |y|, |z| "
+                            "<= 1e6 m", i,
                             (double)positions[3 * (size_t)i], (double)positions[3 * (size_t)i + 1],
                             (double)positions[3 * (size_t)i + 2]);
     int32_t max_mat = 0;
