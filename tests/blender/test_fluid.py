@@ -39,3 +39,14 @@ def test_paint_captured_from_the_surface_lands_where_it_was_painted(blender, tmp
 def test_ui_capture_paint_asks_in_a_dialog(blender, tmp_path):
     r = blender.run_ui("ui_fluid_capture.py", tmp_path)
     assert "UI FLUID CAPTURE OK" in r.stdout
+
+
+def test_a_turned_mantaflow_domain_gives_the_world_velocity(blender, tmp_path):
+    r = blender.run("fluid_turned_liquid.py", tmp_path)
+    assert "FLUID TURNED LIQUID OK" in r.stdout, r.stdout
+
+
+def test_strokes_obstacles_and_renamed_objects(blender, tmp_path):
+    r = blender.run("fluid_strokes_and_names.py", tmp_path)
+    for part in ("STROKES", "RENAMED DOMAIN", "RENAMED OBJECTS", "DERIVED"):
+        assert f"FLUID {part} OK" in r.stdout, r.stdout

@@ -191,6 +191,47 @@ def test_same_values_for_any_thread_count_and_after_resume(tmp_path):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "c" / name).read_bytes()
 
 
+@pytest.mark.parametrize("change, want", [
+    # A feature rule added after the cancel: the checkpoint would bring back the rules of
+    # the bake, and the new rule would silently do nothing.
+    ({"rules": [(1, [0.0] + [-3e38] * 5, [900.0] + [3e38] * 5)]},
+     r"rules: not in the bake, \[\[1, "),
+    # A paint stroke moved: later frames would carry the new one, earlier ones the old.
+    ({"paint": {2: [(1, (0.3, 0.25, 0.15), 0.1, 0.02)]}},
+     r"paint\.2: \[\[1, \[0\.25, 0\.25, 0\.15\], .* in the bake, \[\[1, \[0\.3, "),
+    # Points painted on the surface at another place (their arrays: by digest).
+    ({"paint_points": {2: [(1, np.array([[0.3, 0.3, 0.1]], np.float32), None, 0.05,
+                            0.02)]}},
+     r"paint_points: not in the bake"),
+], ids=["rule", "stroke", "points"])
+def test_resume_refuses_changed_rules_and_paint(tmp_path, change, want):
+    bake(tmp_path / "c", 1, frames=(1, 2))
+    inputs = {"fill": ((0.05, 0.05, 0.05), (0.45, 0.45, 0.3)),
+              "paint": {2: [(1, (0.25, 0.25, 0.15), 0.1, 0.02)]}}
+    e = get("fluid")({"fluid": {"resolution": (12, 12, 12), "textures": 2, "threads": 1,
+                                "substeps": 8}}, dict(inputs, **change))
+    try:
+        with pytest.raises(errors.StateError, match=r"^cannot resume the bake in .*: " + want):
+            BakeRunner(e, tmp_path / "c", 1, 4, checkpoint_every=2, resume=True).run()
+    finally:
+        e.close()
+    # The same inputs resume (the digest of a point stroke is stable).
+    e = get("fluid")({"fluid": {"resolution": (12, 12, 12), "textures": 2, "threads": 1,
+                                "substeps": 8}}, dict(inputs, **change))
+    try:
+        BakeRunner(e, tmp_path / "d", 1, 2, checkpoint_every=2).run()
+    finally:
+        e.close()
+    e = get("fluid")({"fluid": {"resolution": (12, 12, 12), "textures": 2, "threads": 1,
+                                "substeps": 8}}, dict(inputs, **change))
+    try:
+        r = BakeRunner(e, tmp_path / "d", 1, 3, checkpoint_every=2, resume=True)
+        r.run()
+        assert r.resumed_from == 2
+    finally:
+        e.close()
+
+
 def test_sph_takes_the_steps_stability_needs():
     # One asked-for step per 1/24 s frame is 40x too long for h = 4 cm and a 14 m/s sound
     # speed: the core cuts each frame into steps of at most 0.4 h / (sqrt(k) + v_max).

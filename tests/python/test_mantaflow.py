@@ -68,3 +68,44 @@ def test_cache_source_reads_a_mantaflow_style_file(tmp_path):
         src[4]
     with pytest.raises(KeyError):
         src[5]
+
+
+def test_a_turned_and_scaled_domain_gives_world_velocity_at_world_points():
+    # The domain's object space: a 2 x 1 x 1 box from (0, 0, 0), 8 x 4 x 4 cells (0.25 per
+    # cell), turned a quarter about z, then scaled 3x along its own x (a world cell 0.75 m
+    # along the object's x) and moved. Mantaflow simulates along the object's axes: a uniform
+    # flow of 2 cells per time unit along its x is 2 * 0.75 * 2.5 m/s along the world's +y.
+    dense = np.zeros((8, 4, 4, 3), np.float32)
+    dense[..., 0] = 2.0
+    dense[..., 2] = np.arange(8, dtype=np.float32)[:, None, None]  # z flow grows along obj x
+    turn = np.array([[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], np.float64)
+    scale = np.diag([3.0, 1.0, 1.0, 1.0])
+    move = np.eye(4)
+    move[:3, 3] = (5.0, -1.0, 2.0)
+    m = move @ turn @ scale
+    # World points at the object-space points (x, 0.5, 0.5): x = 0.25 i lies on x-face i.
+    obj = np.array([[0.5, 0.5, 0.5], [1.0, 0.5, 0.5], [1.5, 0.5, 0.5]])
+    world = obj @ m[:3, :3].T + m[:3, 3]
+    v = mantaflow.velocity_at(dense, (0, 0, 0), (2, 1, 1), world, matrix=m)
+    np.testing.assert_allclose(v[:, 0], 0.0, atol=1e-5)
+    np.testing.assert_allclose(v[:, 1], 2.0 * 0.75 * 2.5, rtol=1e-5)
+    # The z component (cell-centred along x: face z sits at x = 0.25 (i + 0.5)) follows the
+    # object's x, not the world's.
+    np.testing.assert_allclose(v[:, 2], (obj[:, 0] / 0.25 - 0.5) * 0.25 * 2.5, rtol=1e-5)
+
+
+
+def test_cache_source_turns_a_turned_domains_velocity_into_the_world(tmp_path):
+    # A 1 x 2 x 1 domain turned a quarter about z: its own y runs along the world's -x.
+    (tmp_path / "data").mkdir()
+    vel = np.zeros((4, 8, 4, 3), np.float32)
+    vel[..., 1] = 1.0  # 1 cell (0.25 m) per time unit along the object's y
+    g = vdb.make_grid("velocity", vel, voxel_size=0.25,
+                      metadata={"file_base_resolution": (4, 8, 4)})
+    vdb.write(mantaflow.data_path(str(tmp_path), 1), [g])
+    m = np.array([[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], np.float64)
+    src = mantaflow.CacheSource(str(tmp_path), [1], (0, 0, 0), (1, 2, 1), (-2, 0, 0),
+                                (0, 1, 1), (4, 4, 4), matrix=m)
+    v, _ = src[1]
+    np.testing.assert_allclose(v[..., 0], -0.25 * 2.5, rtol=1e-5)
+    np.testing.assert_allclose(v[..., 1:], 0.0, atol=1e-6)

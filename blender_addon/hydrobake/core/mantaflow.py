@@ -78,21 +78,30 @@ def vertex_positions(box_min, box_max, resolution):
     return np.stack([x, y, z], axis=-1)
 
 
-def velocity_at(dense, domain_min, domain_max, points, time_scale=1.0):
-    """The MAC velocity (cells per time unit) at world ``points`` (..., 3), in m/s of animation
-    time (simulated m/s times the domain's time scale).
+def velocity_at(dense, domain_min, domain_max, points, time_scale=1.0, matrix=None):
+    """The MAC velocity (cells per time unit) at world ``points`` (..., 3), in world m/s of
+    animation time (simulated m/s times the domain's time scale).
 
-    Component a of cell (i, j, k) sits on the cell's lower face along a, at
-    domain_min + h * ((i, j, k) + 0.5 - 0.5 e_a)."""
+    The grid spans [domain_min, domain_max] in the domain object's own space, which
+    ``matrix`` (4 x 4, object to world; None: the identity) places in the world: a domain
+    turned, scaled or moved simulates along its own axes, and its velocity is turned into
+    the world's. Component a of cell (i, j, k) sits on the cell's lower face along a, at
+    domain_min + h * ((i, j, k) + 0.5 - 0.5 e_a) (object space)."""
     res = np.array(dense.shape[:3], np.float64)
     lo = np.asarray(domain_min, np.float64)
     h = (np.asarray(domain_max, np.float64) - lo) / res
-    out = np.empty(points.shape, np.float32)
+    m = np.eye(4) if matrix is None else np.asarray(matrix, np.float64).reshape(4, 4)
+    pts = np.asarray(points, np.float64)
+    if matrix is not None:  # world -> object space
+        inv = np.linalg.inv(m)
+        pts = pts @ inv[:3, :3].T + inv[:3, 3]
+    local = np.empty(pts.shape, np.float64)  # object-space units per s
     for a in range(3):
-        u = (points - lo) / h - 0.5
+        u = (pts - lo) / h - 0.5
         u[..., a] += 0.5
-        out[..., a] = _trilinear(dense[..., a], u) * h[a] * SECONDS_PER_MANTA_TIME * time_scale
-    return out
+        local[..., a] = _trilinear(dense[..., a], u) * h[a] * SECONDS_PER_MANTA_TIME * time_scale
+    # The object's axes in the world (their lengths carry its scale).
+    return (local @ m[:3, :3].T).astype(np.float32)
 
 
 def surface_field(crossings, counts, z_levels, cell_z):
@@ -126,13 +135,16 @@ class CacheSource:
     """{frame: (V_m (nz+1, ny+1, nx+1, 3) m/s, surface field or None)}, read when asked (a bake
     holds one frame at a time), for the fluid effect's ``velocity`` input.
 
-    ``surfaces``: {frame: (crossings, counts)} from Blender, or None for no surface."""
+    ``surfaces``: {frame: (crossings, counts)} from Blender, or None for no surface.
+    ``domain_min``, ``domain_max``: the liquid domain's box in its object space, which
+    ``matrix`` (object to world, None: the identity) places in the world."""
 
     def __init__(self, cache_dir, frames, domain_min, domain_max, box_min, box_max,
-                 resolution, surfaces=None, time_scale=1.0):
+                 resolution, surfaces=None, time_scale=1.0, matrix=None):
         self.cache_dir = cache_dir
         self.frames = set(int(f) for f in frames)
         self.domain = (np.asarray(domain_min, np.float64), np.asarray(domain_max, np.float64))
+        self.matrix = None if matrix is None else np.asarray(matrix, np.float64).reshape(4, 4)
         self.points = vertex_positions(box_min, box_max, resolution)
         self.z_levels = self.points[:, 0, 0, 2]
         self.cell_z = (float(box_max[2]) - float(box_min[2])) / int(resolution[2])
@@ -146,7 +158,7 @@ class CacheSource:
         if frame not in self:
             raise KeyError(frame)
         dense, _res = read_velocity(data_path(self.cache_dir, frame))
-        vel = velocity_at(dense, *self.domain, self.points, self.time_scale)
+        vel = velocity_at(dense, *self.domain, self.points, self.time_scale, self.matrix)
         surf = self.surfaces.get(int(frame))
         field = None
         if surf is not None:

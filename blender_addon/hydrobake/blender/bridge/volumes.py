@@ -5,16 +5,26 @@ import bpy
 
 
 def load_volume_sequence(folder, stream, frame_start, frame_count, name, collection=None):
-    """A Volume object reading ``<folder>/<stream>_####.vdb`` as a sequence (reused by name)."""
+    """A Volume object reading ``<folder>/<stream>_####.vdb`` as a sequence (reused by name:
+    the object's own volume data is the one set, whatever it is called; a new object gets
+    the volume data of that name, or a new one)."""
     path = os.path.join(folder, f"{stream}_{frame_start:04d}.vdb")
-    vol = bpy.data.volumes.get(name) or bpy.data.volumes.new(name)
+    obj = bpy.data.objects.get(name)
+    if obj is not None and obj.type != "VOLUME":
+        raise ValueError(f"{name}: the name of a {obj.type.lower()} object, not a volume; "
+                         "rename it")
+    if obj is not None and obj.data is not None:
+        vol = obj.data
+    else:
+        vol = bpy.data.volumes.get(name)
+        if vol is None or vol.library is not None:
+            vol = bpy.data.volumes.new(name)
     vol.filepath = path
     vol.is_sequence = frame_count > 1
     vol.frame_start = frame_start
     vol.frame_duration = frame_count
     vol.frame_offset = frame_start - 1  # scene frame N reads file number N
     vol.sequence_mode = "CLIP"
-    obj = bpy.data.objects.get(name)
     if obj is None:
         obj = bpy.data.objects.new(name, vol)
         (collection or bpy.context.scene.collection).objects.link(obj)

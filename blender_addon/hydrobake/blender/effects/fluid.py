@@ -17,6 +17,7 @@ from .fluid_paint import FEATURES
 
 
 OPEN = 3.0e38  # a feature bound that does not matter
+MAX_OBSTACLES = 64  # HBK_FLUID_MAX_OBSTACLES
 
 
 class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
@@ -179,11 +180,18 @@ class FluidBlender(BlenderEffect):
                                  f"{fp['particle_spacing']:g} m on every axis")
             inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
             if settings.obstacles:
+                found = list(settings.obstacles.all_objects)
+                if len(found) > MAX_OBSTACLES:
+                    # The core takes 64: the others would be left out, the fluid flowing
+                    # through them.
+                    raise ValueError(f"Obstacles: {settings.obstacles.name!r} holds "
+                                     f"{len(found)} objects: must hold at most "
+                                     f"{MAX_OBSTACLES} (each is a box the fluid flows around)")
                 obs = []
-                for o in settings.obstacles.all_objects:
+                for o in found:
                     olo, ohi = meshes.world_bounds(o)
                     obs.append(("box", tuple((olo + ohi) / 2), tuple((ohi - olo) / 2)))
-                inputs["obstacles"] = obs[:64]
+                inputs["obstacles"] = obs
         elif fp["source"] == 1:
             if settings.particle_object is None:
                 raise ValueError("Particles: PARTICLES needs an object with a particle system")
@@ -208,8 +216,10 @@ class FluidBlender(BlenderEffect):
                                  "needs a Vector input and a Color output")
         inputs["voxel_textures"] = voxel
         if settings.paint_collection:
+            life = (fp["paint_duration"] + fp["paint_fade"]) / fp["dt"]  # frames
             inputs["paint"], inputs["paint_points"] = fluid_paint.strokes(
-                settings.paint_collection, ntex, fluid_paint.smallest_cell(obj))
+                settings.paint_collection, ntex, fluid_paint.smallest_cell(obj),
+                scene=context.scene, frames=frames, life=life)
         rules = []
         for i, rule in enumerate(settings.rules):
             if rule.texture >= ntex:
@@ -252,7 +262,13 @@ class FluidBlender(BlenderEffect):
         if missing:
             raise ValueError(f"Liquid Domain: {dom.name}'s cache {cache} has no data for "
                              f"frames {missing[0]}..{missing[-1]}: bake the liquid first")
-        dlo, dhi = meshes.data_world_bounds(dom)
+        # Mantaflow's grid spans the domain mesh's own box, along the object's axes: the
+        # velocity is sampled there and turned into the world (a domain turned about z).
+        meshes.data_world_bounds(dom)  # refuses a mesh without vertices, by name
+        co = np.empty(len(dom.data.vertices) * 3, np.float64)
+        dom.data.vertices.foreach_get("co", co)
+        dlo, dhi = co.reshape(-1, 3).min(axis=0), co.reshape(-1, 3).max(axis=0)
+        matrix = np.array(dom.matrix_world, np.float64)
         res = fp["resolution"]
         lo, hi = np.array(fp["box_min"]), np.array(fp["box_max"])
         surfaces = None
@@ -263,7 +279,7 @@ class FluidBlender(BlenderEffect):
                 meshes.z_crossings(dom, xs, ys, lo[2], hi[2], context.evaluated_depsgraph_get())))
         fp["surface_threshold"] = 0.5  # the crossings' field is 0.5 on the liquid surface
         return mantaflow.CacheSource(cache, range(frames[0], frames[1] + 1), dlo, dhi, lo, hi,
-                                     res, surfaces, d.time_scale)
+                                     res, surfaces, d.time_scale, matrix)
 
     @staticmethod
     def _particles(context, pobj, frames, lo, hi):
@@ -288,12 +304,19 @@ class FluidBlender(BlenderEffect):
     def apply(cls, context, obj, settings, folder, manifest):
         frames = sorted(int(f) for f in manifest["frames"])
         coll = obj.users_collection[0] if obj.users_collection else None
-        vol = volumes.load_volume_sequence(folder, "fluid", frames[0], len(frames),
-                                           f"HBK_{obj.name}_volume", collection=coll)
-        # The grids are for shading and for other tools; the render shows the textured
-        # surface (enable the volume in renders to see the density as fog).
-        vol.hide_render = True
-        vol.display_type = "BOUNDS"
+        # A re-bake in place reuses the objects it made, found by the files they show when
+        # the artist renamed them (a new pair by the default names would be made otherwise).
+        old_surf, old_vol = cls._wired(obj, settings, folder)
+        vol_name = old_vol.name if old_vol is not None else f"HBK_{obj.name}_volume"
+        new_vol = old_vol is None and bpy.data.objects.get(vol_name) is None
+        vol = volumes.load_volume_sequence(folder, "fluid", frames[0], len(frames), vol_name,
+                                           collection=coll)
+        if new_vol:
+            # The grids are for shading and for other tools; the render shows the textured
+            # surface (enable the volume in renders to see the density as fog; a re-bake
+            # keeps that choice).
+            vol.hide_render = True
+            vol.display_type = "BOUNDS"
         fp = manifest["params"]["fluid"]
         groups = [("VOXEL" if sm.voxel_file else sm.group) for sm in settings.samples]
         mat = cls._material(f"HBK_{obj.name}_textured", fp["textures"],
@@ -302,12 +325,39 @@ class FluidBlender(BlenderEffect):
                              groups, volume=True)
         vol.data.materials.clear()
         vol.data.materials.append(vmat)
-        surf = frame_meshes.attach(f"HBK_{obj.name}_surface", "surface", folder, "surface",
+        surf_name = old_surf.name if old_surf is not None else f"HBK_{obj.name}_surface"
+        surf = frame_meshes.attach(surf_name, "surface", folder, "surface",
                                    collection=coll, material=mat)
         surf["hydrobake_domain"] = obj.name  # for Capture Feature Rule
         # The domain is only a box: show the fluid, not the box (Free Bake shows it again).
         obj.display_type = "BOUNDS"
         obj.hide_render = True
+
+    @classmethod
+    def _wired(cls, obj, settings, folder=None):
+        """(surface, Volume object) that apply made for the bake in ``folder`` (default: the
+        recorded one), or None each: by the names apply gave them, else (renamed by the
+        artist since) the ones showing that bake's files."""
+        folder = folder or settings.bake_folder
+        prefix = f"HBK_{cls.baked_name(obj, settings)}"
+        top = os.path.join(os.path.realpath(bpy.path.abspath(folder)), "") if folder else None
+
+        def shows(path):
+            return bool(top and path) and os.path.join(
+                os.path.realpath(bpy.path.abspath(path)), "").startswith(top)
+
+        found = []
+        for kind, suffix in (("MESH", "surface"), ("VOLUME", "volume")):
+            named = bpy.data.objects.get(f"{prefix}_{suffix}")
+            if named is not None and named.type == kind:
+                found.append(named)
+                continue
+            found.append(next((
+                o for o in bpy.data.objects if o.type == kind and o.library is None and (
+                    shows(o.data.filepath) if kind == "VOLUME" else
+                    "hydrobake_domain" in o and
+                    shows(str(o.get(frame_meshes.PROP, "||")).split("|", 2)[1]))), None))
+        return tuple(found)
 
     @staticmethod
     def _material(name, count, scales, groups, volume=False):
@@ -450,9 +500,9 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        prefix = f"HBK_{cls.baked_name(obj, settings)}"
-        frame_meshes.detach(f"{prefix}_surface")
-        vol = bpy.data.objects.get(f"{prefix}_volume")
+        surf, vol = cls._wired(obj, settings)
+        if surf is not None:
+            frame_meshes.detach(surf.name)
         if vol is not None:
             data = vol.data
             bpy.data.objects.remove(vol)
@@ -482,6 +532,19 @@ class FluidBlender(BlenderEffect):
     def extra_classes():
         """Registered before the settings, which hold rules and samples of these types."""
         return (HYDROBAKE_PG_fluid_rule, HYDROBAKE_PG_fluid_sample)
+
+    @classmethod
+    def derived(cls, settings):
+        """{"fluid.name": why} of the parameters prepare sets itself (drawn inactive, refused
+        as command-line overrides): set in the panel they would do nothing."""
+        box = "the domain object's box sets it; move or scale the domain"
+        out = {"fluid.box_min": box, "fluid.box_max": box,
+               "fluid.dt": "the scene's frame rate sets it",
+               "fluid.texture_feature": "Capture Feature Rule sets it for the rule it makes",
+               "fluid.seed": "only a jittered fill reads it, and Blender fills a lattice"}
+        if settings.fluid.source == "VELOCITY_GRID":
+            out["fluid.surface_threshold"] = "the liquid mesh's crossings set it (0.5)"
+        return out
 
     @classmethod
     def draw_settings(cls, layout, settings):

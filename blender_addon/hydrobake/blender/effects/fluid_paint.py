@@ -1,6 +1,8 @@
 """Painting the fluid from Blender (paper §3.1): strokes (Empties, or point meshes captured
 from the baked surface) in the domain's paint collection, and the operators that capture a
 local paint or a feature rule from a selection, weights or colours painted on the surface."""
+import os
+
 import bpy
 import numpy as np
 
@@ -65,8 +67,9 @@ class HYDROBAKE_PT_fluid_surface(bpy.types.Panel):
 
     def draw(self, context):
         col = self.layout.column()
-        col.label(text=f"Baked from {context.object['hydrobake_domain']}, frame "
-                       f"{context.scene.frame_current}")
+        domain = domain_of(context.object)
+        name = domain.name if domain is not None else context.object["hydrobake_domain"]
+        col.label(text=f"Baked from {name}, frame {context.scene.frame_current}")
         col.operator("hydrobake.fluid_capture_paint", icon="BRUSH_DATA")
         col.operator("hydrobake.fluid_capture_rule", icon="EYEDROPPER")
 
@@ -76,10 +79,36 @@ def _on_surface(_cls, context):
     return context.object is not None and "hydrobake_domain" in context.object
 
 
+def _surface_folder(surf):
+    """The bake folder whose surface sequence ``surf`` shows (real path), or None."""
+    parts = str(surf.get(frame_meshes.PROP, "")).split("|", 2)
+    return os.path.realpath(bpy.path.abspath(parts[1])) if len(parts) == 3 else None
+
+
+def domain_of(surf):
+    """The domain whose bake the surface ``surf`` shows, or None. Found by the bake's folder
+    (the surface's sequence): the domain may have been renamed since its bake, and the name
+    the surface recorded then is no object's now (or another's). Of several objects recording
+    that bake (Shift+D copies), the one with the recorded name, else the one it was baked
+    under; without a folder, by the recorded name."""
+    name = surf.get("hydrobake_domain", "")
+    folder = _surface_folder(surf)
+    holders = [o for o in bpy.data.objects
+               if folder and o.hydrobake_fluid.is_baked and o.hydrobake_fluid.bake_folder and
+               os.path.realpath(o.hydrobake_fluid.bake_folder) == folder]
+    for pick in (lambda o: o.name == name, lambda o: o.hydrobake_fluid.get("baked_as") == name):
+        hit = [o for o in holders if pick(o)]
+        if hit:
+            return hit[0]
+    if holders:
+        return holders[0]
+    return bpy.data.objects.get(name) if name else None
+
+
 def _surface_and_domain(op, context):
     """The active baked surface and its domain, or (None, None) after reporting why not."""
     surf = context.object
-    domain = bpy.data.objects.get(surf.get("hydrobake_domain", "")) if surf else None
+    domain = domain_of(surf) if surf else None
     if domain is None:
         op.report({"ERROR"}, "Select the baked fluid surface (HBK_<domain>_surface)")
         return None, None
@@ -246,35 +275,61 @@ def smallest_cell(domain):
     return float(np.min((hi - lo) / np.array(domain.hydrobake_fluid.fluid.resolution[:])))
 
 
-def strokes(collection, ntex, cell):
+def strokes(collection, ntex, cell, scene=None, frames=None, life=None):
     """The enabled strokes of a paint collection as the core's inputs: ({frame: [(texture,
     centre, radius, falloff)]} from Empties, {frame: [(texture, positions, coverage, radius,
-    falloff)]} from meshes). cell: the grid's smallest cell size (m)."""
+    falloff)]} from meshes). cell: the grid's smallest cell size (m).
+
+    Each stroke is taken where it is at its own frame (``scene`` is set to it, and back), as
+    it paints then: an animated Empty paints where it is at that frame, not where it is when
+    the bake starts. ``frames`` (first, last) and ``life`` ((paint_duration + paint_fade) in
+    frames): a stroke before the first frame whose paint would still show then is refused
+    (the bake starts after it, so it would never be laid)."""
     balls, points = {}, {}
+    todo = []
     for e in collection.all_objects:
         p = getattr(e, "hydrobake_fluid_paint", None)
         if p is None or not p.enabled or e.type not in ("EMPTY", "MESH"):
             continue
         if p.texture >= ntex:
             raise ValueError(f"{e.name}: texture = {p.texture}: must be < textures = {ntex}")
-        if e.type == "EMPTY":
-            r = e.empty_display_size * max(e.matrix_world.to_scale())
-            balls.setdefault(p.frame, []).append(
-                (p.texture, tuple(e.matrix_world.translation), r, 0.2 * r))
-            continue
-        most = float(f"{16.0 * cell / 1.5 * 0.9999:.4g}")  # quoted so that it can be typed
-        if p.reach > most * (1.0 + 1e-6):  # the core's bound on a ball and fade (float32 Reach)
-            raise ValueError(f"{e.name}: Reach = {p.reach:g} m: must be at most {most:g} m "
-                             "(with its fade, 16 voxels)")
-        cov = None
-        attr = e.data.attributes.get("coverage")
-        if attr is not None and attr.domain == "POINT" and attr.data_type == "FLOAT":
-            cov = np.empty(len(e.data.vertices), np.float32)
-            attr.data.foreach_get("value", cov)
-            cov = np.clip(cov, 0.0, 1.0)
-        points.setdefault(p.frame, []).append(
-            (p.texture, meshes.world_vertices(e).astype(np.float32), cov, p.reach,
-             0.5 * p.reach))
+        if frames is not None and p.frame < frames[0] and (
+                life is None or frames[0] - p.frame < life):
+            raise ValueError(
+                f"{e.name}: Frame = {p.frame}: must be in [{frames[0]}, {frames[1]}], the "
+                "bake's frame range: the bake starts after the stroke, which would never be "
+                "painted, though its paint would still show (Paint Duration + Paint Fade)")
+        if e.type == "MESH":
+            most = float(f"{16.0 * cell / 1.5 * 0.9999:.4g}")  # quoted so that it can be typed
+            if p.reach > most * (1.0 + 1e-6):  # the core's bound on a ball and fade (float32)
+                raise ValueError(f"{e.name}: Reach = {p.reach:g} m: must be at most {most:g} m "
+                                 "(with its fade, 16 voxels)")
+        todo.append((p.frame, e))
+    keep = scene.frame_current if scene is not None else None
+    try:
+        # By frame, in the collection's order within one (a later stroke wins where it
+        # covers an earlier one).
+        for frame, e in sorted(todo, key=lambda t: t[0]):
+            if scene is not None and scene.frame_current != frame:
+                scene.frame_set(frame)
+            p = e.hydrobake_fluid_paint
+            if e.type == "EMPTY":
+                r = e.empty_display_size * max(e.matrix_world.to_scale())
+                balls.setdefault(p.frame, []).append(
+                    (p.texture, tuple(e.matrix_world.translation), r, 0.2 * r))
+                continue
+            cov = None
+            attr = e.data.attributes.get("coverage")
+            if attr is not None and attr.domain == "POINT" and attr.data_type == "FLOAT":
+                cov = np.empty(len(e.data.vertices), np.float32)
+                attr.data.foreach_get("value", cov)
+                cov = np.clip(cov, 0.0, 1.0)
+            points.setdefault(p.frame, []).append(
+                (p.texture, meshes.world_vertices(e).astype(np.float32), cov, p.reach,
+                 0.5 * p.reach))
+    finally:
+        if scene is not None and scene.frame_current != keep:
+            scene.frame_set(keep)
     return balls, points
 
 

@@ -29,6 +29,7 @@ Streams per frame:
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
                       uvw_weight, and sample_k (RGB) for each voxel texture k
 """
+import hashlib
 import os
 
 import numpy as np
@@ -37,6 +38,20 @@ from .. import arrays, solid_textures
 from ..fluid import Fluid
 from . import register
 from .base import Effect, plain
+
+
+def _digest(*arrays):
+    """A short SHA-256 of float32 arrays (None counts as none): what a manifest records of
+    an input too large to list."""
+    h = hashlib.sha256()
+    for a in arrays:
+        if a is None:
+            h.update(b"none")
+        else:
+            a = np.ascontiguousarray(a, np.float32)
+            h.update(repr(a.shape).encode())
+            h.update(a.tobytes())
+    return h.hexdigest()[:16]
 
 
 @register
@@ -76,10 +91,30 @@ class FluidEffect(Effect):
         self.origin = lo
 
     def scalar_inputs(self):
-        """The filled box, its jitter and the obstacles (the SPH's start)."""
+        """The filled box, its jitter and the obstacles (the SPH's start); and, when there
+        are any, the feature rules, the paint strokes (a digest of a point stroke's arrays)
+        and the voxel textures (a digest of each): a resume must not continue a bake with
+        rules or paint other than its frames and checkpoints were made with (its checkpoint
+        would even bring back the old rules), nor sample another texture from then on."""
         inp = self.inputs
-        return plain({"fill": inp.get("fill"), "jitter": float(inp.get("jitter", 0.0)),
-                      "obstacles": inp.get("obstacles") or []})
+        out = {"fill": inp.get("fill"), "jitter": float(inp.get("jitter", 0.0)),
+               "obstacles": inp.get("obstacles") or []}
+        if inp.get("rules"):
+            out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
+                            for t, lo, hi in inp["rules"]]
+        if self.paint:
+            out["paint"] = {int(f): [[int(t), [float(c) for c in centre], float(r),
+                                      float(fall)] for t, centre, r, fall in strokes]
+                            for f, strokes in sorted(self.paint.items())}
+        if self.paint_points:
+            out["paint_points"] = {
+                int(f): [[int(t), _digest(pos, cov), float(r), float(fall)]
+                         for t, pos, cov, r, fall in strokes]
+                for f, strokes in sorted(self.paint_points.items())}
+        if self.voxel_textures:
+            out["voxel_textures"] = {int(k): _digest(tex)
+                                     for k, tex in sorted(self.voxel_textures.items())}
+        return plain(out)
 
     def step(self, frame, progress):
         if frame in self.particles:
