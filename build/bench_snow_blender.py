@@ -12,6 +12,8 @@ import time
 
 import addon_utils
 import bpy
+import numpy as np
+from mathutils import Vector
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 
@@ -61,6 +63,13 @@ scene.frame_start, scene.frame_end = 1, frames
 # Hydrobake: a full bake of `frames` frames of falling snow.
 s = suz.hydrobake_snow
 s.enabled = True
+# FLAKES flakes exactly: the volume Auto Volume would fit, set by hand (Auto Volume would
+# set the count from its Flake Density).
+from hydrobake.blender.effects.snow import auto_volume  # noqa: E402
+corners = np.array([suz.matrix_world @ Vector(c) for c in suz.bound_box])
+s.auto_volume = False
+s.snow.volume_min, s.snow.volume_max = auto_volume(
+    corners.min(axis=0), corners.max(axis=0), s.snow.wind, s.snow.fall_speed)
 s.snow.flake_count = flakes
 s.snow.texture_width = s.snow.texture_height = 2048
 t0 = time.monotonic()

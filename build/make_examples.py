@@ -268,12 +268,12 @@ def snow_scene():
     for o in (car, person):
         shelter.objects.link(o)
     ground.hydrobake_snow.colliders = shelter
-    for obj, count in ((car, 1500000), (person, 400000), (ground, 1500000)):
+    for obj in (car, person, ground):  # one snowfall: the same density in each Auto Volume
         s = obj.hydrobake_snow
         s.enabled = True
+        s.flake_density = 6000.0
         s.snow.temperature = -1.0
         s.snow.wind = (2.0, 0.0, 0.0)
-        s.snow.flake_count = count
         s.snow.flake_radius = 0.004
         s.snow.texture_width = s.snow.texture_height = 1024
         s.snow.depth_per_flake = 0.0008

@@ -44,6 +44,14 @@ HBK_EXPORT hbk_result_t hbk_normal_map(const hbk_image_t *height, float texel_si
                                        float texel_size_y, float strength, int32_t edge,
                                        int32_t encode, hbk_image_t *out, hbk_message_t *msg);
 
+/* The share of a UV layout's texels that two or more triangles cover, at resolution x
+ * resolution texels (texel centres sampled; an edge two triangles share counts once; mirrored
+ * triangles count like the others; degenerate ones cover nothing; UVs outside 0..1 cover only
+ * what lies inside). uvs: triangles x 3 corners x (u, v). *overlap = 0 when nothing is covered.
+ * Snow and rain bake into the object's UVs: what overlaps shows on both faces. */
+HBK_EXPORT hbk_result_t hbk_uv_overlap(const float *uvs, int32_t triangles, int32_t resolution,
+                                       float *overlap, hbk_message_t *msg);
+
 #ifdef __cplusplus
 }
 #endif

@@ -50,3 +50,13 @@ def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp
 def test_shared_materials_meshes_and_records_freed_in_any_order(blender, tmp_path):
     r = blender.run("shared_records.py", tmp_path)
     assert "SHARED RECORDS OK" in r.stdout
+
+
+def test_an_overlapping_uv_map_is_baked_with_a_warning(blender, tmp_path):
+    """Snow and rain bake into the UVs: a Mirror modifier's copy sharing them is warned of by
+    Job (naming the object, share and map) and reported by the Bake operator; a clean map and
+    snow's BOX mode are not."""
+    r = blender.run("uv_overlap_warning.py", tmp_path)
+    assert "UV OVERLAP WARNING OK" in r.stdout
+    assert "Warning: Mirrored: 100% of UV map 'Unwrap' is shared by two or more faces" \
+        in r.stdout + r.stderr

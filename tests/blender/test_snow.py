@@ -1,4 +1,5 @@
 """The snow effect in real Blender with the installed addon."""
+import json
 import os
 
 from hydrobake_paths import ROOT
@@ -83,3 +84,38 @@ def test_box_mode_projects_faces_that_modifiers_make(blender, tmp_path):
     their originals' snow)."""
     r = blender.run("snow_box_mirror.py", tmp_path)
     assert "SNOW BOX MIRROR OK" in r.stdout
+
+
+def test_snowfall_per_square_metre_does_not_depend_on_the_object_size(blender, tmp_path):
+    """Flake Density fills each Auto Volume: a 1 m and an 8 m plate get the same mean depth
+    (with the same flake count the big plate got a twentieth); presets set the density; a
+    density the kernel cannot hold is refused by name."""
+    r = blender.run("snow_density.py", tmp_path)
+    assert "SNOW DENSITY OK" in r.stdout
+
+
+def test_overrides_of_what_auto_volume_sets_are_refused(blender, tmp_path):
+    """While Auto Volume is on, the bake sets the volume and the flake count itself: an
+    override of them would be dropped without a word, so it is refused, naming what to set."""
+    car = {"objects": ["Car"], "effects": ["snow"]}
+    cases = [
+        ({"Car/snow": {"snow": {"flake_count": 5000}}},
+         "Car/snow: snow.flake_count cannot be set for Car: Flake Density (flake_density) "
+         "sets it while Auto Volume is on; set auto_volume false to set it"),
+        ({"*/snow": {"snow": {"volume_min": [0, 0, 0]}}},
+         "*/snow: snow.volume_min cannot be set for Car: Auto Volume fits it"),
+        ({"Car/snow": {"flake_density": 0}}, "flake_density = 0: must be in [0.01, "),
+        ({"Car/snow": {"flake_density": 100}}, None),
+        ({"Car/snow": {"auto_volume": False, "snow": {"flake_count": 5000,
+                                                      "volume_max": [9, 9, 9]}}}, None),
+    ]
+    spec = tmp_path / "cases.json"
+    spec.write_text(json.dumps([dict(car, table=t) for t, _ in cases]))
+    r = blender.run("cli_overrides.py", spec, blend=os.path.join(ROOT, "examples.blend"))
+    lines = [l for l in r.stdout.splitlines() if l.startswith("CASE ")]
+    assert len(lines) == len(cases), r.stdout[-3000:]
+    for i, (line, (table, want)) in enumerate(zip(lines, cases)):
+        if want is None:
+            assert line == f"CASE {i} OK", (table, line)
+        else:
+            assert line.startswith(f"CASE {i} ERROR ") and want in line, (table, line, want)

@@ -69,6 +69,9 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(image, normal_map_sphere)          \
     X(image, normal_map_rejects)         \
     X(image, normal_map_tiny_texel)      \
+    X(image, uv_overlap_known_layouts)   \
+    X(image, uv_overlap_fan_shares_edges_once) \
+    X(image, uv_overlap_rejects)         \
     X(exr, roundtrip_float_half)         \
     X(exr, partly_compressible_chunks)   \
     X(exr, orientation_and_strides)      \

@@ -277,12 +277,20 @@ def apply_overrides(pairs, path):
                 raise ValueError(f"--overrides {key}: {name} cannot be set")
             else:
                 put(target, attr, value, f"{key}: {name}")
+                named.append((key, name))
 
     try:
         for obj, name in pairs:
+            named = []
+            settings = jobs.settings_of(obj, name)
             for key in (f"*/{name}", f"{obj.name}/{name}"):  # the object's own entry wins
                 if key in table:
-                    settle(jobs.settings_of(obj, name), table[key], key)
+                    settle(settings, table[key], key)
+            derived = effects.get(name).derived(settings)
+            for key, setting in named:
+                if setting in derived:  # prepare would replace it without a word
+                    raise ValueError(f"--overrides {key}: {setting} cannot be set for "
+                                     f"{obj.name}: {derived[setting]}")
     except (KeyError, ValueError):
         restore_overrides(undo)
         raise
@@ -392,6 +400,8 @@ def _bake(args, resume, stop):
             print(f"hydrobake: {obj.name}/{name} failed: {exc}", file=sys.stderr, flush=True)
             failures += 1
             continue
+        for text in job.warnings:
+            print(f"hydrobake: {obj.name}/{name} warning: {text}", file=sys.stderr, flush=True)
         job.runner.on_frame = _print_frame(job, t0)
         jobs.ACTIVE[job.key] = job
         try:

@@ -5,11 +5,13 @@ only the core (C and files); wiring the result back happens on the main thread a
 Jobs are keyed by object and effect *names*, never by Python references to Blender data."""
 import contextlib
 import os
+import warnings
 
 import bpy
 
 from ..core.bake import BakeRunner, BakeCache
 from . import effects, paths, properties
+from .effects.base import BakeWarning
 
 ACTIVE = {}  # (object name, effect name) -> Job, while running or waiting to be finalized
 
@@ -156,8 +158,13 @@ class Job:
             if "threads" in spec.by_name:
                 params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
-        with scene_context(context, scene):
+        with scene_context(context, scene), warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", BakeWarning)
             params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
+        self.warnings = [str(w.message) for w in caught if issubclass(w.category, BakeWarning)]
+        for w in caught:  # the others as they would have gone without the catch
+            if not issubclass(w.category, BakeWarning):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         self.scene_name = scene.name
         effect = self.beffect.core_class()(params, inputs)
         if resume and settings.bake_folder and not folder_override:

@@ -46,7 +46,10 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
             if (obj.name, self.effect) in jobs.ACTIVE:
                 self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake is already running")
                 return None
-            return jobs.Job(context, obj, self.effect, resume=self.resume)
+            job = jobs.Job(context, obj, self.effect, resume=self.resume)
+            for text in job.warnings:
+                self.report({"WARNING"}, text)
+            return job
         except (errors.HydrobakeError, paths.CacheFolderError, KeyError, ValueError) as exc:
             self.report({"ERROR"}, f"{obj.name} {self.effect}: {exc}")
             return None
@@ -182,6 +185,9 @@ class HYDROBAKE_OT_apply_preset(_EffectTarget, bpy.types.Operator):
         groups = beffect.core_class().groups()
         properties.from_params(groups, settings, {
             g: dict(spec.defaults(), **values.get(g, {})) for g, spec in groups.items()})
+        for name, value in values.items():  # the effect's own settings a preset names
+            if name not in groups:
+                setattr(settings, name, value)
         return {"FINISHED"}
 
 

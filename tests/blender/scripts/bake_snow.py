@@ -1,5 +1,6 @@
 """The snow effect through the real addon on examples.blend: bake the person briefly, check
 that skin takes no snow while the coat does, the wiring into the materials, and Free Bake."""
+import json
 import os
 
 import bpy
@@ -17,7 +18,7 @@ person = bpy.data.objects["Person"]
 s = person.hydrobake_snow
 s.use_scene_range = False
 s.frame_start, s.frame_end = 1, 4
-s.snow.flake_count = 200000
+s.flake_density = 3000.0  # about 200 000 flakes
 s.snow.texture_width = s.snow.texture_height = 256
 s.write_flakes = True
 with bpy.context.temp_override(scene=scene):
@@ -46,7 +47,13 @@ assert not any(n.get("hydrobake") for n in skin.nodes)
 # The falling flakes as points that follow the frame, instanced by Geometry Nodes.
 flakes = bpy.data.objects["HBK_Person_flakes"]
 scene.frame_set(4)
-assert len(flakes.data.vertices) == 200000
+# Flake Density x the Auto Volume fitted around the person (about 66 m³).
+with open(os.path.join(s.bake_folder, "manifest.json")) as f:
+    sp = json.load(f)["params"]["snow"]
+volume = np.prod(np.subtract(sp["volume_max"], sp["volume_min"]))
+assert 60 < volume < 80, volume
+assert sp["flake_count"] == round(3000.0 * volume), (sp["flake_count"], volume)
+assert len(flakes.data.vertices) == sp["flake_count"]
 z4 = flakes.data.vertices[0].co.z
 scene.frame_set(2)
 assert flakes.data.vertices[0].co.z != z4

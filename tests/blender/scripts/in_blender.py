@@ -50,13 +50,14 @@ def dam_break(resolution, textures=2, frames=(1, 2), substeps=4):
     return domain, fill, s
 
 
-def snow(obj, frames, flakes, texture=64):
+def snow(obj, frames, density, texture=64):
     """The object's snow settings for a small test bake: enabled, the frame range, the
-    flakes and square textures of ``texture`` texels."""
+    Flake Density (flakes per m³ of the Auto Volume; a 2 m cube's is about 100 m³ in the
+    default wind) and square textures of ``texture`` texels."""
     s = obj.hydrobake_snow
     s.enabled = True
     s.use_scene_range, s.frame_start, s.frame_end = False, frames[0], frames[1]
-    s.snow.flake_count = flakes
+    s.flake_density = density
     s.snow.texture_width = s.snow.texture_height = texture
     return s
 

@@ -34,7 +34,7 @@ def rain(o):
 def snow(o):
     s = o.hydrobake_snow
     s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
-    s.snow.flake_count, s.snow.texture_width, s.snow.texture_height = 20000, 64, 64
+    s.flake_density, s.snow.texture_width, s.snow.texture_height = 200.0, 64, 64
     return s
 
 

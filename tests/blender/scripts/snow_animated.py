@@ -22,7 +22,7 @@ cube.rotation_euler.x = math.pi
 cube.keyframe_insert("rotation_euler", frame=1)
 cube.rotation_euler.x = 0.0
 cube.keyframe_insert("rotation_euler", frame=2)
-s = in_blender.snow(cube, (2, 5), 100000, 64)
+s = in_blender.snow(cube, (2, 5), 1000, 64)
 s.snow.wind = (0.0, 0.0, 0.0)
 s.snow.flutter_amplitude = 0.0
 

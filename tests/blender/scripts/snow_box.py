@@ -18,7 +18,7 @@ person = bpy.data.objects["Person"]
 s = person.hydrobake_snow
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
 s.snow.contact_mode = "BOX"
-s.snow.flake_count = 200000
+s.flake_density = 3000.0  # about 200 000 flakes
 s.snow.texture_width = s.snow.texture_height = 96
 with bpy.context.temp_override(scene=scene):
     assert bpy.ops.hydrobake.bake(effect="snow", object_name="Person") == {"FINISHED"}

@@ -25,7 +25,7 @@ roof = bpy.context.object
 roof.scale = (1.5, 2, 1)
 shelter = bpy.data.collections.new("Shelter")
 shelter.objects.link(roof)
-s = in_blender.snow(block, (1, 4), 200000, 96)
+s = in_blender.snow(block, (1, 4), 7500, 96)
 s.snow.wind = (0.0, 0.0, 0.0)
 s.snow.flutter_amplitude = 0.0
 s.snow.fall_speed = 3.0

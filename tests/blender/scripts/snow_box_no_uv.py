@@ -13,7 +13,7 @@ bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "box_no_uv.blend"))
 cube = bpy.data.objects["Cube"]
 mesh = cube.data
 mesh.uv_layers.remove(mesh.uv_layers[0])
-s = in_blender.snow(cube, (1, 2), 20000, 64)
+s = in_blender.snow(cube, (1, 2), 200, 64)
 try:
     bpy.ops.hydrobake.bake(effect="snow", object_name="Cube")
 except RuntimeError as exc:

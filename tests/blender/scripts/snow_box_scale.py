@@ -30,7 +30,7 @@ def wedge(name, x, apply):
         bpy.context.view_layer.objects.active = o
         bpy.ops.object.transform_apply(scale=True)
     me.materials.append(bpy.data.materials.new(name))
-    s = in_blender.snow(o, (1, 2), 2000, 96)
+    s = in_blender.snow(o, (1, 2), 20, 96)
     s.snow.contact_mode = "BOX"
     assert bpy.ops.hydrobake.bake(effect="snow", object_name=name) == {"FINISHED"}
     ev = o.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()

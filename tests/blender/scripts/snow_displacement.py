@@ -23,7 +23,7 @@ for name, size, scale, x in (("Metres", 1.0, 1.0, -0.6), ("Centimetres", 100.0, 
     m.use_nodes = True
     m.cycles.displacement_method = "DISPLACEMENT"
     o.data.materials.append(m)
-    s = in_blender.snow(o, (1, 6), 300000, 64)
+    s = in_blender.snow(o, (1, 6), 48000, 64)
     s.snow.wind = (0.0, 0.0, 0.0)
     s.snow.depth_per_flake = 0.1
     assert bpy.ops.hydrobake.bake(effect="snow", object_name=name) == {"FINISHED"}

@@ -11,7 +11,7 @@ in_blender.enable()
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "images.blend"))
 cube = bpy.data.objects["Cube"]
-s = in_blender.snow(cube, (1, 2), 2000, 64)
+s = in_blender.snow(cube, (1, 2), 20, 64)
 before = sorted(i.name for i in bpy.data.images)
 assert bpy.ops.hydrobake.bake(effect="snow", object_name="Cube") == {"FINISHED"}
 assert {"HBK_Cube_snow_coverage", "HBK_Cube_snow_depth"} <= set(bpy.data.images.keys())

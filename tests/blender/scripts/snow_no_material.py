@@ -33,7 +33,7 @@ def snow_output(mat):
 
 
 for o in (cube, old):
-    s = in_blender.snow(o, (1, 2), 20000, 64)
+    s = in_blender.snow(o, (1, 2), 200, 64)
     assert bpy.ops.hydrobake.bake(effect="snow", object_name=o.name) == {"FINISHED"}
     first = frames_of(s)
     mat = o.material_slots[0].material if o.material_slots else None

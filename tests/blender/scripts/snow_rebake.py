@@ -12,7 +12,7 @@ in_blender.enable()
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "rebake.blend"))
 cube = bpy.data.objects["Cube"]
-s = in_blender.snow(cube, (1, 2), 2000, 64)
+s = in_blender.snow(cube, (1, 2), 20, 64)
 tree = bpy.data.materials["Material"].node_tree
 
 

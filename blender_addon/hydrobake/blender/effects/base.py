@@ -1,4 +1,23 @@
 """The Blender half of an effect: scene inputs in, baked outputs wired back."""
+import warnings
+
+
+class BakeWarning(UserWarning):
+    """What prepare can bake but the artist should hear of (an overlapping UV map): Job
+    collects them, the Bake operator and the command line report them before the bake."""
+
+
+def warn_uv_overlap(obj, uvs, consequence, limit=0.01):
+    """A BakeWarning when more than ``limit`` of what the object's UV map covers is covered
+    by two or more faces (mirrored or stacked islands): ``consequence`` says what shows."""
+    from ...core import image
+    share = image.uv_overlap(uvs)
+    if share > limit:
+        layer = obj.data.uv_layers.active
+        warnings.warn(f"{obj.name}: {100 * share:.0f}% of UV map "
+                      f"'{layer.name if layer else ''}' is shared by two or more faces; "
+                      f"{consequence}", BakeWarning)
+    return share
 
 
 class BlenderEffect:
@@ -64,13 +83,23 @@ class BlenderEffect:
         return settings.get("baked_as") or obj.name
 
     @classmethod
+    def derived(cls, settings):
+        """{"group.name": why} of the parameters that prepare sets itself from other
+        settings, as snow's Auto Volume sets the volume and the flake count: drawn inactive,
+        and refused as command-line overrides (they would be replaced without a word)."""
+        return {}
+
+    @classmethod
     def draw_settings(cls, layout, settings):
         """Draws the effect's settings; the default draws every parameter in table order."""
         from .. import properties
+        derived = cls.derived(settings)
         for g, spec in cls.core_class().groups().items():
             col = layout.column()
             col.label(text=properties.label_of(g))
             pg = getattr(settings, g)
             for p in spec.params:
                 if p.name not in properties.HIDDEN:
-                    col.prop(pg, p.name)
+                    row = col.row()
+                    row.active = f"{g}.{p.name}" not in derived
+                    row.prop(pg, p.name)

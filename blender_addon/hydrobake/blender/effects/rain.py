@@ -10,7 +10,7 @@ from mathutils import Vector
 from ...core.rain import MAX_CELLS
 from ..bridge import animation, images, materials, mesh_data, uv_grid
 from . import register_effect
-from .base import BlenderEffect
+from .base import BlenderEffect, warn_uv_overlap
 
 THICKNESS = "HBK Glass Thickness"  # the Solidify modifier apply adds to a one-face glass
 AXES = {"-Y": (0, -1, 0), "+Y": (0, 1, 0), "-X": (-1, 0, 0), "+X": (1, 0, 0)}
@@ -73,6 +73,8 @@ class RainBlender(BlenderEffect):
                 m.show_viewport = True
         if uvs is None:
             raise ValueError(f"{obj.name}: needs a UV map (the glass is simulated in UV space)")
+        warn_uv_overlap(obj, uvs, "the drops of one run on all of them (the glass is simulated "
+                        "in UV space: unwrap it without overlaps)")
         rp = params["rain"]
         cls._check_materials(obj)
         if settings.use_mesh_size:

@@ -11,7 +11,11 @@ import numpy as np
 
 from ..bridge import animation, frame_meshes, images, materials, mesh_data, points
 from . import register_effect
-from .base import BlenderEffect
+from .base import BlenderEffect, warn_uv_overlap
+
+# Flakes per cubic metre of the C default: 200 000 in its 4 x 4 x 4 m volume. Auto Volume
+# keeps the density, not the count, so a house gets as much snow per square metre as a car.
+DEFAULT_DENSITY = 200000 / 64.0
 
 # The paper's figures for rough materials (catch chance): §4.1.6.
 CATCH_PRESETS = {"SMOOTH": 0.0, "SHOES": 0.10, "TROUSERS": 0.25, "COAT": 0.40}
@@ -238,17 +242,43 @@ def _box_nodes(group, attr, matrix, normal_matrix, lo, inv_size, tile_u, tile_v)
     N.node("NodeGroupOutput", store)
 
 
+def auto_volume(lo, hi, wind, fall_speed):
+    """The Auto Volume around the world box lo..hi: 1.5 m above it, widened 0.5 m and upwind
+    by how far the wind carries a flake while it falls that height."""
+    height = float(hi[2] - lo[2]) + 1.5
+    margin = 0.5 + np.abs(np.array(wind[:2], np.float64)) * height / max(fall_speed, 0.05)
+    return ((float(lo[0] - margin[0]), float(lo[1] - margin[1]), float(lo[2]) - 0.05),
+            (float(hi[0] + margin[0]), float(hi[1] + margin[1]), float(hi[2]) + 1.5))
+
+
+def _flake_count(obj, density, lo, hi, most):
+    """Flake Density x the Auto Volume, within the kernel's flake_count range (at most most)."""
+    size = [b - a for a, b in zip(lo, hi)]
+    volume = size[0] * size[1] * size[2]
+    count = round(density * volume)
+    if count > most:
+        raise ValueError(
+            f"{obj.name}: Flake Density {density:g} per m³ fills the Auto Volume "
+            f"({size[0]:.1f} x {size[1]:.1f} x {size[2]:.1f} m = {volume:.0f} m³) with "
+            f"{count} flakes; the most is {most}: set Flake Density at most "
+            f"{math.floor(most / volume * 100) / 100:g}, or turn off Auto Volume and set a "
+            "smaller volume")
+    return max(1, count)
+
+
 @register_effect
 class SnowBlender(BlenderEffect):
     name = "snow"
     label = "Snow"
     icon = "FREEZE"
     presets = {
-        "Wet Snow (+1 °C)": {"snow": {"temperature": 1.0, "fall_speed": 1.2}},
+        "Wet Snow (+1 °C)": {"snow": {"temperature": 1.0, "fall_speed": 1.2},
+                             "flake_density": DEFAULT_DENSITY},
         "Powder (-8 °C)": {"snow": {"temperature": -8.0, "fall_speed": 0.7,
-                                    "flutter_amplitude": 0.4}},
+                                    "flutter_amplitude": 0.4},
+                           "flake_density": DEFAULT_DENSITY},
         "Blizzard": {"snow": {"temperature": -4.0, "wind": (6.0, 0.0, 0.0),
-                              "flake_count": 1000000}},
+                              "flake_count": 1000000}, "flake_density": 5 * DEFAULT_DENSITY},
     }
 
     @classmethod
@@ -276,7 +306,15 @@ class SnowBlender(BlenderEffect):
             auto_volume=bpy.props.BoolProperty(
                 name="Auto Volume", default=True,
                 description="Fit the snow volume around the object and colliders, widened "
-                            "upwind so wind-blown flakes reach it"),
+                            "upwind so wind-blown flakes reach it; Flake Density then sets "
+                            "how many flakes fall in it"),
+            flake_density=bpy.props.FloatProperty(
+                name="Flake Density", default=DEFAULT_DENSITY, min=0.01, max=1e6,
+                soft_min=1.0, soft_max=50000.0, precision=0,
+                description="Flakes per cubic metre of the Auto Volume (the flake count is "
+                            "this times the volume), so snowfall per square metre does not "
+                            "depend on the object's size; 3125 is the paper's default, a "
+                            "blizzard about 15000"),
             use_displacement=bpy.props.BoolProperty(
                 name="Displacement", default=True,
                 description="Displace the surface by the baked snow depth"),
@@ -297,6 +335,9 @@ class SnowBlender(BlenderEffect):
                 raise ValueError(f"{obj.name}: needs a UV map (the snow textures live in UV "
                                  "space), or Contact Mode BOX (which makes its own)")
             uvs = np.zeros((len(tris), 3, 2), np.float32)  # BOX mode does not read them
+        elif not box:
+            warn_uv_overlap(obj, uvs, "snow landing on one shows on all of them (unwrap without "
+                            "overlaps, or use Contact Mode BOX)")
         slots = [catch_of(s.material) for s in obj.material_slots] or [catch_of(None)]
         movers = [obj]
         parts = [(pos, tris, uvs, mi)]
@@ -339,15 +380,11 @@ class SnowBlender(BlenderEffect):
                                   for p, m in zip(parts, first)])
             reach = pos
         if settings.auto_volume:
-            lo, hi = reach.min(axis=0), reach.max(axis=0)
-            height = float(hi[2] - lo[2]) + 1.5
-            wind = np.array(sp["wind"][:2], np.float64)
-            drift = np.abs(wind) * height / max(sp["fall_speed"], 0.05)
-            margin = 0.5 + drift
-            sp["volume_min"] = (float(lo[0] - margin[0]), float(lo[1] - margin[1]),
-                                float(lo[2]) - 0.05)
-            sp["volume_max"] = (float(hi[0] + margin[0]), float(hi[1] + margin[1]),
-                                float(hi[2]) + 1.5)
+            sp["volume_min"], sp["volume_max"] = auto_volume(
+                reach.min(axis=0), reach.max(axis=0), sp["wind"], sp["fall_speed"])
+            most = cls.core_class().groups()["snow"].by_name["flake_count"].max
+            sp["flake_count"] = _flake_count(obj, settings.flake_density, sp["volume_min"],
+                                             sp["volume_max"], int(most))
         sp["time_step"], substeps = cls.substeps(scene, sp["time_step"])
         inputs.update(positions=pos, triangles=tris, uvs=uvs, material_index=mi,
                       materials=slots, substeps=substeps, flakes=settings.write_flakes)
@@ -535,8 +572,21 @@ class SnowBlender(BlenderEffect):
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("colliders", "auto_volume", "use_displacement", "write_flakes"):
-            col.prop(settings, name)
+        for name in ("colliders", "auto_volume", "flake_density", "use_displacement",
+                     "write_flakes"):
+            row = col.row()
+            row.active = name != "flake_density" or settings.auto_volume
+            row.prop(settings, name)
         super().draw_settings(layout, settings)
+
+    @classmethod
+    def derived(cls, settings):
+        if not settings.auto_volume:
+            return {}
+        off = "; set auto_volume false to set it"
+        return {"snow.flake_count": "Flake Density (flake_density) sets it while Auto Volume "
+                                    "is on" + off,
+                "snow.volume_min": "Auto Volume fits it around the object" + off,
+                "snow.volume_max": "Auto Volume fits it around the object" + off}
 
 
