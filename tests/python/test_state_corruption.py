@@ -810,6 +810,11 @@ LOADER_CHECKS = [
     for v in (-0.5, 32.0, float("nan"), float("inf"))] + [
     ("rain", "drops", DROP_Y, "f", v, errors.FormatError) for v in (-1e-3, 24.0, float("nan"))
 ] + [
+    # ... and so must every particle (one at 1e30 overflowed its cell index: UBSan).
+    ("rain", "particles", PARTICLE_X, "f", v, errors.FormatError) for v in (-0.5, 32.0, 1e30)
+] + [
+    ("rain", "particles", PARTICLE_Y, "f", v, errors.FormatError) for v in (-1e30, 24.0)
+] + [
     # water.c: ground, depth and velocities finite, 0 <= depth < 1e9 -> FORMAT.
     ("water", "depth", 0, "d", v, errors.FormatError) for v in (-1e-9, 1e9, float("nan"))
 ] + [

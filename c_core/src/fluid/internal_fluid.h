@@ -162,8 +162,10 @@ void hbk_fluid_cells_free(hbk_fluid_cells_t *c);
 int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what);
 static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, int a)
 {
-    int32_t i = (int32_t)floorf((x - c->origin[a]) * c->inv_size);
-    return i < 0 ? 0 : i >= c->dims[a] ? c->dims[a] - 1 : i;
+    /* Clamped as a float: a particle far outside the grid (a loaded state's) would overflow
+     * the int32 conversion. The same cell as before for every coordinate that converted. */
+    const float f = floorf((x - c->origin[a]) * c->inv_size);
+    return f >= (float)c->dims[a] ? c->dims[a] - 1 : f >= 1.0f ? (int32_t)f : 0;
 }
 
 /* The rows of cells around (cx, cy, cz) (sph.c and sph_lanes.c): each a contiguous range of

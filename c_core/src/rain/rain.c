@@ -638,6 +638,18 @@ hbk_result_t hbk_rain_load_state(hbk_rain_t *h, const void *buffer, size_t size)
             return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state: drop %lld lies off the grid",
                             (long long)i);
         }
+    /* Particles too: a step leaves none off the grid (leave_glass), and one far off would
+     * overflow the cell index it is looked up by. */
+    for (int64_t i = 0; i < hd.particle_count; ++i)
+        if (!(parts[i].x >= 0.0f && parts[i].x < (float)h->p.width && parts[i].y >= 0.0f &&
+              parts[i].y < (float)h->p.height)) {
+            free(drops);
+            free(parts);
+            free(field);
+            free(mask);
+            return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state: particle %lld lies off the grid",
+                            (long long)i);
+        }
     const char *bad = state_bad_number(&hd, drops, parts, at + h->n * sizeof(float), h->n);
     if (bad) {
         free(drops);

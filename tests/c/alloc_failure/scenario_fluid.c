@@ -110,6 +110,9 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
     }
     AF_CALL(c, hbk_fluid_update_fields(s->a), hbk_fluid_message(s->a));
     AF_CALL(c, hbk_fluid_paint_sphere(s->a, 1, ctr, 0.2f, 0.05f), hbk_fluid_message(s->a));
+    const float pts[6] = {0.3f, 0.3f, 0.2f, 0.5f, 0.4f, 0.3f}, cov[2] = {1.0f, 0.5f};
+    AF_CALL(c, hbk_fluid_paint_points(s->a, 0, 2, pts, cov, 0.1f, 0.05f),
+            hbk_fluid_message(s->a));
     float lo[HBK_FLUID_FEATURE_COUNT], hi[HBK_FLUID_FEATURE_COUNT];
     for (int q = 0; q < HBK_FLUID_FEATURE_COUNT; ++q) lo[q] = -FLT_MAX, hi[q] = FLT_MAX;
     lo[HBK_FLUID_FEATURE_DENSITY] = 500.0f;

@@ -2,7 +2,8 @@
  * written again over itself with other data, and read back; after every failed write the
  * folder must hold no temporary file and the target must be absent (first write) or exactly the
  * earlier file (second write). Then the normal map of the read heights and a tileable noise
- * volume (neither allocates today; they are here so they are covered if they come to). */
+ * volume (neither allocates today; they are here so they are covered if they come to), and a
+ * UV layout's overlap. */
 #include "alloc_failure.h"
 #include <dirent.h>
 #include <string.h>
@@ -149,6 +150,12 @@ static void run(af_ctx_t *c, void *state)
     m.text[0] = '\0';
     AF_CALL(c, hbk_noise3d_tileable(noise, 8, 2, 2, 0.5f, 5, &m), m.text);
     af_hash(c, noise, 8 * 8 * 8 * sizeof *noise);
+    /* Two overlapping triangles' share of a UV layout (its coverage grid is allocated). */
+    const float uvs[12] = {0, 0, 1, 0, 0, 1, 0.2f, 0.2f, 0.9f, 0.2f, 0.2f, 0.9f};
+    float overlap = -1.0f;
+    m.text[0] = '\0';
+    AF_CALL(c, hbk_uv_overlap(uvs, 2, 32, &overlap, &m), m.text);
+    af_hash(c, &overlap, sizeof overlap);
 }
 
 static void done(void *state)
