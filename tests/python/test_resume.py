@@ -245,3 +245,42 @@ def test_the_time_left_after_a_resume_counts_only_this_runs_frames(reference, tm
     assert resumed >= 5 and done == resumed + 1  # one frame baked by this run
     # (counting the resumed frames as well would make it about 1/7 of this)
     assert eta == pytest.approx(elapsed / (done - resumed) * (12 - done), rel=0.2)
+
+
+def test_snow_resumed_between_given_transforms_is_bit_identical(tmp_path):
+    """A transform holds from its frame until the next one given. A checkpoint holds no mesh:
+    resumed after frame 5, the snow stepped frames 6-8 with the mesh at rest, not moved as
+    frame 3 had moved it."""
+    import numpy as np
+
+    from test_snow_binding import box_with_roof
+    pos, tris, uvs, mi = box_with_roof()
+    moved = np.eye(4)
+    moved[0, 3], moved[2, 3] = 0.7, -0.3
+
+    def snow():
+        return get("snow")({"snow": {"flake_count": 5000, "texture_width": 32,
+                                     "texture_height": 32, "wind": (1, 0, 0),
+                                     "flake_radius": 0.01}},
+                           {"positions": pos, "triangles": tris, "uvs": uvs,
+                            "material_index": mi, "substeps": 4, "transforms": {3: moved},
+                            "materials": [(0.4, False, False), (0.0, False, True)]})
+
+    def exrs(folder):
+        return {n: (folder / n).read_bytes() for n in sorted(os.listdir(folder))
+                if n.endswith(".exr")}
+    ref, cut = tmp_path / "ref", tmp_path / "cut"
+    e = snow()
+    BakeRunner(e, ref, 1, 8, checkpoint_every=3).run()
+    e.close()
+    e = snow()
+    r = BakeRunner(e, cut, 1, 8, checkpoint_every=3,
+                   on_frame=lambda s: s.written == 5 and r.cancel())
+    with pytest.raises(errors.Cancelled):
+        r.run()
+    e.close()
+    e = snow()
+    r = BakeRunner(e, cut, 1, 8, checkpoint_every=3, resume=True)
+    r.run()
+    e.close()
+    assert r.resumed_from == 5 and exrs(cut) == exrs(ref)

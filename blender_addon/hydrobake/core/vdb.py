@@ -67,6 +67,20 @@ def write(path, grids, metadata=None):
         raise errors.InvalidArgument(f"grids: duplicate names in {names}")
     with atomic_path(path) as tmp:
         vdb.write(tmp, grids=built, metadata=metadata or {})
+        _check_whole(vdb, tmp, path, names)
+
+
+def _check_whole(vdb, tmp, path, names):
+    """OpenVDB's writer ignores failed writes (a full disk, a file size limit): it leaves a
+    cut file and no error, which would be renamed into place and recorded as a good frame.
+    A cut file does not read back (its grid offsets are never filled in): refused here."""
+    try:
+        back = [g.name for g in vdb.readAllGridMetadata(tmp)]
+    except Exception:  # pyopenvdb raises KeyError, LookupError, ... on a cut file
+        back = None
+    if back is None or sorted(back) != sorted(names):
+        raise errors.FileIOError(f'"{path}": the file could not be written whole (is the disk '
+                                 "full?)")
 
 
 def read(path):

@@ -6,18 +6,30 @@ Layout of a cache folder (one per .blend, object and effect):
                            checkpoints a resume can start from
     <stream>_0001.exr      one file per output stream and frame
     checkpoint_0010.bin    simulation state after a frame (every N frames and the latest)
+    .hydrobake.lock        while a bake or free works here: locked, so that a second one in
+                           another process is refused (left by a killed bake; the next one
+                           takes it over and removes it)
 Every file is written under a temporary name in the same folder and renamed when complete,
 so a crash or cancel never leaves a partial file, and frames finished earlier stay valid.
 """
 import contextlib
+import errno
 import hashlib
 import json
 import os
 import re
 import threading
 
+from .. import errors
+
+try:
+    import fcntl
+except ImportError:  # Windows: bakes into one folder are not guarded against each other
+    fcntl = None
+
 MANIFEST = "manifest.json"
 FORMAT_VERSION = 1
+LOCK = ".hydrobake.lock"  # held by the bake or free working in the folder (BakeCache.locked)
 _TMP_MARK = ".tmp-"
 _tmp_counter = iter(range(1 << 62))
 _tmp_lock = threading.Lock()
@@ -40,24 +52,39 @@ def temp_name(final_path):
 
 @contextlib.contextmanager
 def atomic_path(final_path):
-    """Yields a temporary path to write; renames it to ``final_path`` if the block succeeds,
-    removes it if the block raises."""
+    """Yields a temporary path to write; once the block succeeds, flushes it to the disk and
+    renames it to ``final_path`` (as the C EXR writer does); removes it if anything fails.
+    An OSError is raised as FileIOError naming ``final_path`` (a full disk's bare
+    "[Errno 28] No space left on device" did not say which file)."""
     tmp = temp_name(final_path)
     try:
         yield tmp
+        _sync(tmp)
         os.replace(tmp, final_path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
+    except BaseException as exc:
+        with contextlib.suppress(OSError):  # the folder may be gone: keep the first error
             os.remove(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, errors.HydrobakeError):
+            raise errors.FileIOError(f'"{final_path}": cannot write it: '
+                                     f"{exc.strerror or exc}") from exc
         raise
 
 
+def _sync(path):
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+    try:
+        os.fsync(fd)
+    except OSError as exc:
+        if exc.errno not in (errno.EINVAL, errno.EROFS):  # a file system without fsync
+            raise
+    finally:
+        os.close(fd)
+
+
 def write_bytes_atomic(path, data):
-    with atomic_path(path) as tmp:
+    with atomic_path(path) as tmp:  # which flushes it to the disk
         with open(tmp, "wb") as f:
             f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
 
 
 def file_checksum(path):
@@ -74,6 +101,7 @@ class BakeCache:
     def __init__(self, folder):
         self.folder = os.path.abspath(folder)
         self.manifest_path = os.path.join(self.folder, MANIFEST)
+        self._lock = None  # the lock file's descriptor while this holds the folder
 
     # --- manifest -------------------------------------------------------------------------
     def read_manifest(self):
@@ -85,9 +113,13 @@ class BakeCache:
             return None
         except (OSError, ValueError) as exc:
             raise ValueError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
-        if m.get("format") != FORMAT_VERSION:
-            raise ValueError(f"{self.manifest_path}: manifest format {m.get('format')!r}, this "
+        if not isinstance(m, dict) or m.get("format") != FORMAT_VERSION:
+            found = m.get("format") if isinstance(m, dict) else type(m).__name__
+            raise ValueError(f"{self.manifest_path}: manifest format {found!r}, this "
                              f"version reads {FORMAT_VERSION}")
+        problem = _manifest_problem(m)
+        if problem:  # edited by hand, or not ours: never act on it (free removes what it names)
+            raise ValueError(f"{self.manifest_path}: unreadable manifest ({problem})")
         return m
 
     def write_manifest(self, manifest):
@@ -162,12 +194,83 @@ class BakeCache:
         for name in self._temporaries(manifest):
             self.remove(name)
 
+    def remove_unlisted_checkpoints(self, manifest):
+        """Removes the checkpoints ``manifest`` does not list: those of frames a resume bakes
+        again, and one a killed bake had superseded but not yet removed (else each was left
+        for good: up to a 211 MB state per kill)."""
+        listed = {c["file"] for c in manifest.get("checkpoints", {}).values()}
+        for name in os.listdir(self.folder):
+            if _stream_of(name) == "checkpoint" and name not in listed:
+                self.remove(name)
+
+    # --- lock -----------------------------------------------------------------------------
+    @contextlib.contextmanager
+    def locked(self):
+        """Holds the folder for one bake or free: an exclusive lock on its LOCK file (made
+        here, with the folder if need be). Another process's bake or free here meanwhile is
+        refused with FileIOError instead of deleting this one's files (a second bake began
+        with free, and removed the first's frames and the temporaries it was writing). The
+        system lets go of the lock when a process dies, so a killed bake never blocks the
+        next; the file itself goes when the lock is let go. Re-entrant; a file system
+        without locks is used without."""
+        if self._lock is not None or fcntl is None:
+            yield
+            return
+        if os.path.exists(self.folder) and not os.path.isdir(self.folder):
+            raise errors.FileIOError(f"{self.folder}: is a file, not a folder: the bake's "
+                                     "folder cannot be made there")
+        path = os.path.join(self.folder, LOCK)
+        for _attempt in range(100):
+            os.makedirs(self.folder, exist_ok=True)
+            try:
+                fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o644)
+            except FileNotFoundError:  # a free removed the folder just now
+                continue
+            except OSError as exc:
+                raise errors.FileIOError(f"{self.folder}: cannot write in it: "
+                                         f"{exc.strerror or exc}") from exc
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                os.close(fd)
+                if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                    raise errors.FileIOError(
+                        f"{self.folder}: another bake or free is working in this folder (a "
+                        "second Blender or batch process); wait for it to end or cancel it"
+                    ) from None
+                fd = None  # no locks on this file system
+                break
+            with contextlib.suppress(OSError):
+                if os.fstat(fd).st_ino == os.stat(path).st_ino:
+                    break  # else its holder removed it as it let go: lock the new one
+            os.close(fd)
+        else:
+            raise errors.FileIOError(f"{self.folder}: cannot lock the folder")
+        self._lock = fd
+        try:
+            yield
+        finally:
+            self._lock = None
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.remove(path)  # before the lock goes: the next one makes a new file
+                os.close(fd)
+
     # --- free -----------------------------------------------------------------------------
     def free(self):
         """Removes the bake's files (those in the manifest, leftovers of interrupted writes of
         those streams, and the manifest), then the folder if it is empty. Nothing else."""
         if not os.path.isdir(self.folder):
             return []
+        outer = self._lock is None
+        with self.locked():
+            removed = self._free()
+        if outer:
+            with contextlib.suppress(OSError):
+                os.rmdir(self.folder)  # only if empty: never remove what is not ours
+        return removed
+
+    def _free(self):
         removed = []
         try:
             m = self.read_manifest()
@@ -184,9 +287,47 @@ class BakeCache:
         if m is not None:
             os.remove(self.manifest_path)
             removed.append(MANIFEST)
-        with contextlib.suppress(OSError):
-            os.rmdir(self.folder)  # only if empty: never remove what is not ours
         return removed
+
+
+def _plain_name(name):
+    """A file name in the folder itself: not a path, not hidden (temporaries are)."""
+    return (isinstance(name, str) and name not in ("", ".", "..") and not name.startswith(".")
+            and "/" not in name and os.sep not in name and (os.altsep or "/") not in name)
+
+
+def _number(key):
+    return re.fullmatch(r"[0-9]+", key) is not None
+
+
+def _manifest_problem(m):
+    """What is wrong with the shape of manifest ``m`` ("" if nothing): the frame lists and
+    checkpoints the bake and free act on."""
+    streams = m.get("streams", [])
+    if not isinstance(streams, list) or not all(isinstance(x, str) for x in streams):
+        return "streams: not a list of names"
+    frames = m.get("frames")
+    if not isinstance(frames, dict):
+        return "no frame list"
+    for frame, files in frames.items():
+        if not _number(frame):
+            return f"frame {frame!r} is not a frame number"
+        if not isinstance(files, dict):
+            return f"frame {frame}: not a list of files"
+        for name, digest in files.items():
+            if not _plain_name(name) or not isinstance(digest, str) or \
+                    ("streams" in m and _stream_of(name) not in streams):
+                return f"frame {frame}: file {name!r} is not a file of the bake"
+    checkpoints = m.get("checkpoints", {})
+    if not isinstance(checkpoints, dict):
+        return "checkpoints: not a list of checkpoints"
+    for frame, entry in checkpoints.items():
+        if not _number(frame) or not isinstance(entry, dict) or \
+                not _plain_name(entry.get("file")) or \
+                _stream_of(entry["file"]) != "checkpoint" or \
+                not isinstance(entry.get("sha256"), str):
+            return f"checkpoint {frame!r}: not a checkpoint of the bake"
+    return ""
 
 
 def _names(manifest):

@@ -5,6 +5,7 @@ outputs; the runner names, writes and records them. Cancel is honoured between f
 through the shared hbk_progress_t, inside long C calls.
 """
 import concurrent.futures
+import contextlib
 import hashlib
 import json
 import os
@@ -227,6 +228,7 @@ class BakeRunner:
                             if int(f) <= start_at}
         m.update(frame_end=s.frame_end, complete=False)
         self.cache.write_manifest(m)
+        self.cache.remove_unlisted_checkpoints(m)
         self.resumed_from = start_at
         return m, start_at + 1
 
@@ -293,6 +295,7 @@ class BakeRunner:
         pending = None  # (frame, future) of the frame whose files are being written
         writer = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="hydrobake-write")
         manifest = None
+        folder = contextlib.ExitStack()  # the folder's lock, held until the writes are done
 
         def settle():
             """Waits for the frame in flight, records it, and counts it done."""
@@ -311,6 +314,7 @@ class BakeRunner:
         try:
             if self._cancel.is_set():  # cancelled before it began: the folder stays as it was
                 raise errors.Cancelled("bake cancelled before it started")
+            folder.enter_context(self.cache.locked())  # no other bake or free meanwhile
             header = self._header()
             if self.resume:
                 manifest, first = self._resume_point(header)
@@ -353,6 +357,7 @@ class BakeRunner:
             raise
         finally:
             writer.shutdown(wait=True)
+            folder.close()
             s.ended = time.monotonic()
 
     @staticmethod

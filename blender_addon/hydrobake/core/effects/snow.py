@@ -7,8 +7,9 @@ Inputs:
     uvs            (T, 3, 2) float32 UV per triangle corner (TRIANGLES mode)
     material_index (T,) int32 material slot per triangle
     materials      [(catch_chance, melts, sheds)] per slot
-    transforms     {frame: (4, 4) matrix} rigid motion applied to positions (optional);
-                   with part_vertices, {frame: (P, 4, 4)}: one matrix per part
+    transforms     {frame: (4, 4) matrix} rigid motion applied to positions (optional), from
+                   that frame until the next one given; with part_vertices,
+                   {frame: (P, 4, 4)}: one matrix per part
     part_vertices  (P,) int vertex counts of consecutive parts of positions (objects that
                    move each their own way: a person and the roof over them); optional
     substeps       solver steps per frame (default 1)
@@ -19,6 +20,8 @@ Streams per frame:
     depth_####.exr     Y = snow depth in m (for displacement; Blender reads it as grey). Float.
     flakes_####.npz    "positions": (N, 3) flake positions (only with flakes=True)
 """
+import bisect
+
 import numpy as np
 
 from .. import errors
@@ -52,6 +55,7 @@ class SnowEffect(Effect):
                                              "[1, 100000]")
             self.snow.set_materials(inp.get("materials") or [(0.0, False, False)])
             self.transforms = inp.get("transforms") or {}
+            self._keys = sorted(self.transforms)
             self.parts = self._parts(inp.get("part_vertices"))
             self._set_mesh(None)
         except BaseException:
@@ -87,6 +91,7 @@ class SnowEffect(Effect):
         return list(zip((ends - counts).tolist(), ends.tolist()))
 
     def _set_mesh(self, frame):
+        self._mesh_frame = frame  # whose transform the mesh has (None: at rest)
         pos = self.positions
         m = self.transforms.get(frame)
         if m is not None:
@@ -101,8 +106,13 @@ class SnowEffect(Effect):
                            self.inputs.get("material_index"))
 
     def step(self, frame, progress):
-        if frame in self.transforms:
-            self._set_mesh(frame)
+        # The transform of the latest frame given up to this one: what a bake that never
+        # stopped has set by now. A checkpoint holds no mesh, so a bake resumed between two
+        # given frames sets it here too (it stepped the mesh at rest).
+        i = bisect.bisect_right(self._keys, frame)
+        key = self._keys[i - 1] if i else None
+        if key != self._mesh_frame:
+            self._set_mesh(key)
         self.snow.step(self.substeps, progress)
 
     def outputs(self, frame):
