@@ -13,4 +13,8 @@ if ! cmake --build "$work/cmake" -j"$(nproc)" >"$work/build.log" 2>&1; then
 fi
 grep -E "warning" "$work/build.log" >&2 || true
 mkdir -p "$root/blender_addon/hydrobake/lib"
-cp "$work/cmake/libhydrobake.so" "$root/blender_addon/hydrobake/lib/libhydrobake.so"
+# Renamed into place, not copied over: a process that has the library loaded (a bake, a test)
+# keeps its own copy instead of dying of SIGBUS.
+lib="$root/blender_addon/hydrobake/lib/libhydrobake.so"
+cp "$work/cmake/libhydrobake.so" "$lib.tmp.$$"
+mv -f "$lib.tmp.$$" "$lib"

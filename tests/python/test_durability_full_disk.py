@@ -142,6 +142,9 @@ def test_every_file_is_flushed_to_the_disk_before_its_rename(tmp_path, monkeypat
     assert sorted(os.listdir(tmp_path)) == ["pts_0001.npz", "vol_0001.vdb"]
     assert any(os.path.basename(p).startswith(".pts_0001.npz.tmp-") for p in synced)
     assert any(os.path.basename(p).startswith(".vol_0001.vdb.tmp-") for p in synced)
+    # ... and the folder after the renames, so that they outlive a power cut too.
+    last = max(i for i, p in enumerate(synced) if os.path.basename(p).startswith(".vol_"))
+    assert str(tmp_path) in synced[last + 1:], synced
 
 
 def test_the_first_error_is_the_one_raised(tmp_path):

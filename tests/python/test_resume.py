@@ -101,6 +101,13 @@ def test_resume_refuses_changed_settings(reference, tmp_path):
         BakeRunner(e, folder, 1, 12, resume=True).run()
     e.close()
     assert files(folder) == files(reference)  # nothing was touched
+    # A float32 parameter is shown as it was set (9.81), not as the manifest's double of it
+    # (9.8100004196167).
+    gravity = {"water": dict(PARAMS["water"], gravity=5.0), "light": PARAMS["light"]}
+    e = effect(gravity)
+    with pytest.raises(errors.StateError, match=r"water\.gravity: 9\.81 in the bake, 5\.0 now"):
+        BakeRunner(e, folder, 1, 12, resume=True).run()
+    e.close()
 
 
 @pytest.mark.parametrize("inputs, want", [

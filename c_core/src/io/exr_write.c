@@ -309,6 +309,23 @@ done:
     return r;
 }
 
+/* Flushes the folder holding `path`, so that its rename outlives a power cut (the file is
+ * complete either way: a resume's checksum check would find a lost rename). Best effort. */
+static void sync_folder(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    char dir[4096];
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else if ((size_t)(slash - path) < sizeof dir)
+        snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+    else return;
+    const int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0) return;
+    (void)fsync(fd);
+    close(fd);
+}
+
 /* Flushes the finished temporary file to disk, then puts it in place. */
 static hbk_result_t commit(const char *tmp, const char *path, hbk_message_t *msg)
 {
@@ -324,6 +341,7 @@ static hbk_result_t commit(const char *tmp, const char *path, hbk_message_t *msg
     if (rename(tmp, path))
         return hbk_fail(msg, HBK_ERR_IO, "\"%s\": cannot rename the temporary file over it: %s",
                         path, strerror(errno));
+    sync_folder(path);
     return HBK_OK;
 }
 

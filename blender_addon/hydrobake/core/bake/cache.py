@@ -61,6 +61,7 @@ def atomic_path(final_path):
         yield tmp
         _sync(tmp)
         os.replace(tmp, final_path)
+        _sync_folder(os.path.dirname(os.path.abspath(final_path)))
     except BaseException as exc:
         with contextlib.suppress(OSError):  # the folder may be gone: keep the first error
             os.remove(tmp)
@@ -79,6 +80,17 @@ def _sync(path):
             raise
     finally:
         os.close(fd)
+
+
+def _sync_folder(folder):
+    """The rename made to last past a power cut, as far as the system allows (best effort:
+    the file is complete either way, and a resume's checksums find a lost rename)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
 
 def write_bytes_atomic(path, data):

@@ -8,9 +8,12 @@ import concurrent.futures
 import contextlib
 import hashlib
 import json
+import math
 import os
 import threading
 import time
+
+import numpy as np
 
 from .. import _lib, errors, exr
 from . import cache as cache_mod
@@ -406,9 +409,19 @@ def _first_difference(there, here, path=""):
 
 
 def _show(value):
+    """A manifest value as the user set it: a float32 parameter (9.8100004196167 in the
+    manifest) as 9.81."""
     if value is None:
         return "none"
-    return value if isinstance(value, str) else json.dumps(value)
+    if isinstance(value, str):
+        return value
+    if isinstance(value, float) and math.isfinite(value):
+        short = float(np.format_float_positional(np.float32(value), unique=True, trim="-"))
+        if float(np.float32(short)) == value:  # exactly a float32: its shortest form
+            return json.dumps(short)
+    if isinstance(value, list):
+        return "[" + ", ".join(_show(v) for v in value) + "]"
+    return json.dumps(value)
 
 
 def _comparable(value):
