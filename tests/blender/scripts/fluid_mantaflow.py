@@ -80,6 +80,17 @@ assert len(surf["triangles"]) > 100
 ours = surf["positions"][:, 2].min()
 assert abs(ours - liquid_z) < 2.5 * 2.0 / 16, (ours, liquid_z)  # within the grid's resolution
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Tank") == {"FINISHED"}
+# With Mesh off there is no surface: baked, but warned of (the textured object stays empty).
+from hydrobake.blender import jobs  # noqa: E402
+job = jobs.Job(bpy.context, dom, "fluid")
+job.runner.effect.close()
+assert job.warnings == [], job.warnings
+d.use_mesh = False
+job = jobs.Job(bpy.context, dom, "fluid")
+job.runner.effect.close()
+assert len(job.warnings) == 1 and job.warnings[0].startswith(
+    "Liquid Domain: Tank has Mesh off, so there is no liquid surface"), job.warnings
+d.use_mesh = True
 
 # Errors name the setting.
 plain = in_blender.new_plane("Plain")

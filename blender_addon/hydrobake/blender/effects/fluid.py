@@ -5,6 +5,7 @@ becomes a Volume object reading the VDB sequence and a surface mesh that follows
 with a material that blends the sample textures at the advected uvw, cross-fading fields A
 and B."""
 import os
+import warnings
 
 import bpy
 import numpy as np
@@ -12,7 +13,7 @@ import numpy as np
 from ...core import mantaflow, solid_textures
 from ..bridge import animation, frame_meshes, meshes, tileable, volumes
 from . import fluid_paint, register_effect
-from .base import BlenderEffect
+from .base import BakeWarning, BlenderEffect
 from .fluid_paint import FEATURES
 
 
@@ -277,6 +278,10 @@ class FluidBlender(BlenderEffect):
             ys = np.linspace(lo[1], hi[1], res[1] + 1)
             surfaces = animation.per_frame(context.scene, frames[0], frames[1], lambda f: (
                 meshes.z_crossings(dom, xs, ys, lo[2], hi[2], context.evaluated_depsgraph_get())))
+        else:
+            warnings.warn(f"Liquid Domain: {dom.name} has Mesh off, so there is no liquid "
+                          "surface: the textured fluid stays empty and the grids fill the whole "
+                          "domain; turn on Mesh in its Fluid settings and bake it", BakeWarning)
         fp["surface_threshold"] = 0.5  # the crossings' field is 0.5 on the liquid surface
         return mantaflow.CacheSource(cache, range(frames[0], frames[1] + 1), dlo, dhi, lo, hi,
                                      res, surfaces, d.time_scale, matrix)
