@@ -54,14 +54,24 @@ for scene in bpy.data.scenes:
     if args.resolution:
         render.resolution_percentage = args.resolution
     still = int(scene.get("hydrobake_still_frame", scene.frame_current))
-    render.filepath = os.path.join(os.path.abspath(args.out), f"{bpy.path.clean_name(scene.name)}.png")
+    name = bpy.path.clean_name(scene.name)
+    final = os.path.join(os.path.abspath(args.out), f"{name}.png")
+    # Rendered under a temporary name and renamed when written: a killed run never leaves a
+    # half-written still in place of the last good one.
+    render.filepath = os.path.join(os.path.dirname(final), f".{name}.tmp-{os.getpid()}.png")
     render.image_settings.file_format = "PNG"
     t0 = time.monotonic()
     # Render with this scene as the context scene: otherwise the render re-evaluates at the
     # context scene's frame and frame handlers (baked meshes, flakes) load the wrong frame.
-    with bpy.context.temp_override(scene=scene):
-        scene.frame_set(still)
-        bpy.ops.render.render(write_still=True, scene=scene.name)
-    print(f"run_examples: rendered {render.filepath} in {time.monotonic() - t0:.1f}s", flush=True)
+    try:
+        with bpy.context.temp_override(scene=scene):
+            scene.frame_set(still)
+            bpy.ops.render.render(write_still=True, scene=scene.name)
+        os.replace(render.filepath, final)
+    finally:
+        if os.path.exists(render.filepath):
+            os.remove(render.filepath)
+    render.filepath = final
+    print(f"run_examples: rendered {final} in {time.monotonic() - t0:.1f}s", flush=True)
 bpy.ops.wm.save_mainfile()
 sys.exit(1 if failed else 0)
