@@ -29,6 +29,36 @@ for name, size, x in (("Small", 1.0, -20.0), ("Large", 8.0, 20.0)):
     with open(os.path.join(s.bake_folder, "manifest.json")) as f:
         counts[name] = json.load(f)["params"]["snow"]["flake_count"]
 print("mean depth (m)", depth, "flakes", counts)
+# The panel's estimate (from bounding boxes) is the bake's count for a still, plain plate.
+from hydrobake.blender.effects import snow as snow_effect  # noqa: E402
+for name in ("Small", "Large"):
+    o = bpy.data.objects[name]
+    assert snow_effect.estimate(o, o.hydrobake_snow)[0] == counts[name], name
+
+
+class Layout:
+    """What a panel draws, recorded: enough of UILayout for the effects' draw_settings."""
+    def __init__(self, out):
+        self.out, self.active, self.enabled = out, True, True
+
+    def column(self, **_):
+        return Layout(self.out)
+
+    row = box = column
+
+    def prop(self, data, name, **_):
+        self.out.append(("prop", name, self.active))
+
+    def label(self, text="", **_):
+        self.out.append(("label", text, self.active))
+
+
+drawn = []
+snow_effect.SnowBlender.draw_settings(Layout(drawn), bpy.data.objects["Large"].hydrobake_snow)
+print(drawn)
+assert ("label", f"About {counts['Large']:,} flakes in 9.0 x 9.0 x 1.6 m", True) in drawn, drawn
+assert ("prop", "flake_count", False) in drawn and ("prop", "volume_min", False) in drawn
+assert ("prop", "temperature", True) in drawn
 assert counts["Large"] > 15 * counts["Small"], counts
 assert depth["Small"] > 0.0, depth
 assert abs(depth["Large"] / depth["Small"] - 1.0) < 0.15, depth

@@ -8,6 +8,7 @@ import math
 
 import bpy
 import numpy as np
+from mathutils import Vector
 
 from ..bridge import animation, frame_meshes, images, materials, mesh_data, points
 from . import register_effect
@@ -249,6 +250,19 @@ def auto_volume(lo, hi, wind, fall_speed):
     margin = 0.5 + np.abs(np.array(wind[:2], np.float64)) * height / max(fall_speed, 0.05)
     return ((float(lo[0] - margin[0]), float(lo[1] - margin[1]), float(lo[2]) - 0.05),
             (float(hi[0] + margin[0]), float(hi[1] + margin[1]), float(hi[2]) + 1.5))
+
+
+def estimate(obj, settings):
+    """(flakes, volume size) Auto Volume would give at the current frame, from the bounding
+    boxes of the object and its colliders (cheap enough for the panel; the bake measures the
+    evaluated meshes over its frames, which a moving object widens)."""
+    parts = [obj] + [o for o in (settings.colliders.all_objects if settings.colliders else ())
+                     if o.type == "MESH" and o != obj]
+    corners = np.array([tuple(o.matrix_world @ Vector(c)) for o in parts for c in o.bound_box])
+    lo, hi = auto_volume(corners.min(axis=0), corners.max(axis=0), settings.snow.wind,
+                         settings.snow.fall_speed)
+    size = [b - a for a, b in zip(lo, hi)]
+    return round(settings.flake_density * size[0] * size[1] * size[2]), size
 
 
 def _flake_count(obj, density, lo, hi, most):
@@ -577,6 +591,10 @@ class SnowBlender(BlenderEffect):
             row = col.row()
             row.active = name != "flake_density" or settings.auto_volume
             row.prop(settings, name)
+            if name == "flake_density" and settings.auto_volume:
+                count, size = estimate(settings.id_data, settings)
+                col.label(text=f"About {count:,} flakes in {size[0]:.1f} x {size[1]:.1f} x "
+                               f"{size[2]:.1f} m", icon="INFO")
         super().draw_settings(layout, settings)
 
     @classmethod
