@@ -92,6 +92,8 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(water, cancel)                     \
     X(water, cancel_during_rain)         \
     X(water, many_threads_under_a_memory_limit) \
+    X(water, kass_miller_matrix)         \
+    X(water, wave_speed_kass_miller)     \
     X(caustics, params_rejects)          \
     X(caustics, flat_uniform)            \
     X(caustics, energy_conserved)        \
@@ -107,6 +109,9 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(caustics, cancel)                  \
     X(caustics, workspace_reuse)         \
     X(caustics, paths_same_bytes)        \
+    X(caustics, snell_flat)              \
+    X(caustics, snell_tilted_surface)    \
+    X(caustics, energy_sloped_ground)    \
     X(snow, formulas)                    \
     X(snow, params)                      \
     X(snow, sticking_statistics)         \
@@ -125,6 +130,8 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(snow, box_mode)                    \
     X(snow, box_slots_fit_the_image)     \
     X(snow, bvh_brute_force)             \
+    X(snow, flake_motion)                \
+    X(snow, box_faces)                   \
     X(rain, params_rejects)              \
     X(rain, kernel_formula)              \
     X(rain, water_conserved)             \
@@ -143,6 +150,11 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(rain, refraction)                  \
     X(rain, refraction_rejects_bad_normals) \
     X(rain, paths_same_bytes)            \
+    X(rain, friction_threshold)          \
+    X(rain, terminal_speed)              \
+    X(rain, meander_unbiased)            \
+    X(rain, particles_split)             \
+    X(rain, holdback_rule)               \
     X(fluid, params_rejects)             \
     X(fluid, uniform_flow_shift)         \
     X(fluid, zero_flow_bitwise)          \
@@ -170,7 +182,14 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, paint_points)               \
     X(fluid, cancel)                     \
     X(fluid, noise_tileable)             \
-    X(fluid, sums_staggered)
+    X(fluid, sums_staggered)           \
+    X(fluid, kernels_normalised)       \
+    X(fluid, sph_pair_exact)           \
+    X(fluid, sph_momentum)             \
+    X(fluid, sph_lattice_rest_density) \
+    X(fluid, features_known_fields)    \
+    X(fluid, crossfade_schedule)       \
+    X(fluid, blend_advect_shift)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

@@ -666,3 +666,161 @@ void test_caustics_paths_same_bytes(void)
     free(g.v);
     free(b.v);
 }
+
+/* ---- Snell's law and the area ratio, exactly ------------------------------------------ */
+
+void test_caustics_snell_flat(void)
+{
+    /* Flat water D = 1 m deep, a sun 60 deg from the zenith along +x, not periodic: every ray
+     * is bent by Snell's law (sin theta = n sin theta_r) and lands D tan(theta_r) towards -x
+     * of where it entered. The light of the whole field [0, Lx] lands on [-s, Lx - s]: the map
+     * is E cos(theta) up to Lx - s and dark beyond, column by column (exact area coverage).
+     * Dispersive indices give each channel its own edge: red, bent least, shifted most. */
+    const int32_t W = 80, H = 8, MW = 400, MH = 4;
+    const double dx = 0.025f, D = 1.0, Lx = W * dx, pw = Lx / MW;
+    grid_t w = grid_new(W, H, 1), g = grid_new(W, H, 1), out = grid_new(MW, MH, 3);
+    grid_fill(&w, 0.0f);
+    grid_fill(&g, (float)-D);
+    hbk_caustics_params_t p = sun(tan(60.0 * M_PI / 180.0), 0.0);
+    p.ior[0] = 1.331f;
+    p.ior[1] = 1.333f;
+    p.ior[2] = 1.337f;
+    hbk_caustics_stats_t st;
+    CHECK_OK(hbk_caustics_render(&p, &w.img, &g.img, (float)dx, &out.img, &st, NULL, NULL));
+    const double lx = p.light_direction[0], lz = p.light_direction[2];
+    const double sin_t = lx / hypot(lx, lz), cos_t = lz / hypot(lx, lz);
+    double edge[3];
+    for (int c = 0; c < 3; ++c) {
+        const double sr = sin_t / p.ior[c], s = D * sr / sqrt(1.0 - sr * sr);
+        edge[c] = Lx - s;
+        for (int32_t y = 0; y < MH; ++y)
+            for (int32_t x = 0; x < MW; ++x) {
+                const double x0 = x * pw, lit = fmin(1.0, fmax(0.0, (edge[c] - x0) / pw));
+                CHECK_NEAR(out.v[3 * (y * MW + x) + c], cos_t * lit, 1e-5);
+            }
+        /* The light that left the extent is the strip s wide. */
+        CHECK_NEAR(channel_sum(&out, c) * pw * (H * dx / MH), st.ground[c] * edge[c] / Lx,
+                   1e-6 * st.ground[c]);
+    }
+    CHECK(edge[0] < edge[1] && edge[1] < edge[2]);
+    CHECK((int)(edge[0] / pw) != (int)(edge[2] / pw)); /* the edges fall in different pixels */
+    free(w.v);
+    free(g.v);
+    free(out.v);
+}
+
+void test_caustics_snell_tilted_surface(void)
+{
+    /* A water surface tilted by slope s = 0.5 along x over a flat floor, overhead sun. The
+     * incidence angle is theta_i = atan(s); Snell gives theta_r, and the refracted ray leans
+     * theta_i - theta_r from the vertical towards +x. A point at x lands at
+     *     x' = x + (z(x) - b) tan(theta_i - theta_r),   dx'/dx = 1 + s tan(theta_i - theta_r),
+     * and the light through a strip dx (E dx: L . N S is the horizontal area for a vertical L)
+     * spreads over dx': the map is E / (1 + s tan(theta_i - theta_r)) everywhere the plane's
+     * light lands, for each channel's own index (the paper's S / S' area ratio, exactly). */
+    const int32_t W = 128, H = 8, MW = 256, MH = 4;
+    /* Dyadic cell size and heights: the plane is exact in float, so are its slopes. */
+    const double dx = 1.0 / 128.0, slope = 0.5, b = -1.5, Lx = W * dx, pw = Lx / MW;
+    grid_t w = grid_new(W, H, 1), g = grid_new(W, H, 1), out = grid_new(MW, MH, 3);
+    for (int32_t j = 0; j < H; ++j)
+        for (int32_t i = 0; i < W; ++i) w.v[j * W + i] = (float)(slope * ((i + 0.5) * dx - 0.5));
+    grid_fill(&g, (float)b);
+    hbk_caustics_params_t p = sun(0.0, 0.0);
+    p.ior[0] = 1.32f;
+    p.ior[1] = 1.333f;
+    p.ior[2] = 1.36f;
+    CHECK_OK(hbk_caustics_render(&p, &w.img, &g.img, (float)dx, &out.img, NULL, NULL, NULL));
+    const double ti = atan(slope);
+    double want_prev = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        const double tr = asin(sin(ti) / p.ior[c]), td = tan(ti - tr);
+        const double want = 1.0 / (1.0 + slope * td);
+        /* The plane spans the sample centres 0.5 dx .. Lx - 0.5 dx (beyond, the field is
+         * extended flat): where its light lands. */
+        const double za = w.v[0], zb = w.v[W - 1];
+        const double xa = 0.5 * dx + (za - b) * td, xb = Lx - 0.5 * dx + (zb - b) * td;
+        int checked = 0;
+        for (int32_t x = 0; x < MW; ++x) {
+            if (x * pw < xa || (x + 1) * pw > xb) continue;
+            for (int32_t y = 0; y < MH; ++y) CHECK_NEAR(out.v[3 * (y * MW + x) + c], want, 2e-6);
+            ++checked;
+        }
+        CHECK(checked > 200);
+        CHECK(want < 0.97 && want != want_prev); /* the index matters */
+        want_prev = want;
+    }
+    free(w.v);
+    free(g.v);
+    free(out.v);
+}
+
+void test_caustics_energy_sloped_ground(void)
+{
+    /* A wavy surface (calm at its borders) over a ground plane sloping along x, a map extent
+     * wide enough to catch every ray. The map is irradiance per ground area, so the light it
+     * holds is sum(map x pixel area / cos(ground slope)): it must equal stats->ground, which
+     * is entered - absorbed; with an overhead sun and no Fresnel term, entered is exactly the
+     * irradiance times the horizontal area (no light created or lost by the refraction). */
+    const int32_t W = 80, H = 60;
+    const double dx = 0.02f, slope = 0.3, Lx = W * dx, Ly = H * dx;
+    grid_t w = waves(W, H, 0.0f, 0.01, 0, 0), g = grid_new(W, H, 1);
+    for (int32_t j = 0; j < H; ++j)
+        for (int32_t i = 0; i < W; ++i) {
+            /* Flat water within 8 cells of the borders, blended in smoothly. */
+            const double fx = fmin(1.0, fmin(i, W - 1 - i) / 16.0);
+            const double fy = fmin(1.0, fmin(j, H - 1 - j) / 16.0);
+            const double win = fx < 0.5 || fy < 0.5 ? 0.0 : sin(M_PI * (fmin(fx, fy) - 0.5));
+            w.v[j * W + i] = (float)(w.v[j * W + i] * fmax(0.0, win));
+            g.v[j * W + i] = (float)(-0.8 + slope * (i + 0.5) * dx);
+        }
+    /* Pixels 0.01 m wide, their edges on the kinks of the ground at 0.5 dx and Lx - 0.5 dx
+     * (outside them the clamped ground is flat). */
+    const double pw = 0.01, mx = 20 * pw;
+    const int32_t MW = (int32_t)lround((Lx - dx + 2 * mx) / pw), MH = 200;
+    grid_t out = grid_new(MW, MH, 3);
+    for (int variant = 0; variant < 2; ++variant) {
+        /* (The oblique sun leans along y, and little enough that the rays leaving the field
+         * come from its calm border: beyond the field a ray is ended on the level of the
+         * ground where it left, exact only when it runs along a level line of the clamped
+         * ground, as here.) */
+        hbk_caustics_params_t p = variant ? sun(0.0, 0.25) : sun(0.0, 0.0);
+        p.auto_extent = 0;
+        p.extent[0] = (float)(0.5 * dx - mx);
+        p.extent[2] = (float)(Lx - 0.5 * dx + mx);
+        p.extent[1] = -0.6f;
+        p.extent[3] = (float)(Ly + 0.6);
+        if (variant) {
+            p.ior[0] = 1.32f;
+            p.ior[2] = 1.36f;
+            p.absorption[0] = 0.4f;
+            p.absorption[1] = 0.1f;
+            p.fresnel = 1;
+        }
+        hbk_caustics_stats_t st;
+        CHECK_OK(hbk_caustics_render(&p, &w.img, &g.img, (float)dx, &out.img, &st, NULL, NULL));
+        const double ex0 = p.extent[0], ex1 = p.extent[2], ey0 = p.extent[1], ey1 = p.extent[3];
+        const double pa = (ex1 - ex0) / MW * ((ey1 - ey0) / MH);
+        const double cos_s = 1.0 / sqrt(1.0 + slope * slope);
+        for (int c = 0; c < 3; ++c) {
+            double light = 0.0;
+            for (int32_t x = 0; x < MW; ++x) {
+                const double xc = ex0 + (x + 0.5) * (ex1 - ex0) / MW;
+                const double cs = xc > 0.5 * dx && xc < Lx - 0.5 * dx ? cos_s : 1.0;
+                for (int32_t y = 0; y < MH; ++y) light += out.v[3 * (y * MW + x) + c] * pa / cs;
+            }
+            CHECK_NEAR(st.ground[c], st.entered[c] - st.absorbed[c], 1e-12 * st.entered[c]);
+            CHECK_NEAR(light, st.ground[c], 1e-6 * st.ground[c]);
+            CHECK(st.dry[c] == 0.0);
+            if (!variant) CHECK_NEAR(st.entered[c], Lx * Ly, 1e-9 * Lx * Ly);
+            else CHECK((st.absorbed[c] > 0.0) == (p.absorption[c] > 0.0f) &&
+                       st.entered[c] < 0.98 * Lx * Ly);
+        }
+        /* Caustics formed: somewhere at least twice the mean. */
+        float hi = 0.0f;
+        for (int32_t i = 0; i < MW * MH; ++i) hi = fmaxf(hi, out.v[3 * i]);
+        CHECK(hi > 2.0f * (float)cos_s);
+    }
+    free(w.v);
+    free(g.v);
+    free(out.v);
+}

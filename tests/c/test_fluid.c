@@ -1657,3 +1657,385 @@ void test_fluid_paint_points(void)
     CHECK(strstr(hbk_fluid_message(h[0]), "falloff = 0.6"));
     for (int k = 0; k < 4; ++k) hbk_fluid_destroy(h[k]);
 }
+
+/* ---- The papers' formulas, checked against their definitions (Harada et al. 2007 take
+ * Mueller et al. 2003's kernels; the texturing paper's features, V_m clamp, advection and the
+ * two-field cross-fade beyond it). ---- */
+
+/* 4 pi int_0^H r^2 f(r) dr by Simpson's rule (f smooth on [0, H]: the kernels are
+ * polynomials there, times r^2 also where f has a 1/r part). */
+static double radial_integral(double (*f)(double r, double H), double H)
+{
+    enum { N = 4000 };
+    const double dr = H / N;
+    double s = 0.0;
+    for (int i = 0; i <= N; ++i) {
+        const double r = i * dr, w = i == 0 || i == N ? 1.0 : i % 2 ? 4.0 : 2.0;
+        s += w * r * r * f(r, H);
+    }
+    return 4.0 * M_PI * s * dr / 3.0;
+}
+
+static double k_poly6(double r, double H) { return hbk_poly6(r * r, H); }
+static double k_spiky(double r, double H) { return hbk_spiky(r * r, H); }
+/* |grad W_spiky| as sph.c uses it: 45 / (pi H^6) (H - r)^2, times r (the first moment). */
+static double k_spiky_grad(double r, double H)
+{
+    return r < H ? 45.0 / (M_PI * pow(H, 6)) * (H - r) * (H - r) : 0.0;
+}
+static double k_spiky_grad_r(double r, double H) { return r * k_spiky_grad(r, H); }
+/* Mueller's viscosity kernel and the Laplacian sph.c uses, 45 / (pi H^6) (H - r). */
+static double k_visc(double r, double H)
+{
+    if (r >= H) return 0.0;
+    if (r <= 0.0) r = 1e-300;
+    return 15.0 / (2.0 * M_PI * pow(H, 3)) *
+           (-r * r * r / (2.0 * H * H * H) + r * r / (H * H) + H / (2.0 * r) - 1.0);
+}
+static double k_visc_lap(double r, double H) { return r < H ? 45.0 / (M_PI * pow(H, 6)) * (H - r) : 0.0; }
+static double k_visc_lap_r2(double r, double H) { return r * r * k_visc_lap(r, H); }
+
+/* The kernels integrate to one over their support and vanish at its edge; the spiky gradient
+ * is the derivative of the spiky kernel, with first moment -int x (x) grad W = the identity
+ * (int r |grad W| dV = 3), which makes the pressure term exact for a linear pressure field;
+ * the viscosity Laplacian is the Laplacian of Mueller's viscosity kernel (itself normalised),
+ * with second moment int r^2 lap W dV = 6, which makes the viscosity term exact (the
+ * Laplacian of the velocity) for a quadratic velocity field. */
+void test_fluid_kernels_normalised(void)
+{
+    const double Hs[3] = {0.04, 1.0, 2.5};
+    for (int q = 0; q < 3; ++q) {
+        const double H = Hs[q], H3 = H * H * H;
+        CHECK_NEAR(radial_integral(k_poly6, H), 1.0, 1e-9);
+        CHECK_NEAR(radial_integral(k_spiky, H), 1.0, 1e-9);
+        CHECK_NEAR(radial_integral(k_spiky_grad_r, H), 3.0, 1e-9);
+        /* W_visc has a 1/r part: r^2 W_visc is smooth (r = 0 gives 15 H / (4 pi H^3) r). */
+        CHECK_NEAR(radial_integral(k_visc, H), 1.0, 1e-9);
+        CHECK_NEAR(radial_integral(k_visc_lap_r2, H), 6.0, 1e-9);
+        /* Vanish at (and beyond) H; positive within. */
+        CHECK(hbk_poly6(H * H, H) == 0.0 && hbk_spiky(H * H, H) == 0.0);
+        CHECK(hbk_poly6(1.0001 * H * H, H) == 0.0 && hbk_spiky(1.0001 * H * H, H) == 0.0);
+        CHECK(k_spiky_grad(H, H) == 0.0 && k_visc_lap(H, H) == 0.0 && k_visc(H, H) == 0.0);
+        CHECK(hbk_poly6(0.99 * H * H, H) > 0.0 && hbk_spiky(0.98 * H * H, H) > 0.0);
+        /* The peaks: poly6 315 / (64 pi H^3), spiky 15 / (pi H^3). */
+        CHECK_NEAR(hbk_poly6(0.0, H) * H3, 315.0 / (64.0 * M_PI), 1e-12);
+        CHECK_NEAR(hbk_spiky(0.0, H) * H3, 15.0 / M_PI, 1e-12);
+        for (int i = 1; i < 10; ++i) {
+            const double r = H * i / 10.0, e = 1e-6 * H;
+            /* -dW/dr of the spiky kernel, by central differences */
+            const double dw = -(hbk_spiky((r + e) * (r + e), H) - hbk_spiky((r - e) * (r - e), H)) / (2 * e);
+            CHECK_NEAR(dw / k_spiky_grad(r, H), 1.0, 1e-6);
+            /* lap W_visc = (1/r^2) d/dr (r^2 dW/dr), by central differences */
+            const double d1p = (k_visc(r + 2 * e, H) - k_visc(r, H)) / (2 * e);
+            const double d1m = (k_visc(r, H) - k_visc(r - 2 * e, H)) / (2 * e);
+            const double rp = r + e, rm = r - e;
+            const double lap = (rp * rp * d1p - rm * rm * d1m) / (2 * e) / (r * r);
+            CHECK_NEAR(lap / k_visc_lap(r, H), 1.0, 1e-3);
+        }
+    }
+}
+
+/* One SPH substep of a particle pair far from the walls against the formulas by hand: density
+ * rho = m (W(0) + W(r)) (spiky), pressure p = k (rho - rho0), the symmetric pressure term
+ * -m (p_i / rho_i^2 + p_j / rho_j^2) grad W with |grad W| = 45 / (pi H^6) (H - r)^2, viscosity
+ * mu / rho_i m / rho_j (v_j - v_i) 45 / (pi H^6) (H - r), gravity; symplectic Euler. The pair
+ * is along x, their velocities differ along y, gravity is along z: each axis checks one term.
+ * With H one spacing the mass is rho0 / W(0) (the lattice's neighbours sit at r = H). The
+ * pair's momentum changes by gravity alone: the forces are equal and opposite. */
+void test_fluid_sph_pair_exact(void)
+{
+    hbk_fluid_params_t p = params(8, HBK_FLUID_SIMULATE);
+    p.particle_spacing = p.smoothing_length = p.metaball_radius = 0.02f;
+    p.viscosity = 10.0f;
+    p.stiffness = 200.0f;
+    p.substeps = 1;
+    p.dt = 1e-4f;
+    p.max_particles = 2;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const double H = p.smoothing_length, rho0 = 1000.0, k = 200.0, mu = 10.0, dt = (double)p.dt;
+    const double W0 = 15.0 / (M_PI * pow(H, 3));
+    CHECK_NEAR(h->sph_mass / (rho0 / W0), 1.0, 1e-12);
+    const double m = h->sph_mass;
+    const float pos[6] = {0.5f, 0.5f, 0.5f, 0.512f, 0.5f, 0.5f};
+    const float vel[6] = {0.0f, 0.1f, 0.0f, 0.0f, -0.1f, 0.0f};
+    CHECK_OK(hbk_fluid_set_particles(h, pos, vel, 2));
+    CHECK_OK(hbk_fluid_step(h, NULL));
+    CHECK(hbk_fluid_substeps_taken(h) == 1);
+    float v[6];
+    CHECK_OK(hbk_fluid_get_particles(h, NULL, v, 2));
+    const double r = (double)pos[3] - (double)pos[0], q = H - r;
+    const double rho = m * (W0 + 15.0 / (M_PI * pow(H, 6)) * q * q * q);
+    const double P = k * (rho - rho0);
+    CHECK(P > 0.0);
+    const double ax = m * 2.0 * (P / (rho * rho)) * 45.0 / (M_PI * pow(H, 6)) * q * q; /* apart */
+    const double ay = mu / rho * m / rho * 45.0 / (M_PI * pow(H, 6)) * q * (-0.2); /* i: vj - vi */
+    const double az = -9.81;
+    /* particle 0 is pushed to -x, particle 1 to +x; viscosity pulls their y speeds together */
+    CHECK_NEAR(v[0] / (-ax * dt), 1.0, 1e-4);
+    CHECK_NEAR(v[3] / (ax * dt), 1.0, 1e-4);
+    CHECK_NEAR((v[1] - 0.1) / (ay * dt), 1.0, 1e-3);
+    CHECK_NEAR((v[4] + 0.1) / (-ay * dt), 1.0, 1e-3);
+    CHECK_NEAR(v[2] / (az * dt), 1.0, 1e-5);
+    CHECK_NEAR(v[5] / (az * dt), 1.0, 1e-5);
+    /* equal and opposite: the momentum along x and y is unchanged */
+    CHECK(fabs((double)v[0] + v[3]) <= 1e-6 * fabs(ax * dt));
+    CHECK(fabs((double)v[1] + v[4]) <= 1e-6);
+    /* symplectic Euler: the position moves by the new velocity */
+    float x[6];
+    CHECK_OK(hbk_fluid_get_particles(h, x, NULL, 2));
+    for (int a = 0; a < 6; ++a) CHECK_NEAR(x[a], (double)pos[a] + (double)v[a] * dt, 1e-7);
+    hbk_fluid_destroy(h);
+}
+
+/* Momentum: a random cluster of particles with random velocities, far from the walls and
+ * without gravity, keeps its total momentum through a substep (pressure and viscosity are
+ * pairwise equal and opposite), to the rounding of the per-particle sums. And a lone particle
+ * (H two spacings: its own density is below rest, so no pressure) falls freely: v = g t. */
+void test_fluid_sph_momentum(void)
+{
+    enum { N = 400 };
+    hbk_fluid_params_t p = params(8, HBK_FLUID_SIMULATE);
+    p.gravity[2] = 0.0f;
+    p.viscosity = 2.0f;
+    p.max_particles = N;
+    p.dt = 2e-4f;
+    p.substeps = 1;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    float pos[3 * N], vel[3 * N], u[6];
+    for (int i = 0; i < N; ++i) {
+        hbk_rng_fill_uniform(99, 7, (uint64_t)i * 2, u, 6);
+        for (int a = 0; a < 3; ++a) {
+            pos[3 * i + a] = 0.4f + 0.13f * u[a]; /* about 1.5 spacings apart: compressed */
+            vel[3 * i + a] = u[3 + a] - 0.5f;
+        }
+    }
+    CHECK_OK(hbk_fluid_set_particles(h, pos, vel, N));
+    CHECK_OK(hbk_fluid_step(h, NULL));
+    CHECK(hbk_fluid_substeps_taken(h) == 1);
+    float v1[3 * N];
+    CHECK_OK(hbk_fluid_get_particles(h, NULL, v1, N));
+    for (int a = 0; a < 3; ++a) {
+        double before = 0.0, after = 0.0, change = 0.0;
+        for (int i = 0; i < N; ++i) {
+            before += vel[3 * i + a];
+            after += v1[3 * i + a];
+            change += fabs((double)v1[3 * i + a] - vel[3 * i + a]);
+        }
+        CHECK(change > 1.0); /* the forces did act */
+        if (fabs(after - before) > 1e-5 * change)
+            fprintf(stderr, "axis %d: momentum %.9g -> %.9g (sum |dv| %.6g)\n", a, before, after, change);
+        CHECK(fabs(after - before) <= 1e-5 * change);
+    }
+    hbk_fluid_destroy(h);
+
+    p = params(8, HBK_FLUID_SIMULATE); /* H = 2 spacings, 1/24 s, gravity */
+    p.max_particles = 1;
+    CHECK(h = make(&p));
+    const float one[3] = {0.5f, 0.5f, 0.8f};
+    CHECK_OK(hbk_fluid_set_particles(h, one, NULL, 1));
+    CHECK_OK(hbk_fluid_step(h, NULL));
+    float vz[3];
+    CHECK_OK(hbk_fluid_get_particles(h, NULL, vz, 1));
+    CHECK_NEAR(vz[0], 0.0, 0.0);
+    CHECK_NEAR(vz[1], 0.0, 0.0);
+    CHECK_NEAR(vz[2], -9.81 * p.dt, 1e-5);
+    hbk_fluid_destroy(h);
+}
+
+/* SPH density of a lattice at rest: particles at particle_spacing filling the box (first
+ * layer half a spacing from the walls, as fill_box lays them) are at the rest density
+ * everywhere, corners and edges included (the walls' mirror images continue the lattice),
+ * for H of 1.5, 2 and 3 spacings; without gravity they stay at rest. */
+void test_fluid_sph_lattice_rest_density(void)
+{
+    const float hs[3] = {1.5f, 2.0f, 3.0f};
+    for (int c = 0; c < 3; ++c) {
+        hbk_fluid_params_t p = params(8, HBK_FLUID_SIMULATE);
+        for (int a = 0; a < 3; ++a) p.box_max[a] = 0.2f; /* 10 spacings */
+        p.smoothing_length = hs[c] * p.particle_spacing;
+        p.gravity[2] = 0.0f;
+        p.max_particles = 1000;
+        hbk_fluid_t *h = make(&p);
+        CHECK(h);
+        const float lo[3] = {0, 0, 0}, hi[3] = {0.2f, 0.2f, 0.2f};
+        CHECK_OK(hbk_fluid_fill_box(h, lo, hi, 0.0f));
+        CHECK(hbk_fluid_particle_count(h) == 1000);
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        /* The last substep's densities, in cell order (sph.c: 8 floats a particle, [6]). */
+        double worst = 0.0;
+        for (int32_t i = 0; i < 1000; ++i) worst = fmax(worst, fabs(h->sorted[8 * (size_t)i + 6] - 1000.0));
+        if (worst > 1e-2) fprintf(stderr, "H = %g spacings: density off rest by %g\n", hs[c], worst);
+        CHECK(worst <= 1e-2); /* float sums of 30-250 terms: 1e-5 of rho0 */
+        float vel[3000];
+        CHECK(max_speed(h, vel, NULL) < 1e-4);
+        hbk_fluid_destroy(h);
+    }
+}
+
+/* The features (paper 3.2) on fields whose values are known, on a grid source whose surface
+ * field s = 2 - 2 z is the density feature (outward normal +z): density; its rate
+ * (s_now - s_before) / dt; the angle between V_m and the outward normal; the acceleration
+ * |V_m now - V_m before| / dt; the divergence of a linear flow. V_m is the flow clamped to
+ * max_flow voxels per frame, direction kept. On the surface (s = 0.5, the plane z = 0.75)
+ * the flow angle uses the mesh normal, +z. */
+void test_fluid_features_known_fields(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
+    p.dt = 0.1f;
+    p.max_flow = 8.0f; /* 8 voxels of 1/16 m per 0.1 s: 5 m/s */
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const int32_t n = 17;
+    const size_t nv = hbk_fluid_grid_vertices(h, NULL), F = HBK_FLUID_FEATURE_COUNT;
+    float *vel = malloc(3 * nv * sizeof *vel), *surf = malloc(nv * sizeof *surf), *feat = NULL,
+          *mot = NULL;
+    CHECK(vel && surf);
+    const float v1[3] = {0.3f, 0.0f, 0.4f}, v2[3] = {0.0f, 1.0f, -1.0f};
+    for (int frame = 1; frame <= 4; ++frame) {
+        for (size_t i = 0; i < nv; ++i) {
+            const double x = (double)(i % n) / 16, y = (double)(i / n % n) / 16,
+                         z = (double)(i / (n * n)) / 16;
+            surf[i] = (float)(2.0 - 2.0 * z + (frame >= 2 ? 0.05 : 0.0));
+            const float lin[3] = {(float)(0.5 * x), (float)(-0.2 * y), (float)(0.3 * z + 0.1)};
+            const float fast[3] = {6.0f, 8.0f, 0.0f}; /* 10 m/s: clamped to 5 */
+            const float *w = frame == 1 ? v1 : frame == 2 ? v2 : frame == 3 ? lin : fast;
+            memcpy(vel + 3 * i, w, 3 * sizeof(float));
+        }
+        CHECK_OK(hbk_fluid_set_velocity_grid(h, vel, surf));
+        free(mot);
+        mot = volume(h, HBK_FLUID_VOL_MOTION); /* last frame's V_m */
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        free(feat);
+        feat = volume(h, HBK_FLUID_VOL_FEATURES);
+        float *mnow = volume(h, HBK_FLUID_VOL_MOTION);
+        CHECK(feat && mnow);
+        for (int32_t k = 1; k < n - 1; ++k)
+            for (int32_t j = 1; j < n - 1; ++j)
+                for (int32_t i = 1; i < n - 1; ++i) {
+                    const size_t vi = (size_t)i + (size_t)n * ((size_t)j + (size_t)n * (size_t)k);
+                    const float *o = feat + F * vi, *vm = mnow + 3 * vi, *vp = mot + 3 * vi;
+                    CHECK_NEAR(o[HBK_FLUID_FEATURE_DENSITY], surf[vi], 0.0);
+                    CHECK_NEAR(o[HBK_FLUID_FEATURE_DENSITY_RATE], frame == 2 ? 0.5 : 0.0, 2e-5);
+                    const double sp = sqrt((double)vm[0] * vm[0] + (double)vm[1] * vm[1] + (double)vm[2] * vm[2]);
+                    if (frame == 4) { /* clamped, direction kept */
+                        CHECK_NEAR(vm[0], 3.0, 1e-5);
+                        CHECK_NEAR(vm[1], 4.0, 1e-5);
+                        CHECK_NEAR(vm[2], 0.0, 0.0);
+                    } else {
+                        for (int a = 0; a < 3; ++a) CHECK_NEAR(vm[a], vel[3 * vi + a], 0.0);
+                    }
+                    CHECK_NEAR(o[HBK_FLUID_FEATURE_FLOW_ANGLE], acos(vm[2] / sp), 1e-5);
+                    double dv2 = 0.0;
+                    for (int a = 0; a < 3; ++a) dv2 += ((double)vm[a] - vp[a]) * ((double)vm[a] - vp[a]);
+                    CHECK_NEAR(o[HBK_FLUID_FEATURE_ACCELERATION], frame == 1 ? 0.0 : sqrt(dv2) / p.dt,
+                               1e-5 * (1.0 + sqrt(dv2) / p.dt));
+                    CHECK_NEAR(o[HBK_FLUID_FEATURE_DIVERGENCE], frame == 3 ? 0.6 : 0.0, 2e-5);
+                    CHECK_NEAR(o[HBK_FLUID_FEATURE_CURVATURE], 0.0, 1e-4); /* planes */
+                }
+        free(mnow);
+        if (frame == 2) { /* on the surface: angle between v2 and the mesh normal +z: 3 pi / 4 */
+            CHECK_OK(hbk_fluid_update_surface(h, NULL));
+            int32_t mv, mt;
+            CHECK_OK(hbk_fluid_mesh_counts(h, &mv, &mt));
+            CHECK(mv > 100);
+            float *mp = malloc((size_t)mv * 3 * sizeof *mp), *mn = malloc((size_t)mv * 3 * sizeof *mn),
+                  *mf = malloc((size_t)mv * F * sizeof *mf);
+            CHECK_OK(hbk_fluid_get_mesh(h, mp, mn, NULL, NULL, NULL, NULL, mf));
+            int on_plane = 0;
+            for (int32_t v = 0; v < mv; ++v) {
+                const float *x = mp + 3 * v;
+                if (fabsf(x[2] - 0.775f) > 1e-4f || x[0] < 0.1f || x[0] > 0.9f || x[1] < 0.1f ||
+                    x[1] > 0.9f)
+                    continue; /* s + 0.05 = 0.5 at z = 0.775; skip the caps at the walls */
+                ++on_plane;
+                CHECK_NEAR(mn[3 * v + 2], 1.0, 1e-5);
+                CHECK_NEAR(mf[F * v + HBK_FLUID_FEATURE_FLOW_ANGLE], 0.75 * M_PI, 1e-5);
+                CHECK_NEAR(mf[F * v + HBK_FLUID_FEATURE_DENSITY], 0.5, 1e-5);
+                CHECK_NEAR(mf[F * v + HBK_FLUID_FEATURE_DENSITY_RATE], 0.5, 2e-5);
+            }
+            CHECK(on_plane > 50);
+            free(mp); free(mn); free(mf);
+        }
+    }
+    free(feat); free(mot); free(vel); free(surf);
+    hbk_fluid_destroy(h);
+}
+
+/* The two-field cross-fade on its schedule: with period P frames, A's weight is the triangle
+ * wave 1 - |1 - 2 (f mod P) / P| and B's is one minus it, at every vertex (the weight volume);
+ * each field holds the rest mapping exactly on the frames its weight is 0 (its reset) and on
+ * no other frame of a moving fluid. */
+void test_fluid_crossfade_schedule(void)
+{
+    hbk_fluid_params_t p = params(8, HBK_FLUID_VELOCITY_GRID);
+    p.dt = 0.05f;
+    p.reset_period = 0.5f; /* 10 frames: A at 0, 10, 20; B at 5, 15, 25 */
+    p.uvw_tile = 0.5f;     /* four cells a tile */
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const float vel[3] = {0.03f, -0.02f, 0.01f};
+    uniform_grid(h, vel);
+    float *rest = volume(h, HBK_FLUID_VOL_UVW_A);
+    const size_t nv = hbk_fluid_grid_vertices(h, NULL), n3 = 3 * nv;
+    float *w = malloc(nv * sizeof *w);
+    CHECK(hbk_fluid_uvw_weight(h) == 0.0f); /* frame 0: A was just set up, as at a reset */
+    for (int f = 1; f <= 30; ++f) {
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        const double want = 1.0 - fabs(1.0 - 2.0 * (f % 10) / 10.0);
+        const float wa = hbk_fluid_uvw_weight(h);
+        CHECK_NEAR(wa, want, 1e-7);
+        CHECK_OK(hbk_fluid_get_volume(h, HBK_FLUID_VOL_UVW_WEIGHT, w, nv));
+        for (size_t v = 0; v < nv; ++v) CHECK(w[v] == wa);
+        float *a = volume(h, HBK_FLUID_VOL_UVW_A), *b = volume(h, HBK_FLUID_VOL_UVW_B);
+        const int a_rest = !memcmp(a, rest, n3 * sizeof(float)),
+                  b_rest = !memcmp(b, rest, n3 * sizeof(float));
+        CHECK(a_rest == (wa == 0.0f));
+        CHECK(b_rest == (1.0f - wa == 0.0f));
+        free(a);
+        free(b);
+    }
+    free(w);
+    free(rest);
+    hbk_fluid_destroy(h);
+}
+
+/* V_b flows with V_m as V_c does (paper: offset V_c, V_b and V_r by V_m): in a uniform flow
+ * of exactly one voxel per frame along +x, the base blend moves one vertex downstream per
+ * frame (the inflow column repeats its border value), and stays normalised. */
+void test_fluid_blend_advect_shift(void)
+{
+    hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
+    p.dt = 0.125f;
+    p.textures = 3;
+    p.reset_period = 0.0f;
+    hbk_fluid_t *h = make(&p);
+    CHECK(h);
+    const int32_t n = 17;
+    const size_t nv = hbk_fluid_grid_vertices(h, NULL);
+    /* a pattern along x: a ramp between textures 0 and 1, texture 2 in a band */
+    for (size_t v = 0; v < nv; ++v) {
+        const int32_t i = (int32_t)(v % n);
+        float *b = h->v.base + 3 * v;
+        b[2] = i >= 4 && i < 7 ? 1.0f : 0.0f;
+        b[1] = b[2] ? 0.0f : (float)i / 16.0f;
+        b[0] = 1.0f - b[1] - b[2];
+    }
+    hbk_fluid_vols_differ(h);
+    const float vel[3] = {0.5f, 0.0f, 0.0f}; /* 0.5 m/s * 0.125 s = 1/16 m: one voxel */
+    uniform_grid(h, vel);
+    float *b0 = volume(h, HBK_FLUID_VOL_BLEND);
+    for (int f = 1; f <= 3; ++f) {
+        CHECK_OK(hbk_fluid_step(h, NULL));
+        float *b = volume(h, HBK_FLUID_VOL_BLEND);
+        for (size_t v = 0; v < nv; ++v) {
+            const int32_t i = (int32_t)(v % n), src = i - f < 0 ? 0 : i - f;
+            const size_t sv = v - (size_t)i + (size_t)src;
+            for (int t = 0; t < 3; ++t) CHECK_NEAR(b[3 * v + t], b0[3 * sv + t], 1e-5);
+        }
+        free(b);
+    }
+    free(b0);
+    hbk_fluid_destroy(h);
+}

@@ -1260,3 +1260,207 @@ void test_rain_paths_same_bytes(void)
     free(map[0].v);
     free(map[1].v);
 }
+
+/* ---- The grid model's rules, exactly -------------------------------------------------- */
+
+/* The first drop of `h` (malloc'd list freed here). */
+static hbk_rain_drop_t first_drop(hbk_rain_t *h)
+{
+    int64_t n;
+    hbk_rain_drop_t *d = drops_of(h, &n), r = {0};
+    if (n > 0) r = d[0];
+    free(d);
+    return r;
+}
+
+void test_rain_friction_threshold(void)
+{
+    /* Static friction (paper §4.1): a drop at rest starts only when mass |A| > static_mass g.
+     * A pane tilted back so that gravity's in-plane part is g / 2, then the same with a
+     * sideways wind of 3 m/s^2 (|A| = sqrt(3^2 + 4.905^2)): the force is a vector and its
+     * length is what beats friction. Masses 1 % either side of the threshold. */
+    for (int windy = 0; windy < 2; ++windy) {
+        hbk_rain_params_t p = params(64, 64);
+        p.gravity_dir[0] = 0.0f;
+        p.gravity_dir[1] = -0.5f;
+        p.wind[0] = windy ? 3.0f : 0.0f;
+        p.trail_mass = 0.0f;
+        const double ax = p.wind[0], ay = p.gravity * p.gravity_dir[1];
+        const double a = sqrt(ax * ax + ay * ay), m_min = p.static_mass * p.gravity / a;
+        for (int above = 0; above < 2; ++above) {
+            hbk_rain_t *h = make(&p);
+            CHECK(h);
+            const float mass = (float)(m_min * (above ? 1.01 : 0.99));
+            CHECK_OK(hbk_rain_add_drop(h, 0.0325f, 0.0325f, mass));
+            for (int s = 0; s < 30; ++s) CHECK_OK(hbk_rain_step(h, 1.0f / 30.0f, NULL));
+            const hbk_rain_drop_t d = first_drop(h);
+            hbk_rain_destroy(h);
+            CHECK(d.mass == mass);
+            if (!above) {
+                CHECK(d.speed == 0.0f && d.x == 0.0325f && d.y == 0.0325f);
+            } else {
+                /* ds/dt = |A| - static_mass g / mass - drag s settles at that over drag. */
+                const double s_inf = (a - p.static_mass * p.gravity / mass) / p.drag;
+                CHECK(d.speed > 0.0f);
+                CHECK_NEAR(d.speed, s_inf, 1e-3 * s_inf);
+            }
+        }
+    }
+}
+
+void test_rain_terminal_speed(void)
+{
+    /* A 60 mg drop on even, upright glass: ds/dt = g - static_mass g / m - drag s, integrated
+     * implicitly in the drag, reaches s_inf = (g - 15 g / 60) / 40 = 0.184 m/s; it runs straight
+     * down, one cell each time it has travelled a cell, so after 1 s it has moved the
+     * integral of its speed, to within the one cell it has not finished. */
+    hbk_rain_params_t p = params(16, 400);
+    p.affinity_random = 0.0f;
+    p.trail_mass = 0.0f;
+    p.merge_distance = 0.0f;
+    hbk_rain_t *h = make(&p);
+    CHECK(h);
+    CHECK_OK(hbk_rain_add_drop(h, 0.0085f, 0.3955f, 60.0f));
+    const double dt = 1.0 / 60.0, net = p.gravity - p.static_mass * p.gravity / 60.0;
+    double s = 0.0, run = 0.0;
+    for (int k = 0; k < 60; ++k) {
+        CHECK_OK(hbk_rain_step(h, (float)dt, NULL));
+        s = (s + dt * net) / (1.0 + p.drag * dt);
+        run += s * dt;
+    }
+    const hbk_rain_drop_t d = first_drop(h);
+    hbk_rain_destroy(h);
+    const double s_inf = net / p.drag;
+    CHECK_NEAR(d.speed, s_inf, 1e-5 * s_inf);
+    CHECK(d.x == 0.0085f);
+    const double moved = 0.3955 - d.y;
+    fprintf(stderr, "  terminal speed %.5f m/s (%.5f); ran %.4f m of %.4f\n", d.speed, s_inf,
+            moved, run);
+    CHECK(moved <= run + 1e-6 && moved > run - 0.001 - 1e-6);
+}
+
+void test_rain_meander_unbiased(void)
+{
+    /* Meandering (paper §4.1): each move picks among the neighbour nearest the force and its
+     * two side neighbours. The picks are weighted so that the mean move points exactly along
+     * the force, whatever its direction: gravity 30 deg off the grid's axis (between two
+     * neighbours), on even glass and on uneven glass (random affinities), the mean path of
+     * many drops keeps that angle. */
+    for (int uneven = 0; uneven < 2; ++uneven) {
+        hbk_rain_params_t p = params(400, 400);
+        const double ang = -60.0 * M_PI / 180.0;
+        p.gravity_dir[0] = (float)cos(ang);
+        p.gravity_dir[1] = (float)sin(ang);
+        p.trail_mass = 0.0f;
+        p.merge_distance = 0.0f;
+        p.affinity_gain = 0.0f;
+        p.affinity_random = uneven ? 0.6f : 0.0f;
+        hbk_rain_t *h = make(&p);
+        CHECK(h);
+        const motion_t m = run_lattice(h, 400, 400, 40.0f, 30, 0.5f, 0.95f);
+        hbk_rain_destroy(h);
+        CHECK(m.tracked > 50);
+        const double got = atan2(m.mean_y, m.mean_x) * 180.0 / M_PI;
+        CHECK(hypot(m.mean_x, m.mean_y) > 80.0);
+        CHECK_NEAR(got, -60.0, uneven ? 2.0 : 1.0);
+        if (!uneven) CHECK(m.sd_x > 1.0); /* the two bracketing neighbours are both taken */
+    }
+}
+
+/* A glass with one still TRANSLATE blade standing along y at x = 20 mm (y 30..70 mm, 10 mm
+ * wide), no gravity. */
+static hbk_rain_t *blade_glass(int holdback)
+{
+    hbk_rain_params_t p = params(100, 100);
+    p.gravity = 0.0f;
+    p.wiper_count = 1;
+    p.wiper_mode = HBK_RAIN_WIPER_TRANSLATE;
+    p.wiper_pivot[0] = 0.02f;
+    p.wiper_pivot[1] = 0.05f;
+    p.wiper_rest[0] = 0.0f;
+    p.blade_length = 0.04f;
+    p.blade_width = 0.01f;
+    p.holdback = holdback;
+    return make(&p);
+}
+
+void test_rain_particles_split(void)
+{
+    /* Paper §4.4: a drop touched by the blade becomes mass / particle_mass particles (rounded,
+     * at least one), sharing its mass exactly; a single particle sits where the drop was.
+     * §4.5: once the blade has gone (beyond switch_margin), they become drops again, mass
+     * for mass. The drop's centre is 6.1 mm from the blade's centre line: 1.1 mm from its
+     * edge, within the drop's radius, and beyond half the width plus a particle's radius, so
+     * the blade does not move the particle. */
+    const float masses[4] = {4.0f, 4.6f, 7.0f, 10.0f};
+    const int counts[4] = {1, 2, 2, 3}; /* round(m / 3) */
+    for (int k = 0; k < 4; ++k) {
+        hbk_rain_t *h = blade_glass(1);
+        CHECK(h);
+        CHECK(hbk_rain_drop_radius(masses[k]) > 0.0011f);
+        CHECK_OK(hbk_rain_add_drop(h, 0.0139f, 0.05f, masses[k]));
+        const float still = 0.0f, away = 0.06f;
+        CHECK_OK(hbk_rain_set_wiper_angles(h, &still, 1));
+        CHECK_OK(hbk_rain_step(h, 1.0f / 30.0f, NULL));
+        int64_t n;
+        hbk_rain_drop_t *d = drops_of(h, &n);
+        double sum = 0.0;
+        CHECK(n == counts[k]);
+        for (int64_t i = 0; i < n; ++i) {
+            CHECK(d[i].kind == HBK_RAIN_PARTICLE);
+            CHECK_NEAR(d[i].mass, masses[k] / counts[k], 1e-6);
+            sum += d[i].mass;
+        }
+        if (counts[k] == 1) CHECK(fabsf(d[0].x - 0.0139f) < 1e-7f && fabsf(d[0].y - 0.05f) < 1e-7f);
+        free(d);
+        hbk_rain_water_t w;
+        CHECK_OK(hbk_rain_water(h, &w));
+        CHECK(w.particles == counts[k] && w.drops == 0);
+        CHECK(w.in_particles == (double)masses[k]); /* the split is exact */
+        CHECK_NEAR(sum, masses[k], 1e-6);
+        /* The blade travels 60 mm to +x: the particles are left behind, outside its region. */
+        CHECK_OK(hbk_rain_set_wiper_angles(h, &away, 1));
+        CHECK_OK(hbk_rain_step(h, 1.0f / 30.0f, NULL));
+        CHECK_OK(hbk_rain_water(h, &w));
+        CHECK(w.particles == 0 && w.drops >= 1);
+        CHECK(w.in_drops == (double)masses[k] && w.wiped == 0.0 && w.run_off == 0.0);
+        CHECK(balance(&w) == 0.0);
+        hbk_rain_destroy(h);
+    }
+}
+
+void test_rain_holdback_rule(void)
+{
+    /* Paper §4.6: a particle leaving the blade's region stays a particle while a drop of at
+     * least holdback_mass (30 mg) sits in the square of (2 R + 1)^2 cells around its cell, R
+     * = holdback_radius (5) here (the merge reach of a 40 mg drop and a particle is 4 cells).
+     * The particle's cell is 13; a big drop in cell 9 holds it back, one in cell 1 does not,
+     * nor one of 29 mg in cell 9, nor anything with the rule off. */
+    struct {
+        float x, mass;
+        int holdback, held;
+    } cases[] = {{0.0094f, 40.0f, 1, 1}, {0.0019f, 40.0f, 1, 0}, {0.0094f, 29.0f, 1, 0},
+                 {0.0094f, 40.0f, 0, 0}};
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+        hbk_rain_t *h = blade_glass(cases[k].holdback);
+        CHECK(h);
+        CHECK_OK(hbk_rain_add_drop(h, cases[k].x, 0.05f, cases[k].mass));
+        CHECK_OK(hbk_rain_add_drop(h, 0.0139f, 0.05f, 4.0f));
+        CHECK(hbk_rain_drop_count(h) == 2); /* apart: not merged */
+        const float still = 0.0f, away = 0.06f;
+        CHECK_OK(hbk_rain_set_wiper_angles(h, &still, 1));
+        CHECK_OK(hbk_rain_step(h, 1.0f / 30.0f, NULL));
+        hbk_rain_water_t w;
+        CHECK_OK(hbk_rain_water(h, &w));
+        CHECK(w.particles == 1 && w.drops == 1); /* only the small drop was touched */
+        for (int s = 0; s < 3; ++s) {
+            CHECK_OK(hbk_rain_set_wiper_angles(h, &away, 1));
+            CHECK_OK(hbk_rain_step(h, 1.0f / 30.0f, NULL));
+        }
+        CHECK_OK(hbk_rain_water(h, &w));
+        CHECK(w.particles == cases[k].held);
+        CHECK(w.drops == 2 - cases[k].held);
+        CHECK(balance(&w) < 1e-12);
+        hbk_rain_destroy(h);
+    }
+}

@@ -4,6 +4,8 @@
 /* The BVH is internal (hidden symbols): compile a private copy to test it against brute
  * force. */
 #include "snow/bvh.c"
+/* The paper's box contact (§3.2.1), likewise. */
+#include "snow/box.c"
 
 /* ---- helpers ---- */
 
@@ -928,5 +930,211 @@ void test_snow_box_slots_fit_the_image(void)
     int32_t w, ht;
     hbk_snow_texture_size(h, &w, &ht);
     CHECK(w == 4 && ht == 65536);
+    hbk_snow_destroy(h);
+}
+
+/* ---- flake motion (§3.1): fall, flutter, wind; the volume wraps on its sides (§4.1.10) ---- */
+
+/* One substep of chosen flakes against the model by hand: the velocity relaxes towards the
+ * air velocity (wind + flutter (cos, sin) * amplitude, - own fall speed) with the time
+ * constant of a flake at terminal speed, tau = fall_speed / g (exactly: v += (a - v)
+ * (1 - exp(-dt / tau))); the position moves by the new velocity; the flutter direction turns
+ * by 2 pi f (0.7 + 0.6 c / 15) dt for class c, clockwise with bit 4. A flake crossing a side
+ * comes in at the opposite one; one leaving the bottom starts again within one substep's fall
+ * of the top. Then the statistics of many flakes: own fall speeds uniform in +-20 % (mean
+ * fall_speed), flutter phases and classes uniform, and after a while every flake falls at its
+ * own speed with the wind, its sideways speed about the wind the flutter amplitude (less the
+ * lag of following a turning air speed). */
+void test_snow_flake_motion(void)
+{
+    hbk_snow_params_t p = small_params();
+    p.flake_count = 4;
+    p.fall_speed = 1.0f;
+    p.flutter_amplitude = 0.3f;
+    p.flutter_frequency = 0.5f;
+    p.time_step = 0.04f;
+    hbk_snow_t *h;
+    CHECK_OK(hbk_snow_create(&h, &p, NULL));
+    const snow_flake_t f0 = {{0.0f, 0.0f, 2.0f}, {0.0f, 0.0f, 0.0f}, 1.0f, 0.0f, 1.0f, 0};
+    const snow_flake_t f1 = {{0.5f, -1.0f, 3.0f}, {0.5f, -0.2f, 0.1f}, 0.6f, 0.8f, 1.1f, 16 + 15};
+    const snow_flake_t f2 = {{1.99f, 0.0f, 2.0f}, {1.0f, 0.0f, -1.0f}, 0.0f, 1.0f, 1.0f, 3};
+    const snow_flake_t f3 = {{0.0f, 0.0f, 0.01f}, {0.0f, 0.0f, -1.0f}, 1.0f, 0.0f, 1.0f, 3};
+    h->flakes[0] = f0; h->flakes[1] = f1; h->flakes[2] = f2; h->flakes[3] = f3;
+    CHECK_OK(hbk_snow_step(h, 1, NULL));
+    const double dt = p.time_step, r = 1.0 - exp(-dt * 9.81 / p.fall_speed);
+    const snow_flake_t *in[3] = {&f0, &f1, &f2};
+    for (int i = 0; i < 3; ++i) {
+        const snow_flake_t *a = in[i], *b = &h->flakes[i];
+        const double air[3] = {p.flutter_amplitude * a->fc, p.flutter_amplitude * a->fs, -a->fall};
+        for (int k = 0; k < 3; ++k) {
+            const double v = a->v[k] + (air[k] - a->v[k]) * r;
+            double x = a->p[k] + v * dt;
+            if (k == 0 && x >= p.volume_max[0]) x -= p.volume_max[0] - p.volume_min[0];
+            CHECK_NEAR(b->v[k], v, 1e-6);
+            CHECK_NEAR(b->p[k], x, 2e-6);
+        }
+        const int c = (int)(a->cls & 15);
+        const double ang = (a->cls & 16 ? -1.0 : 1.0) * 2.0 * M_PI * p.flutter_frequency *
+                           (0.7 + 0.6 * c / 15.0) * dt;
+        CHECK_NEAR(b->fc, a->fc * cos(ang) - a->fs * sin(ang), 1e-6);
+        CHECK_NEAR(b->fs, a->fs * cos(ang) + a->fc * sin(ang), 1e-6);
+    }
+    CHECK(h->flakes[2].p[0] < -1.9f); /* came in at the other side */
+    const snow_flake_t *g = &h->flakes[3];
+    CHECK(g->p[2] <= p.volume_max[2] && g->p[2] >= p.volume_max[2] - 1.2f * p.fall_speed * dt);
+    CHECK(g->fall >= 0.8f * p.fall_speed && g->fall <= 1.2f * p.fall_speed);
+    hbk_snow_stats_t s;
+    hbk_snow_stats(h, &s);
+    CHECK(s.fell == 1 && s.hits == 0);
+    hbk_snow_destroy(h);
+
+    enum { N = 20000 };
+    p = small_params();
+    p.flake_count = N;
+    p.wind[0] = 1.0f;
+    p.wind[1] = 0.5f;
+    p.seed = 31;
+    CHECK_OK(hbk_snow_create(&h, &p, NULL));
+    double mf = 0.0, mz = 0.0, mc = 0.0, ms = 0.0;
+    int cls[32] = {0};
+    for (int i = 0; i < N; ++i) {
+        const snow_flake_t *f = &h->flakes[i];
+        CHECK(f->fall >= 0.8f * p.fall_speed && f->fall <= 1.2f * p.fall_speed);
+        CHECK_NEAR(f->fc * f->fc + f->fs * f->fs, 1.0, 1e-6);
+        CHECK(f->p[2] >= p.volume_min[2] && f->p[2] <= p.volume_max[2]);
+        mf += f->fall / N;
+        mz += f->p[2] / N;
+        mc += f->fc / N;
+        ms += f->fs / N;
+        cls[f->cls & 31]++;
+    }
+    /* four standard errors of a uniform +-0.2, of z uniform over 4 m, of a unit phasor */
+    CHECK(fabs(mf - p.fall_speed) <= 4 * 0.4 / sqrt(12.0 * N));
+    CHECK(fabs(mz - 2.0) <= 4 * 4.0 / sqrt(12.0 * N));
+    CHECK(fabs(mc) <= 4 * sqrt(0.5 / N) && fabs(ms) <= 4 * sqrt(0.5 / N));
+    for (int c = 0; c < 32; ++c) CHECK(fabs(cls[c] - N / 32.0) <= 4 * sqrt(N / 32.0 * (31.0 / 32)));
+    CHECK_OK(hbk_snow_step(h, 100, NULL));
+    double mvx = 0.0, mvy = 0.0;
+    for (int i = 0; i < N; ++i) {
+        const snow_flake_t *f = &h->flakes[i];
+        CHECK_NEAR(f->v[2], -f->fall, 1e-5); /* terminal: own fall speed, no vertical wind */
+        const double side = hypot(f->v[0] - p.wind[0], f->v[1] - p.wind[1]);
+        CHECK(side >= 0.9 * p.flutter_amplitude && side <= 1.0001 * p.flutter_amplitude);
+        mvx += f->v[0] / N;
+        mvy += f->v[1] / N;
+    }
+    CHECK(fabs(mvx - p.wind[0]) <= 4 * p.flutter_amplitude * sqrt(0.5 / N));
+    CHECK(fabs(mvy - p.wind[1]) <= 4 * p.flutter_amplitude * sqrt(0.5 / N));
+    hbk_snow_destroy(h);
+}
+
+/* ---- BOX mode (§3.2.1, §3.3.1): the face between Q and P, the hit point R, six tiles ---- */
+
+/* For every face of a part's box: a segment Q -> P across it at a known point X is found to
+ * enter through that face, at R = X, where the paper's s = (D - D1) / (D2 - D1) puts it
+ * (R = P' - s (P' - Q')); R maps into the face's own tile (bottom row -X -Y -Z, top row +X +Y
+ * +Z), at the point's fractions along the tile's axes, which are the face seen from outside:
+ * not mirrored (u x v = the outward normal), the sides upright (v = +Z). Then flakes in a wind
+ * along +x snow on the windward -X and the top +Z tiles, never on the leeward +X or the
+ * bottom -Z. */
+void test_snow_box_faces(void)
+{
+    hbk_snow_params_t p = small_params();
+    p.contact_mode = HBK_SNOW_CONTACT_BOX;
+    p.texture_width = 60;
+    p.texture_height = 40; /* tiles of 20 x 20 */
+    p.flake_radius = 0.001f;
+    p.temperature = 0.5f;
+    p.flake_count = 20000;
+    p.wind[0] = 3.0f;
+    p.flutter_amplitude = 0.1f;
+    p.volume_max[2] = 2.0f;
+    hbk_snow_t *h;
+    CHECK_OK(hbk_snow_create(&h, &p, NULL));
+    mesh_t *m = calloc(1, sizeof *m);
+    const float lo[3] = {-0.5f, -0.25f, 0.2f}, hi[3] = {0.5f, 0.25f, 0.7f};
+    static const float uvr[6][4] = {{0, 0, 1, 1}, {0, 0, 1, 1}, {0, 0, 1, 1},
+                                    {0, 0, 1, 1}, {0, 0, 1, 1}, {0, 0, 1, 1}};
+    add_cube(m, lo, hi, uvr);
+    CHECK_OK(hbk_snow_set_mesh(h, m->pos, m->nv, m->tri, NULL, m->mat, m->nt));
+    for (int f = 0; f < 6; ++f) {
+        const int ax = f / 2;
+        const double sg = (f & 1) ? -1.0 : 1.0;
+        float n[3];
+        snow_box_normal(f, n);
+        CHECK(n[ax] == (float)sg);
+        /* the face's texel axes, measured: which world axis moves tx, and ty */
+        float c[3];
+        for (int k = 0; k < 3; ++k) c[k] = 0.5f * (lo[k] + hi[k]);
+        c[ax] = sg > 0 ? hi[ax] : lo[ax];
+        float tx0, ty0, sx, sy, U[3] = {0}, V[3] = {0};
+        snow_box_face_texel(h, 0, f, c, &tx0, &ty0, &sx, &sy);
+        for (int k = 0; k < 3; ++k) {
+            if (k == ax) continue;
+            float e[3] = {c[0], c[1], c[2]}, tx, ty;
+            e[k] += 0.01f;
+            snow_box_face_texel(h, 0, f, e, &tx, &ty, &sx, &sy);
+            U[k] = tx > tx0 + 1e-4f ? 1.0f : tx < tx0 - 1e-4f ? -1.0f : 0.0f;
+            V[k] = ty > ty0 + 1e-4f ? 1.0f : ty < ty0 - 1e-4f ? -1.0f : 0.0f;
+        }
+        const float x[3] = {U[1] * V[2] - U[2] * V[1], U[2] * V[0] - U[0] * V[2],
+                            U[0] * V[1] - U[1] * V[0]};
+        CHECK(x[0] == n[0] && x[1] == n[1] && x[2] == n[2]); /* seen from outside */
+        if (ax != 2) CHECK(V[2] == 1.0f);                    /* sides upright */
+        /* a crossing at fractions (a, b) of the face along U and V */
+        const double a = 0.3, b = 0.8;
+        double X[3];
+        for (int k = 0; k < 3; ++k) {
+            X[k] = c[k];
+            if (U[k] != 0.0f) X[k] = U[k] > 0 ? lo[k] + a * (hi[k] - lo[k]) : hi[k] - a * (hi[k] - lo[k]);
+            if (V[k] != 0.0f) X[k] = V[k] > 0 ? lo[k] + b * (hi[k] - lo[k]) : hi[k] - b * (hi[k] - lo[k]);
+        }
+        float Q[3], P[3], d[3];
+        for (int k = 0; k < 3; ++k) {
+            const double tang = 0.013 * (U[k] + 0.5 * V[k]);
+            Q[k] = (float)(X[k] + 0.05 * n[k] + tang);
+            P[k] = (float)(X[k] - 0.07 * n[k] - 1.4 * tang);
+            d[k] = P[k] - Q[k];
+        }
+        float t;
+        int32_t box, face;
+        CHECK(snow_box_hit(&h->mesh, Q, d, &t, &box, &face));
+        CHECK(box == 0 && face == f);
+        /* the paper's parameter from the other end: R = P - s (P - Q) */
+        double D1 = 0, D2 = 0, D = 0;
+        for (int k = 0; k < 3; ++k) { D1 += P[k] * n[k]; D2 += Q[k] * n[k]; D += X[k] * n[k]; }
+        const double s = (D - D1) / (D2 - D1);
+        CHECK_NEAR(1.0 - t, s, 1e-5);
+        float R[3];
+        for (int k = 0; k < 3; ++k) {
+            R[k] = Q[k] + t * d[k];
+            CHECK_NEAR(R[k], P[k] - s * (P[k] - Q[k]), 1e-5);
+            CHECK_NEAR(R[k], X[k], 1e-5);
+        }
+        float tx, ty;
+        snow_box_face_texel(h, 0, f, R, &tx, &ty, &sx, &sy);
+        const double col = ax * 20.0, row = (f & 1) ? 0.0 : 20.0;
+        CHECK_NEAR(tx, col + a * 20.0, 1e-3);
+        CHECK_NEAR(ty, row + b * 20.0, 1e-3);
+        /* the stamp cell: the flake's diameter in texels of this face */
+        double ext_u = 0.0;
+        for (int k = 0; k < 3; ++k) if (U[k] != 0.0f) ext_u = hi[k] - lo[k];
+        CHECK_NEAR(sx, 2.0 * p.flake_radius * 20.0 / ext_u, 1e-6);
+        /* leaving from inside the box (a flake already in, Q not outside): no contact */
+        const float mid[3] = {0.5f * (lo[0] + hi[0]), 0.5f * (lo[1] + hi[1]), 0.5f * (lo[2] + hi[2])};
+        float dout[3];
+        for (int k = 0; k < 3; ++k) dout[k] = 2.0f * ((float)X[k] - mid[k]);
+        CHECK(!snow_box_hit(&h->mesh, mid, dout, &t, &box, &face));
+    }
+    CHECK_OK(hbk_snow_step(h, 100, NULL));
+    int32_t w, ht;
+    float *cov = get_cov(h, &w, &ht);
+    CHECK(cov && w == 60 && ht == 40);
+    const double mx = sum_region(cov, w, 0, 0, 20, 20), px = sum_region(cov, w, 0, 20, 20, 40);
+    const double mz = sum_region(cov, w, 40, 0, 60, 20), pz = sum_region(cov, w, 40, 20, 60, 40);
+    CHECK(mx > 1000.0 && pz > 1000.0);
+    CHECK(px == 0.0 && mz == 0.0);
+    free(cov);
+    free(m);
     hbk_snow_destroy(h);
 }

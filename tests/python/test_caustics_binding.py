@@ -219,3 +219,25 @@ def test_workspace_keeps_scratch_and_changes_no_byte():
             assert ws.nbytes > 0
     with pytest.raises(errors.StateError, match="closed"):
         caustics.render(wh, gh, 0.05, (8, 8), workspace=ws)
+
+
+def test_oblique_sun_is_bent_by_snells_law_per_channel():
+    # Flat water 1 m deep, the sun 60 deg from the zenith towards +x, not periodic: light
+    # lands D tan(theta_r) towards -x of where it entered (sin theta = n sin theta_r), so the
+    # map is E cos(theta) up to Lx - D tan(theta_r) and dark beyond; each channel's index
+    # gives its own edge (dispersion), along the map's x (columns).
+    n_x, lx = 80, 2.0
+    wh, gh = np.zeros((8, n_x), np.float32), np.full((8, n_x), -1.0, np.float32)
+    iors = (1.331, 1.333, 1.337)
+    light = (np.float32(np.tan(np.radians(60.0))), 0.0, 1.0)
+    m, _ = caustics.render(wh, gh, lx / n_x, (400, 4),
+                           {"light_direction": light, "ior": iors})
+    sin_t = float(light[0]) / np.hypot(float(light[0]), 1.0)
+    cos_t = 1.0 / np.hypot(float(light[0]), 1.0)
+    x0 = np.arange(400) * lx / 400
+    for c, n in enumerate(iors):
+        sr = sin_t / np.float32(n)
+        edge = lx - sr / np.sqrt(1.0 - sr * sr)
+        want = cos_t * np.clip((edge - x0) / (lx / 400), 0.0, 1.0)
+        for row in m[..., c]:
+            np.testing.assert_allclose(row, want, atol=1e-5)

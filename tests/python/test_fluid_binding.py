@@ -288,3 +288,39 @@ def test_grid_sized_inputs_are_checked_before_the_library_reads_them():
             f.paint_points(1, np.zeros((2, 3)), None, 5.0)
         f.paint_points(1, np.zeros((0, 3)), None, 0.1)  # no points: nothing painted
         assert f.volume("blend")[..., 1].max() == 0.0
+
+
+def test_features_of_a_known_flow():
+    # Paper §3.2 on a grid source whose surface field s = 2 - 2 z is the density feature (the
+    # outward normal is +z): the angle between V_m and it, the density's rate and the flow's
+    # acceleration between two frames, the divergence of a linear flow, and V_m clamped to
+    # max_flow voxels per frame with its direction kept.
+    p = dict(GRID, resolution=(16, 16, 16), dt=0.1, max_flow=8.0)  # 5 m/s at most
+    with fluid.Fluid(p) as f:
+        nx, ny, nz = f.vertices
+        z, y, x = np.meshgrid(*(np.linspace(0, 1, n, dtype=np.float32) for n in (nz, ny, nx)),
+                              indexing="ij")
+        s = 2 - 2 * z
+        v1 = np.zeros((nz, ny, nx, 3), np.float32)
+        v1[...] = (0.3, 0.0, 0.4)
+        f.set_velocity_grid(v1, s)
+        f.step()
+        v2 = np.stack([0.5 * x, -0.2 * y, 0.3 * z + 0.1], -1).astype(np.float32)
+        f.set_velocity_grid(v2, s + 0.05)
+        f.step()
+        feat = f.volume("features")[1:-1, 1:-1, 1:-1]
+        inner = v2[1:-1, 1:-1, 1:-1]
+        names = fluid.FEATURES
+        np.testing.assert_allclose(feat[..., names.index("density")], (s + 0.05)[1:-1, 1:-1, 1:-1])
+        np.testing.assert_allclose(feat[..., names.index("density_rate")], 0.5, atol=2e-5)
+        angle = np.arccos(inner[..., 2] / np.linalg.norm(inner, axis=-1))
+        np.testing.assert_allclose(feat[..., names.index("flow_angle")], angle, atol=1e-5)
+        acc = np.linalg.norm(inner - v1[1:-1, 1:-1, 1:-1], axis=-1) / 0.1
+        np.testing.assert_allclose(feat[..., names.index("acceleration")], acc, rtol=1e-5)
+        np.testing.assert_allclose(feat[..., names.index("divergence")], 0.6, atol=2e-5)
+        v3 = np.zeros_like(v1)
+        v3[...] = (6.0, 8.0, 0.0)  # 10 m/s
+        f.set_velocity_grid(v3, s)
+        f.step()
+        np.testing.assert_allclose(f.volume("motion"), np.broadcast_to((3.0, 4.0, 0.0), v3.shape),
+                                   atol=1e-5)

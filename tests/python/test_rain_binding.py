@@ -75,3 +75,23 @@ def test_same_bytes_for_any_thread_count_and_after_resume(tmp_path):
             a = (tmp_path / "a" / f"{st}_{i:04d}.exr").read_bytes()
             assert a == (tmp_path / "b" / f"{st}_{i:04d}.exr").read_bytes()
             assert a == (tmp_path / "c" / f"{st}_{i:04d}.exr").read_bytes()
+
+
+def test_static_friction_and_terminal_speed():
+    # Paper §4.1: a drop starts only when mass |A| > static_mass g (here on a pane whose
+    # in-plane gravity is g / 2: 30 mg is the threshold); a running drop's speed settles at
+    # (|A| - static_mass g / mass) / drag.
+    base = {"width": 64, "height": 64, "map_width": 64, "map_height": 64, "cell_size": 0.001,
+            "rain_rate": 0.0, "gravity_dir": (0.0, -0.5), "trail_mass": 0.0}
+    for mass, runs in ((29.7, False), (30.3, True)):
+        with rain.Rain(base) as r:
+            r.add_drop(0.0325, 0.0325, mass)
+            for _ in range(30):
+                r.step(1.0 / 30.0)
+            (d,) = r.drops()
+            if runs:
+                s_inf = (9.81 * 0.5 - 15.0 * 9.81 / mass) / 40.0
+                assert d["speed"] == pytest.approx(s_inf, rel=1e-3)
+            else:
+                assert d["speed"] == 0.0
+                assert (d["x"], d["y"]) == pytest.approx((0.0325, 0.0325), abs=1e-7)

@@ -78,3 +78,53 @@ def test_resume_continues_bit_identically(tmp_path):
         assert (tmp_path / "full" / f"depth_{i:04d}.exr").read_bytes() == \
             (tmp_path / "cut" / f"depth_{i:04d}.exr").read_bytes()
     assert BakeCache(tmp_path / "cut").verify() == []
+
+
+def paper_temperature_chance(t):
+    """Ise §4.1.2-4.1.5, written out independently: at and above -2 degC surface tension by
+    water content (5 % at -2 to 25 % at 3 degC, linear; 7 % chance at 5 %, 25 % at 15 %, 7 %
+    at 25 %, linear between), below it sintering (2 % at -10 to 10 % at -2 degC, linear)."""
+    if t >= -2.0:
+        w = 5.0 + (t + 2.0) * 20.0 / 5.0
+        return (7.0 + (w - 5.0) * 18.0 / 10.0 if w <= 15.0 else 25.0 - (w - 15.0) * 18.0 / 10.0) / 100
+    return (2.0 + (t + 10.0) * 8.0 / 8.0) / 100
+
+
+def test_sticking_curve_over_the_papers_temperature_range():
+    # Every temperature the paper allows (-10..3 degC, §4.1.1), every catch preset (§4.1.6:
+    # smooth 0, shoes 0.1, trousers 0.25, coat 0.4, the most 0.5), independent mechanisms.
+    for t in np.linspace(-10.0, 3.0, 131):
+        pt = paper_temperature_chance(float(np.float32(t)))
+        for c in (0.0, 0.1, 0.25, 0.4, 0.5):
+            assert snow.hit_chance(t, c) == pytest.approx(1 - (1 - pt) * (1 - c), abs=1e-6)
+        # the stamp: wet (bleeding, D linear in the water content: 0.1 at 5 %, 1 at 25 %) at
+        # and above -2 degC, dry below; centre, side and corner cells
+        a = snow.stamp_alpha(t, 0.25)
+        if t >= -2.0:
+            d = 0.1 + (snow.water_content(t) - 5.0) * 0.9 / 20.0
+            want = [110 + 25 * 0.25 - 48 * d, 25 + 10 * 0.25 + 12 * d, 10 + 5 * 0.25 + 9 * d]
+        else:
+            want = [90 + 90 * 0.25, 10 + 15 * 0.25, 5 + 10 * 0.25]
+        assert a[1, 1] == pytest.approx(want[0], abs=1e-4)
+        assert a[0, 1] == a[1, 0] == a[1, 2] == a[2, 1] == pytest.approx(want[1], abs=1e-4)
+        assert a[0, 0] == a[0, 2] == a[2, 0] == a[2, 2] == pytest.approx(want[2], abs=1e-4)
+
+
+@pytest.mark.parametrize("temp,catch", [(-1.0, 0.0), (-8.0, 0.25)])
+def test_sticking_rate_of_many_flakes_follows_the_curve(temp, catch):
+    # Flakes falling on a wide flat plate: the share of contacts that stick is the chance,
+    # within four binomial standard errors (fixed seed).
+    with snow.Snow({"flake_count": 10000, "temperature": temp, "wind": (0, 0, 0),
+                    "volume_min": (-1, -1, 0), "volume_max": (1, 1, 1), "time_step": 0.05,
+                    "texture_width": 32, "texture_height": 32, "seed": 7, "threads": 1}) as s:
+        s.set_materials([(catch, False, False)])
+        pos = np.array([[-2, -2, 0.2], [2, -2, 0.2], [2, 2, 0.2], [-2, 2, 0.2]], np.float32)
+        tri = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+        s.set_mesh(pos, tri, np.tile(np.array([[0, 0], [1, 0], [1, 1]], np.float32), (2, 1, 1)))
+        while s.stats()["hits"] < 20000:
+            s.step(20)
+        st = s.stats()
+        n = st["stuck"] + st["bounced"]
+        want = 1 - (1 - paper_temperature_chance(temp)) * (1 - catch)
+        assert abs(st["stuck"] / n - want) <= 4 * np.sqrt(want * (1 - want) / n)
+        assert st["hits"] == n  # nothing melted or shed
