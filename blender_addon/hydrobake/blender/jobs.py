@@ -5,6 +5,7 @@ only the core (C and files); wiring the result back happens on the main thread a
 Jobs are keyed by object and effect *names*, never by Python references to Blender data."""
 import contextlib
 import os
+import uuid
 import warnings
 
 import bpy
@@ -47,6 +48,7 @@ def holders(folder, effect_name, but=None):
 
 
 HOLDER = "holder_id"  # in a bake's settings: the object it was recorded on, this session
+BAKING = "baking_job"  # in a bake's settings while it runs: its job's token (see Job.target)
 
 
 def _identity(obj):
@@ -172,16 +174,41 @@ class Job:
         self.recorded = paths.stored(self.folder, settings, folder_override)  # in the file
         self.runner = BakeRunner(effect, self.folder, start, end, resume=resume,
                                  header={"object": obj.name, "blend": bpy.data.filepath})
+        # The object is marked, so that the bake finds it again if it is renamed meanwhile
+        # (and never takes another object given its old name).
+        self.token, self.pointer = uuid.uuid4().hex, obj.as_pointer()
+        settings[BAKING] = self.token
 
     @property
     def key(self):
         return (self.object_name, self.effect_name)
 
+    def target(self):
+        """The object being baked: the one its token marks (renamed since, maybe; of a
+        Shift+D copy and its original, the original), else the one still called by its name
+        and marked by no other bake (an undo dropped the mark), or None (deleted)."""
+        obj = bpy.data.objects.get(self.object_name)
+        if obj is not None and settings_of(obj, self.effect_name).get(BAKING) == self.token:
+            return obj
+        marked = [o for o in bpy.data.objects
+                  if settings_of(o, self.effect_name).get(BAKING) == self.token]
+        if marked:
+            return next((o for o in marked if o.as_pointer() == self.pointer), marked[0])
+        if obj is not None and not any(j is not self and j.effect_name == self.effect_name and
+                                       j.token == settings_of(obj, self.effect_name).get(BAKING)
+                                       for j in ACTIVE.values()):
+            return obj
+        return None
+
     def finalize(self, context):
         """Main thread, after the runner stopped: record the bake and wire what exists."""
         ACTIVE.pop(self.key, None)
         self.runner.effect.close()
-        obj = bpy.data.objects.get(self.object_name)
+        obj = self.target()
+        for o in bpy.data.objects:  # the mark, on the object and on copies made meanwhile
+            s = settings_of(o, self.effect_name)
+            if s.get(BAKING) == self.token:
+                del s[BAKING]
         if obj is None:  # deleted while baking: the files stay, nothing to wire
             return
         settings = settings_of(obj, self.effect_name)
@@ -195,14 +222,44 @@ class Job:
                 if manifest.get("complete") and old_folder and \
                         not _same_folder(old_folder, self.folder):
                     settings[SUPERSEDED] = [old_folder, old_name]  # freed once saved
+            # Relative to where the file is now: it may have been saved elsewhere meanwhile.
+            recorded = bpy.path.relpath(self.folder) if self.recorded.startswith("//") and \
+                bpy.data.filepath else self.recorded
             settings.is_baked = True
-            settings.bake_folder = self.recorded
+            settings.bake_folder = recorded
             scene = bpy.data.scenes.get(self.scene_name) or context.scene
-            with scene_context(context, scene):
-                self.beffect.apply(context, obj, settings, self.folder, manifest)
-            settings["baked_as"] = obj.name
-            settings[HOLDER] = _identity(obj)
-            paths.relink(self.folder, self.recorded)
+            try:
+                with scene_context(context, scene):
+                    self.beffect.apply(context, obj, settings, self.folder, manifest)
+            finally:  # recorded as wired, even in part: Free Bake then undoes what was done
+                settings["baked_as"] = obj.name
+                settings[HOLDER] = _identity(obj)
+                paths.relink(self.folder, recorded)
+
+
+def running(obj, effect_name):
+    """The job baking the object's effect (it may have been renamed since it began), or
+    None."""
+    return next((j for j in list(ACTIVE.values())
+                 if j.effect_name == effect_name and j.target() == obj), None)
+
+
+def unrecorded_bake(obj, effect_name):
+    """The folder of a bake of the object's effect in its folder that the object does not
+    record (Blender quit, another file was opened or the addon was disabled while it ran; an
+    undo dropped the record), which Resume can continue or record; else None."""
+    settings = settings_of(obj, effect_name)
+    if settings.is_baked:
+        return None
+    try:
+        folder = paths.bake_folder(obj, effect_name, settings)
+        m = BakeCache(folder).read_manifest()
+    except (paths.CacheFolderError, ValueError, OSError):
+        return None
+    if not m or not m.get("frames") or m.get("object") != obj.name or \
+            m.get("effect") != effect_name or holders(folder, effect_name):
+        return None
+    return folder
 
 
 
@@ -285,4 +342,8 @@ def cancel_all(timeout=5.0):
         job.runner.cancel()
         if job.runner.join(timeout):  # never free a handle a live thread still uses
             job.runner.effect.close()
+        for o in bpy.data.objects:  # unrecorded: the panel offers to resume it (ui)
+            s = settings_of(o, job.effect_name)
+            if s.get(BAKING) == job.token:
+                del s[BAKING]
     ACTIVE.clear()

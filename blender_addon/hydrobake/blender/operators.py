@@ -43,8 +43,13 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
             return None
         try:
             effects.get(self.effect)
-            if (obj.name, self.effect) in jobs.ACTIVE:
+            if jobs.running(obj, self.effect) is not None:
                 self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake is already running")
+                return None
+            if (obj.name, self.effect) in jobs.ACTIVE:  # and into the folder of that name
+                self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake of another object "
+                            "first called by this name (renamed since) is running; wait for "
+                            "it or cancel it")
                 return None
             job = jobs.Job(context, obj, self.effect, resume=self.resume)
             for text in job.warnings:
@@ -67,8 +72,21 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         except Exception:
             traceback.print_exc()  # a bug: its place matters more than its message
         finally:
+            wired = self._finalize(context, job)
+        return self._report(job) if wired else {"CANCELLED"}
+
+    def _finalize(self, context, job):
+        """Records and wires the bake; an error wiring it (the object changed meanwhile,
+        say into a curve) is reported, as the bake's own errors are. False then."""
+        try:
             job.finalize(context)
-        return self._report(job)
+            return True
+        except Exception as exc:
+            traceback.print_exc()
+            self.report({"ERROR"}, f"{job.object_name} {job.effect_name}: baked, but the "
+                        f"result could not be wired ({type(exc).__name__}: {exc}); Free Bake "
+                        "undoes what was")
+            return False
 
     def _report(self, job):
         s = job.runner.state
@@ -118,8 +136,13 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         wm.event_timer_remove(self._timer)
         wm.progress_end()
         context.workspace.status_text_set(None)
-        job.finalize(context)
-        return self._report(job)
+        wired = self._finalize(context, job)
+        # The record and the wiring as one undo step: without it, the next Ctrl+Z went back
+        # past the bake and dropped its record, yet kept its wiring (the materials had not
+        # changed between the two earlier steps), and Ctrl+Shift+Z did not bring it back.
+        if bpy.ops.ed.undo_push.poll():
+            bpy.ops.ed.undo_push(message=f"Hydrobake {job.effect_name} bake")
+        return self._report(job) if wired else {"CANCELLED"}
 
 
 class HYDROBAKE_OT_cancel_bake(_EffectTarget, bpy.types.Operator):
@@ -129,7 +152,7 @@ class HYDROBAKE_OT_cancel_bake(_EffectTarget, bpy.types.Operator):
 
     def execute(self, context):
         obj = _target(context, self)
-        job = obj and jobs.ACTIVE.get((obj.name, self.effect))
+        job = obj and jobs.running(obj, self.effect)
         if job is None:
             self.report({"WARNING"}, "No bake is running")
             return {"CANCELLED"}
@@ -147,7 +170,7 @@ class HYDROBAKE_OT_free_bake(_EffectTarget, bpy.types.Operator):
         obj = _target(context, self)
         if obj is None:
             return {"CANCELLED"}
-        if (obj.name, self.effect) in jobs.ACTIVE:
+        if jobs.running(obj, self.effect) is not None or (obj.name, self.effect) in jobs.ACTIVE:
             self.report({"ERROR"}, "Cancel the running bake first")
             return {"CANCELLED"}
         try:

@@ -11,14 +11,16 @@ def draw_effect(layout, context, beffect):
     settings = jobs.settings_of(obj, beffect.name)
     layout.use_property_split = True
     layout.use_property_decorate = False
-    job = jobs.ACTIVE.get((obj.name, beffect.name))
+    job = jobs.running(obj, beffect.name)
 
     row = layout.row(align=True)
     if job is not None:
         s = job.runner.state
         frame = s.frame if s.frame is not None else s.frame_start
+        eta = s.eta()
+        left = "" if eta is None else f", {int(eta) // 60}:{int(eta) % 60:02d} left"
         row.label(text=f"Baking frame {frame} / {s.frame_end} "
-                       f"({job.runner.poll_fraction():.0%})", icon="TIME")
+                       f"({job.runner.poll_fraction():.0%}{left})", icon="TIME")
         op = row.operator("hydrobake.cancel_bake", text="Cancel", icon="CANCEL")
     elif settings.is_baked:
         if jobs.bake_state(obj, beffect.name) == "PARTIAL":
@@ -26,6 +28,9 @@ def draw_effect(layout, context, beffect):
             op.effect, op.object_name, op.resume = beffect.name, obj.name, True
         op = row.operator("hydrobake.free_bake", text="Free Bake", icon="TRASH")
     else:
+        if jobs.unrecorded_bake(obj, beffect.name):  # a bake Blender lost track of
+            op = row.operator("hydrobake.bake", text="Resume", icon="PLAY")
+            op.effect, op.object_name, op.resume = beffect.name, obj.name, True
         op = row.operator("hydrobake.bake", text="Bake", icon="RENDER_ANIMATION")
     op.effect, op.object_name = beffect.name, obj.name
     if settings.is_baked and job is None:
