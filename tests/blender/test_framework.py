@@ -60,3 +60,8 @@ def test_an_overlapping_uv_map_is_baked_with_a_warning(blender, tmp_path):
     assert "UV OVERLAP WARNING OK" in r.stdout
     assert "Warning: Mirrored: 100% of UV map 'Unwrap' is shared by two or more faces" \
         in r.stdout + r.stderr
+
+
+def test_free_that_cannot_unwire_keeps_the_files_and_record(blender, tmp_path):
+    r = blender.run("free_keeps_on_error.py", tmp_path)
+    assert "FREE KEEPS ON ERROR OK" in r.stdout

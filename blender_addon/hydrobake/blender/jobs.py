@@ -330,9 +330,15 @@ def free(context, obj, effect_name):
         except ValueError:
             m = None
         return cache.free() if m is not None and m.get("object") == obj.name else []
-    removed = cache.free()
-    beffect.remove(context, obj, settings)
-    forget(obj, effect_name)
+    # Unwired before the files go: if unwiring fails, the bake and its record stay as they
+    # were (the files had been deleted under a record that still named them). Under the
+    # folder's lock, so that no other process bakes into it meanwhile.
+    with cache.locked():
+        beffect.remove(context, obj, settings)
+        forget(obj, effect_name)
+        removed = cache.free()
+    with contextlib.suppress(OSError):
+        os.rmdir(cache.folder)  # only if empty: never remove what is not ours
     return removed
 
 

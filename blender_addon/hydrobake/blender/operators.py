@@ -178,6 +178,11 @@ class HYDROBAKE_OT_free_bake(_EffectTarget, bpy.types.Operator):
         except (KeyError, paths.CacheFolderError, OSError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        except Exception as exc:  # unwiring failed: the bake and its record are kept
+            traceback.print_exc()
+            self.report({"ERROR"}, f"{obj.name} {self.effect}: could not unwire the bake "
+                        f"({type(exc).__name__}: {exc}); its files and record are kept")
+            return {"CANCELLED"}
         self.report({"INFO"}, f"Freed {len(removed)} files")
         return {"FINISHED"}
 

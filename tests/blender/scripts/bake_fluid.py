@@ -34,6 +34,7 @@ s.fluid.substeps = 8
 s.fluid.textures = 3  # three: a blend of three columns is not a vector
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
 s.fluid.texture_scale[0] = 2.0
+domain.display_type, domain.hide_render = "WIRE", True  # the artist's view: Free gives it back
 # Texture 0 is the user's node group (a checker at uvw); texture 1 the built-in waves.
 grp = bpy.data.node_groups.new("Checks", "ShaderNodeTree")
 grp.inputs.new("NodeSocketVector", "UVW")
@@ -160,6 +161,9 @@ assert os.path.isfile(scene.render.filepath)
 print(f"EEVEE render {time.monotonic() - t0:.1f} s")
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 assert "HBK_Domain_volume" not in bpy.data.objects and "HBK_Domain_surface" not in bpy.data.objects
+assert (domain.display_type, domain.hide_render) == ("WIRE", True), domain.display_type
+# The materials made for the bake went with it (nothing else used them).
+assert not [m.name for m in bpy.data.materials if m.name.startswith("HBK_Domain")]
 print("FLUID BLENDER OK", n2)
 
 

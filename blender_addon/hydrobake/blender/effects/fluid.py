@@ -18,6 +18,7 @@ from .fluid_paint import FEATURES
 
 
 OPEN = 3.0e38  # a feature bound that does not matter
+SHOWN = "shown_as"  # in the settings: the domain's (display_type, hide_render) before its bake
 MAX_OBSTACLES = 64  # HBK_FLUID_MAX_OBSTACLES
 
 
@@ -334,7 +335,10 @@ class FluidBlender(BlenderEffect):
         surf = frame_meshes.attach(surf_name, "surface", folder, "surface",
                                    collection=coll, material=mat)
         surf["hydrobake_domain"] = obj.name  # for Capture Feature Rule
-        # The domain is only a box: show the fluid, not the box (Free Bake shows it again).
+        # The domain is only a box: show the fluid, not the box (Free Bake shows it again as
+        # it was: the first bake's view is kept through re-bakes).
+        if SHOWN not in settings:
+            settings[SHOWN] = {"display": obj.display_type, "hidden": int(obj.hide_render)}
         obj.display_type = "BOUNDS"
         obj.hide_render = True
 
@@ -500,8 +504,16 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def let_go(cls, context, obj, settings, keep):
-        obj.display_type = "TEXTURED"
-        obj.hide_render = False
+        cls._show_again(obj, settings)
+
+    @staticmethod
+    def _show_again(obj, settings):
+        """The domain as it was shown before its first bake (TEXTURED and rendered for a bake
+        recorded before that was kept)."""
+        shown = settings.get(SHOWN) or {"display": "TEXTURED", "hidden": 0}
+        obj.display_type, obj.hide_render = shown["display"], bool(shown["hidden"])
+        if SHOWN in settings:
+            del settings[SHOWN]
 
     @classmethod
     def remove(cls, context, obj, settings):
@@ -513,8 +525,12 @@ class FluidBlender(BlenderEffect):
             bpy.data.objects.remove(vol)
             if data.users == 0:
                 bpy.data.volumes.remove(data)
-        obj.display_type = "TEXTURED"
-        obj.hide_render = False
+        prefix = f"HBK_{cls.baked_name(obj, settings)}"
+        for name in (f"{prefix}_textured", f"{prefix}_volume"):  # made for the bake
+            mat = bpy.data.materials.get(name)
+            if mat is not None and mat.users == 0:
+                bpy.data.materials.remove(mat)
+        cls._show_again(obj, settings)
 
     @classmethod
     def register_extra(cls):

@@ -1,0 +1,44 @@
+"""Free Bake unwires before it deletes: when unwiring fails (here made to), the operator
+reports it and the bake's files and record stay as they were, so nothing records a bake that
+is gone; a second Free then frees it."""
+import os
+
+import bpy
+
+import in_blender
+
+in_blender.enable()
+from hydrobake.blender import effects  # noqa: E402
+
+in_blender.empty_file("keep.blend")
+glass = in_blender.new_plane("Glass")
+glass.data.uv_layers.new(name="UVMap")
+for loop, uv in zip(glass.data.uv_layers[0].data, ((0, 0), (1, 0), (1, 1), (0, 1))):
+    loop.uv = uv
+s = glass.hydrobake_rain
+s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
+s.rain.cell_size = 0.05
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
+folder = bpy.path.abspath(s.bake_folder)
+files = sorted(os.listdir(folder))
+
+rain = effects.get("rain")
+real = rain.remove
+
+
+def broken(cls, context, obj, settings):
+    raise RuntimeError("made to fail")
+
+
+rain.remove = classmethod(broken)
+try:
+    bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass")
+except RuntimeError as exc:
+    assert "could not unwire the bake" in str(exc) and "files and record are kept" in str(exc), exc
+else:
+    raise AssertionError("Free reported no error")
+rain.remove = real
+assert s.is_baked and sorted(os.listdir(folder)) == files, os.listdir(folder)
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass") == {"FINISHED"}
+assert not s.is_baked and not os.path.exists(folder)
+print("FREE KEEPS ON ERROR OK")
