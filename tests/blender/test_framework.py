@@ -65,3 +65,8 @@ def test_an_overlapping_uv_map_is_baked_with_a_warning(blender, tmp_path):
 def test_free_that_cannot_unwire_keeps_the_files_and_record(blender, tmp_path):
     r = blender.run("free_keeps_on_error.py", tmp_path)
     assert "FREE KEEPS ON ERROR OK" in r.stdout
+
+
+def test_a_bake_remade_in_another_folder_replaces_the_old_once_complete(blender, tmp_path):
+    r = blender.run("superseded_folders.py", tmp_path)
+    assert "SUPERSEDED FOLDERS OK" in r.stdout

@@ -4,6 +4,7 @@ Scene data is read on the main thread when the job is made; the worker thread th
 only the core (C and files); wiring the result back happens on the main thread again.
 Jobs are keyed by object and effect *names*, never by Python references to Blender data."""
 import contextlib
+import json
 import os
 import uuid
 import warnings
@@ -219,9 +220,12 @@ class Job:
                 pass  # the record was a copy of another object's bake: nothing of ours
             elif old_name != obj.name:  # renamed: unwire the old
                 self.beffect.remove(context, obj, settings)
-                if manifest.get("complete") and old_folder and \
+                if settings.is_baked and old_folder and \
                         not _same_folder(old_folder, self.folder):
-                    settings[SUPERSEDED] = [old_folder, old_name]  # freed once saved
+                    # Re-baked under the new name, the old bake is replaced as in place: freed
+                    # once this one is complete (resumed, if cancelled) and the file saved. A
+                    # bake sent elsewhere (--output) replaces nothing: both were asked for.
+                    supersede(settings, old_folder, old_name)
             # Relative to where the file is now: it may have been saved elsewhere meanwhile.
             recorded = bpy.path.relpath(self.folder) if self.recorded.startswith("//") and \
                 bpy.data.filepath else self.recorded
@@ -263,7 +267,27 @@ def unrecorded_bake(obj, effect_name):
 
 
 
-SUPERSEDED = "superseded"  # in a bake's settings: [folder, name] of the bake it replaced
+# In a bake's settings: the bakes it replaced, JSON [[folder, name], ...] (a string: folders
+# are too long for ID property keys). Older records held one [folder, name] pair.
+SUPERSEDED = "superseded"
+
+
+def _superseded(settings):
+    value = settings.get(SUPERSEDED)
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [tuple(p) for p in json.loads(value)]
+    return [(str(value[0]), str(value[1]))]
+
+
+def supersede(settings, folder, name):
+    """Records that the bake in ``folder`` (made for the object called ``name``) is replaced;
+    free_superseded frees it once the bake that replaced it is complete and the file saved."""
+    pending = _superseded(settings)
+    if not any(_same_folder(f, folder) for f, _ in pending):
+        pending.append((folder, name))
+    settings[SUPERSEDED] = json.dumps(pending)
 
 
 def free_superseded():
@@ -277,18 +301,23 @@ def free_superseded():
             settings = settings_of(obj, effect_name)
             if SUPERSEDED not in settings:
                 continue
-            folder, name = settings[SUPERSEDED]
+            if not settings.is_baked:
+                del settings[SUPERSEDED]  # freed since: the old bakes are no one's business
+                continue
+            if bake_state(obj, effect_name) != "COMPLETE":
+                continue  # a cancelled re-bake replaces nothing yet: kept until it completes
+            pending = _superseded(settings)
             del settings[SUPERSEDED]
-            if not settings.is_baked or _same_folder(folder, settings.bake_folder) or \
-                    holders(folder, effect_name):
-                continue
-            cache = BakeCache(folder)
-            try:
-                old = cache.read_manifest()
-            except ValueError:
-                continue
-            if old and old.get("object") == name and old.get("effect") == effect_name:
-                cache.free()
+            for folder, name in pending:
+                if _same_folder(folder, settings.bake_folder) or holders(folder, effect_name):
+                    continue
+                cache = BakeCache(folder)
+                try:
+                    old = cache.read_manifest()
+                except ValueError:
+                    continue
+                if old and old.get("object") == name and old.get("effect") == effect_name:
+                    cache.free()
 
 
 def bake_state(obj, effect_name):

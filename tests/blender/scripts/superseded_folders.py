@@ -1,0 +1,63 @@
+"""A bake re-made in another folder replaces the old one, as a re-bake in place does: the old
+folder is freed when the new bake is complete and the file saved. A renamed glass whose
+re-bake was cancelled keeps its old bake (a partial bake replaces nothing yet) until the
+resumed re-bake completes. A bake sent to another folder on purpose (another Cache Folder,
+--output) replaces nothing."""
+import os
+
+import bpy
+
+import in_blender
+
+in_blender.enable()
+from hydrobake.blender import jobs  # noqa: E402
+from hydrobake.core import errors  # noqa: E402
+
+tmp = in_blender.empty_file("superseded.blend")
+glass = in_blender.new_plane("Glass")
+glass.data.uv_layers.new(name="UVMap")
+for loop, uv in zip(glass.data.uv_layers[0].data, ((0, 0), (1, 0), (1, 1), (0, 1))):
+    loop.uv = uv
+s = glass.hydrobake_rain
+s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 3
+s.rain.cell_size = 0.05
+
+
+def folder():
+    return os.path.realpath(bpy.path.abspath(s.bake_folder))
+
+
+def save():
+    bpy.ops.wm.save_mainfile()
+
+
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
+first = folder()
+glass.name = "Glass2"
+job = jobs.Job(bpy.context, glass, "rain")
+job.runner.on_frame = lambda state: job.runner.cancel()
+try:
+    job.runner.run()
+except errors.Cancelled:
+    pass
+job.finalize(bpy.context)
+second = folder()
+assert second != first and jobs.bake_state(glass, "rain") == "PARTIAL"
+save()
+assert os.path.isdir(first), "a cancelled re-bake freed the complete one it had not replaced"
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass2", resume=True) == {"FINISHED"}
+assert folder() == second and jobs.bake_state(glass, "rain") == "COMPLETE"
+assert os.path.isdir(first)  # not before the save
+save()
+assert not os.path.exists(first), "the replaced bake stayed on disk after the save"
+
+# Baked to another folder on purpose (--output, another Cache Folder): both stay.
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass2") == {"FINISHED"}
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass2") == {"FINISHED"}
+old = folder()
+s.cache_dir = os.path.join(tmp, "elsewhere")
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass2") == {"FINISHED"}
+assert folder() != old
+save()
+assert os.path.isdir(old) and os.path.isdir(folder())
+print("SUPERSEDED FOLDERS OK")
