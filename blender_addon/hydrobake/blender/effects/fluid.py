@@ -169,6 +169,13 @@ class FluidBlender(BlenderEffect):
         fp["box_min"], fp["box_max"] = tuple(map(float, lo)), tuple(map(float, hi))
         fps = context.scene.render.fps / context.scene.render.fps_base
         fp["dt"] = 1.0 / fps
+        cell = float(np.max((np.asarray(hi) - np.asarray(lo)) / np.asarray(fp["resolution"])))
+        if fp["uvw_tile"] <= 2.0 * cell:
+            # Neighbouring vertices' uvw then differ by half a tile or more, and the wrap flags
+            # (paper Fig. 4) cannot tell the short way: the texture shows seams.
+            warnings.warn(f"UVW Tile = {fp['uvw_tile']:g} m spans 2 grid cells or fewer (a cell "
+                          f"is up to {cell:.3g} m): the texture will show seams; use more than "
+                          f"{2.0 * cell:.3g} m, or a finer resolution", BakeWarning)
         inputs = {}
         if fp["source"] == 0:
             if settings.fill_object is None:
