@@ -17,6 +17,23 @@ def frames_in(folder):
         return []
 
 
+def override_cases(blender, blend, target, cases, tmp_path):
+    """Runs --overrides tables [(table, want)] on ``target`` ({"objects": [...], "effects":
+    [...]}) in one Blender run (cli_overrides.py) and checks each: want None, accepted; else
+    refused with an error containing want. Returns the "CASE ..." lines."""
+    spec = tmp_path / "cases.json"
+    spec.write_text(json.dumps([dict(target, table=t) for t, _ in cases]))
+    r = blender.run("cli_overrides.py", spec, blend=blend)
+    lines = [line for line in r.stdout.splitlines() if line.startswith("CASE ")]
+    assert len(lines) == len(cases), r.stdout[-3000:]
+    for i, (line, (table, want)) in enumerate(zip(lines, cases)):
+        if want is None:
+            assert line == f"CASE {i} OK", (table, line)
+        else:
+            assert line.startswith(f"CASE {i} ERROR ") and want in line, (table, line, want)
+    return lines
+
+
 def addon_zip():
     zips = sorted(glob.glob(os.path.join(ROOT, "dist", "hydrobake-*.zip")))
     if not zips:

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from hydrobake_paths import ROOT, frames_in
+from hydrobake_paths import ROOT, frames_in, override_cases
 
 
 def _blend(blender, tmp_path):
@@ -220,16 +220,7 @@ def test_overrides_are_checked_against_keys_shapes_types_and_ranges(blender, tmp
         ({"*/caustics": {"water": {"gravity": 100.0}}, "*/snow": {"snow": {}},
           "Tank/fluid": {"fluid": {"substeps": 2}}}, None),
     ]
-    spec = tmp_path / "cases.json"
-    spec.write_text(json.dumps([dict(water, table=t) for t, _ in cases]))
-    r = blender.run("cli_overrides.py", spec, blend=blend)
-    lines = [l for l in r.stdout.splitlines() if l.startswith("CASE ")]
-    assert len(lines) == len(cases), r.stdout[-3000:]
-    for i, (line, (table, want)) in enumerate(zip(lines, cases)):
-        if want is None:
-            assert line == f"CASE {i} OK", (table, line)
-        else:
-            assert line.startswith(f"CASE {i} ERROR ") and want in line, (table, line, want)
+    lines = override_cases(blender, blend, water, cases, tmp_path)
     valid = "valid keys: Car/snow, Ground/snow, Person/snow, Tank/fluid, Water/caustics, " \
         "Windshield/rain, */caustics, */fluid, */rain, */snow"
     assert all(valid in l for l in lines[9:13]), lines[9:13]

@@ -1,8 +1,7 @@
 """The snow effect in real Blender with the installed addon."""
-import json
 import os
 
-from hydrobake_paths import ROOT
+from hydrobake_paths import ROOT, override_cases
 
 from hydrobake.core.snow import Snow
 
@@ -109,13 +108,4 @@ def test_overrides_of_what_auto_volume_sets_are_refused(blender, tmp_path):
         ({"Car/snow": {"auto_volume": False, "snow": {"flake_count": 5000,
                                                       "volume_max": [9, 9, 9]}}}, None),
     ]
-    spec = tmp_path / "cases.json"
-    spec.write_text(json.dumps([dict(car, table=t) for t, _ in cases]))
-    r = blender.run("cli_overrides.py", spec, blend=os.path.join(ROOT, "examples.blend"))
-    lines = [l for l in r.stdout.splitlines() if l.startswith("CASE ")]
-    assert len(lines) == len(cases), r.stdout[-3000:]
-    for i, (line, (table, want)) in enumerate(zip(lines, cases)):
-        if want is None:
-            assert line == f"CASE {i} OK", (table, line)
-        else:
-            assert line.startswith(f"CASE {i} ERROR ") and want in line, (table, line, want)
+    override_cases(blender, os.path.join(ROOT, "examples.blend"), car, cases, tmp_path)

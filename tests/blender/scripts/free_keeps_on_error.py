@@ -11,10 +11,7 @@ in_blender.enable()
 from hydrobake.blender import effects  # noqa: E402
 
 in_blender.empty_file("keep.blend")
-glass = in_blender.new_plane("Glass")
-glass.data.uv_layers.new(name="UVMap")
-for loop, uv in zip(glass.data.uv_layers[0].data, ((0, 0), (1, 0), (1, 1), (0, 1))):
-    loop.uv = uv
+glass = in_blender.uv_plane("Glass")
 s = glass.hydrobake_rain
 s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
 s.rain.cell_size = 0.05

@@ -27,6 +27,15 @@ def new_plane(name="Glass"):
     return obj
 
 
+def uv_plane(name="Glass"):
+    """new_plane with a UV map covering 0..1 (the rain's grid, snow's texture)."""
+    obj = new_plane(name)
+    obj.data.uv_layers.new(name="UVMap")
+    for loop, uv in zip(obj.data.uv_layers[0].data, ((0, 0), (1, 0), (1, 1), (0, 1))):
+        loop.uv = uv
+    return obj
+
+
 def new_box(name, scale, location):
     """A unit cube scaled and placed (the fluid tests' domains and fills)."""
     import bmesh

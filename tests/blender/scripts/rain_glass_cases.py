@@ -23,10 +23,7 @@ scene = bpy.context.scene
 
 def glass(name, x=0.0, mesh=None):
     if mesh is None:
-        obj = in_blender.new_plane(name)
-        obj.data.uv_layers.new(name="UVMap")
-        for loop, uv in zip(obj.data.uv_layers[0].data, ((0, 0), (1, 0), (1, 1), (0, 1))):
-            loop.uv = uv
+        obj = in_blender.uv_plane(name)
         obj.scale = (0.5, 0.5, 1.0)
     else:
         obj = bpy.data.objects.new(name, mesh)
