@@ -87,32 +87,78 @@ def give_back(obj, mat, prefix):
         mat.use_nodes = False
         del mat[NODES_WERE_OFF]
     if MADE in mat:
-        index = next((i for i, s in enumerate(obj.material_slots) if s.material == mat), None)
-        # A mesh other objects share keeps the slot where one of them shows its own material.
-        others = [o for o in bpy.data.objects if o != obj and o.data == obj.data]
-        kept = index is not None and any(
-            index < len(o.material_slots) and o.material_slots[index].link == "OBJECT" and
-            o.material_slots[index].material is not None for o in others)
-        if index is not None:
-            obj.material_slots[index].material = None
-            if mat[MADE] == "appended" and kept:
-                obj.data[EMPTY_SLOT] = index  # for the last object showing it (restore)
-            if mat[MADE] == "appended" and index == len(obj.data.materials) - 1 and not kept:
-                # The operator drops the object's slot too (popping the mesh's list leaves
-                # an empty slot on the object, saved with the file).
-                obj.active_material_index = index
-                with bpy.context.temp_override(object=obj):
-                    bpy.ops.object.material_slot_remove()
+        _take_out(obj, mat)
+        # A Shift+D copy of the object that holds no bake now shows it alone: it goes there
+        # too (while a copy holds the bake's record, the mark stays for its own Free).
+        for other in bpy.data.objects:
+            if other != obj and not _holds_bake(other):
+                _take_out(other, mat)
         if mat.users == 0:
             bpy.data.materials.remove(mat)
-        else:
-            del mat[MADE]
+
+
+EFFECT_SETTINGS = ("hydrobake_caustics", "hydrobake_rain", "hydrobake_snow",
+                   "hydrobake_fluid")
+
+
+def _holds_bake(obj):
+    return any(getattr(getattr(obj, name, None), "is_baked", False)
+               for name in EFFECT_SETTINGS)
+
+
+def _take_out(obj, mat):
+    """Takes a material ensure_material made (``mat``) out of the object's slot: the slot
+    empty again, or gone if it was appended for it."""
+    index = next((i for i, s in enumerate(obj.material_slots) if s.material == mat), None)
+    if index is None:
+        return
+    # A mesh other objects share keeps the slot where one of them shows its own material.
+    others = [o for o in bpy.data.objects if o != obj and o.data == obj.data]
+    kept = any(
+        index < len(o.material_slots) and o.material_slots[index].link == "OBJECT" and
+        o.material_slots[index].material is not None for o in others)
+    slot = obj.material_slots[index]
+    linked = slot.link == "DATA"
+    slot.material = None
+    if mat[MADE] == "appended" and kept:
+        obj.data[EMPTY_SLOT] = index  # for the last object showing it (restore)
+    if mat[MADE] == "appended" and linked and not kept and \
+            index == len(obj.data.materials) - 1:
+        _drop_slot(obj, index)
+
+
+def _drop_slot(obj, index):
+    """Removes the mesh's slot ``index`` (the objects' slots with it) by the data API: no
+    operator, so that it works on a hidden object, one in no view layer, or not active."""
+    if len(obj.data.materials) == 1:
+        # Popping the last one leaves the objects' slot (Blender resizes their lists only
+        # while some are left); clearing the list resizes them.
+        obj.data.materials.clear()
+    else:
+        obj.data.materials.pop(index=index)
+
+
+def holding(prefix, image_names, owner=ANY):
+    """The file's materials whose Hydrobake nodes of an effect (role ``prefix``; added for
+    ``owner``, if given) show one of ``image_names``: a bake's wiring wherever its materials
+    are now (taken out of the object's slots, or a shared one it was re-baked past)."""
+    names = set(image_names)
+    found = []
+    for mat in bpy.data.materials:
+        if mat.node_tree and any(
+                str(n.get(TAG, "")).startswith(prefix) and
+                (owner is ANY or n.get(OWNER) == owner) and
+                getattr(n, "image", None) is not None and n.image.name in names
+                for n in mat.node_tree.nodes):
+            found.append(mat)
+    return found
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
 COPY_FOR = "hydrobake_copy_for"  # ... and the object it was made for
 LINK_WAS = "hydrobake_link_was"  # ... put on the object's own slot of a shared mesh
 EMPTY_SLOT = "hydrobake_empty_slot"  # on a mesh: the slot a made material left, others using it
+COPY_OF_MADE = "hydrobake_copy_of_made"  # on a copy own() made of a made material: its MADE
 
 
 def own(obj, index, unwire):
@@ -132,9 +178,11 @@ def own(obj, index, unwire):
                                       for o in bpy.data.objects):
         return mat
     shared = mat.get(COPY_OF, mat.name)
-    copy = mat.copy()
+    copy = _copy(mat)
     copy.name = f"{shared} ({obj.name})"
     copy[COPY_OF], copy[COPY_FOR] = shared, obj.name
+    if MADE in mat:  # gone with its bake, it leaves the copy nothing to go back to
+        copy[COPY_OF_MADE] = mat[MADE]
     for key in (MADE, NODES_WERE_OFF):  # the original's record, not the copy's
         if key in copy:
             del copy[key]
@@ -146,9 +194,30 @@ def own(obj, index, unwire):
     return copy
 
 
+def _copy(mat):
+    """mat.copy(), without the extra user Blender 3.4 gives every image its image nodes show
+    (one too many: a bake's images outlived its Free Bake, and the file's images their last
+    user): the nodes are copied without their images, then given them."""
+    held = [(n.name, n.image) for n in mat.node_tree.nodes
+            if n.type in ("TEX_IMAGE", "TEX_ENVIRONMENT") and n.image is not None] \
+        if mat.node_tree else []
+    for name, _img in held:
+        mat.node_tree.nodes[name].image = None
+    try:
+        copy = mat.copy()
+    finally:
+        for name, img in held:
+            mat.node_tree.nodes[name].image = img
+    for name, img in held:
+        copy.node_tree.nodes[name].image = img
+    return copy
+
+
 def restore(obj, prefix):
     """Undoes own() in the object's slots (Free Bake), unless the shared material holds
-    another object's wiring of the same effect (then the object keeps its clean copy)."""
+    another object's wiring of the same effect (then the object keeps its clean copy); and
+    in other objects' slots, whose clean copies waited for the shared material to be free of
+    this object's wiring (two objects sharing a material, both baked, both freed)."""
     for slot in obj.material_slots:
         mat = slot.material
         shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
@@ -166,20 +235,47 @@ def restore(obj, prefix):
             if index is not None and index == len(obj.data.materials) - 1 and not any(
                     o.material_slots[index].material for o in users):
                 del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes
-                obj.active_material_index = index
-                with bpy.context.temp_override(object=obj):
-                    bpy.ops.object.material_slot_remove()
+                _drop_slot(obj, index)
             continue
-        if shared is None or _has_wiring(mat) or (shared.node_tree and any(
-                str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
-            continue  # another effect's bake still in the copy, or another object's in it
-        if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
-            slot.material = None
-            slot.link = "DATA"  # the mesh's own material shows again
-        else:
-            slot.material = shared
-        if mat.users == 0:
-            bpy.data.materials.remove(mat)
+        if mat is not None and COPY_OF_MADE in mat and shared is None and \
+                not _has_wiring(mat):
+            # A copy of a material made for the object this one was copied from (Shift+D),
+            # gone with its bake: made for this one as much, it goes as that one went.
+            mat[MADE] = mat[COPY_OF_MADE]
+            _take_out(obj, mat)
+            if mat.users == 0:
+                bpy.data.materials.remove(mat)
+            else:
+                del mat[MADE]
+            continue
+        _put_shared_back(slot, prefix)
+    for other in bpy.data.objects:
+        if other != obj:
+            for slot in other.material_slots:
+                _put_shared_back(slot, prefix)
+    # A made material taken out of its slot (and so out of the bake's reach) while the bake
+    # was wired, and now wired by no bake: nothing else uses it, it leaves the file.
+    for mat in [m for m in bpy.data.materials if MADE in m and m.users == 0 and
+                not _has_wiring(m) and SAVED not in m]:
+        bpy.data.materials.remove(mat)
+
+
+def _put_shared_back(slot, prefix):
+    """The shared material back in the slot in place of a clean copy own() made, unless the
+    shared one holds another object's wiring of the effect."""
+    mat = slot.material
+    shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
+        else None
+    if shared is None or _has_wiring(mat) or (shared.node_tree and any(
+            str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
+        return  # another effect's bake still in the copy, or another object's in it
+    if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
+        slot.material = None
+        slot.link = "DATA"  # the mesh's own material shows again
+    else:
+        slot.material = shared
+    if mat.users == 0:
+        bpy.data.materials.remove(mat)
 
 
 def tagged(node_tree, role, owner=None):

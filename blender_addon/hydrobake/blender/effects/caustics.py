@@ -529,9 +529,14 @@ class CausticsBlender(BlenderEffect):
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
         if f"{prefix}_grid" in bpy.data.objects:
             bpy.data.objects.remove(bpy.data.objects[f"{prefix}_grid"])
+        # The water's wiring wherever it is: in the pool's slots, and in materials taken out
+        # of them since (or a shared one a re-bake made a copy of), known by its images.
         for mat in {s.material for s in obj.material_slots if s.material}:
             if mat.node_tree:
                 materials.remove_tagged(mat.node_tree, "caustics.")
+            materials.give_back(obj, mat, "caustics.")
+        for mat in materials.holding("caustics.", {f"{prefix}_surface"}, owner=None):
+            materials.remove_tagged(mat.node_tree, "caustics.", owner=None)
             materials.give_back(obj, mat, "caustics.")
         materials.restore(obj, "caustics.")
         grounds = [g for g in (settings.ground_object,

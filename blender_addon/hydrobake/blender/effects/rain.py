@@ -285,13 +285,18 @@ class RainBlender(BlenderEffect):
         mod = obj.modifiers.get(THICKNESS)
         if mod is not None:
             obj.modifiers.remove(mod)
-        for mat in {s.material for s in obj.material_slots if s.material}:
+        # The bake's wiring wherever it is: in the object's slots, and in materials taken
+        # out of them since (or a shared one a re-bake made a copy of), known by its images.
+        name = cls.baked_name(obj, settings)
+        mats = {s.material for s in obj.material_slots if s.material}
+        mats |= set(materials.holding("rain.", {f"HBK_{name}_rain_normal"}))
+        for mat in mats:
             if mat.node_tree:
                 cls._unwire(mat.node_tree)
             materials.give_back(obj, mat, "rain.")
         materials.restore(obj, "rain.")
         for stream in ("preview", "normal"):
-            images.remove(f"HBK_{cls.baked_name(obj, settings)}_rain_{stream}")
+            images.remove(f"HBK_{name}_rain_{stream}")
 
     @classmethod
     def draw_settings(cls, layout, settings):

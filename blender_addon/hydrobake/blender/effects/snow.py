@@ -575,13 +575,19 @@ class SnowBlender(BlenderEffect):
     def remove(cls, context, obj, settings):
         points.detach(f"HBK_{cls.baked_name(obj, settings)}_flakes")
         cls._remove_box(obj)
-        for mat in {s.material for s in obj.material_slots if s.material is not None}:
+        # The bake's wiring wherever it is: in the object's slots, and in materials taken
+        # out of them since (or a shared one a re-bake made a copy of), known by its images.
+        name = cls.baked_name(obj, settings)
+        mats = {s.material for s in obj.material_slots if s.material is not None}
+        mats |= set(materials.holding("snow.", {f"HBK_{name}_snow_coverage",
+                                                f"HBK_{name}_snow_depth"}))
+        for mat in mats:
             if mat.node_tree:
                 _unwire(mat.node_tree)
             materials.give_back(obj, mat, "snow.")  # nodes switched on, a material made
         materials.restore(obj, "snow.")
         for stream in ("coverage", "depth"):
-            images.remove(f"HBK_{cls.baked_name(obj, settings)}_snow_{stream}")
+            images.remove(f"HBK_{name}_snow_{stream}")
 
     @classmethod
     def draw_settings(cls, layout, settings):

@@ -1,0 +1,194 @@
+"""Free Bake puts materials back as they were (the monkey test's findings), one case per run:
+
+    blender -b --python free_restores.py -- TMPDIR CASE
+
+Prints ``FREE RESTORES <case> OK`` or ``FREE RESTORES <case> FAIL <what>``."""
+import os
+
+import bpy
+
+import in_blender
+
+in_blender.enable()
+tmp, case = in_blender.args()[:2]
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "r.blend"))
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+problems = []
+
+
+def check(ok, what):
+    if not ok:
+        problems.append(what)
+
+
+def plane(name, size=0.5, loc=(0, 0, 0), uv=True):
+    o = in_blender.new_plane(name)
+    o.scale, o.location = (size, size, 1), loc
+    if uv:
+        layer = o.data.uv_layers.new(name="UVMap")
+        for loop, c in zip(layer.data, ((0, 0), (1, 0), (1, 1), (0, 1))):
+            loop.uv = c
+    return o
+
+
+def pool():
+    g = plane("Ground", 1.5, (0, 0, -0.4))
+    g.data.materials.append(in_blender.node_material("GroundMat"))
+    w = plane("Water", 1.0, uv=False)
+    s = w.hydrobake_caustics
+    s.enabled, s.ground_object = True, g
+    s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
+    s.water.width, s.map_resolution = 16, 32
+    return w
+
+
+def glass(name="Glass", mat="GlassMat", loc=(3, 0, 1)):
+    o = plane(name, 0.5, loc)
+    if mat:
+        o.data.materials.append(bpy.data.materials.get(mat) or in_blender.node_material(mat))
+    s = o.hydrobake_rain
+    s.enabled, s.rain.cell_size = True, 0.05
+    s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
+    return o
+
+
+def bake(name, effect):
+    assert bpy.ops.hydrobake.bake(effect=effect, object_name=name) == {"FINISHED"}
+
+
+def free(name, effect):
+    try:
+        return bpy.ops.hydrobake.free_bake(effect=effect, object_name=name)
+    except RuntimeError as e:
+        problems.append(f"Free of {name} raised {str(e).splitlines()[-1]}")
+
+
+def tagged(m):
+    return [n.get("hydrobake") for n in m.node_tree.nodes if n.get("hydrobake")] \
+        if m.node_tree else []
+
+
+def state(m):
+    """What Free Bake must give back: nodes, links, the shader's values, the custom props."""
+    bsdf = next((n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    return (m.use_nodes, sorted(n.name for n in m.node_tree.nodes), len(m.node_tree.links),
+            tuple(round(bsdf.inputs[k].default_value, 6) for k in
+                  ("Roughness", "IOR", "Transmission")) if bsdf else None,
+            sorted(k for k in m.keys() if k.startswith("hydrobake") and
+                   k != "hydrobake_snow"))  # the settings of a material snow reads
+
+
+def slots():
+    return {o.name: [s.material.name if s.material else None for s in o.material_slots]
+            for o in bpy.data.objects if o.type == "MESH"}
+
+
+def clean():
+    """Nothing of any bake left: no tagged node, no HBK material or image with users, no
+    material copy."""
+    for m in bpy.data.materials:
+        check(not tagged(m), f"{m.name} keeps wiring {tagged(m)}")
+        check(not m.name.startswith("HBK"), f"{m.name} left ({m.users} users)")
+        check("hydrobake_copy_of" not in m, f"copy {m.name} left ({m.users} users)")
+    for i in bpy.data.images:
+        if i.name.startswith("HBK") and i.users:
+            users = [u.name for u in bpy.data.user_map(subset=[i])[i]]
+            problems.append(f"image {i.name} keeps {i.users} users {users}")
+
+
+if case == "hidden":  # 1: a hidden object, and one in no view layer
+    w = pool()
+    g = glass(mat=None)
+    bake("Water", "caustics")
+    bake("Glass", "rain")
+    w.hide_viewport = True
+    for c in list(g.users_collection):
+        c.objects.unlink(g)
+    free("Water", "caustics")
+    free("Glass", "rain")
+    check(not w.hydrobake_caustics.is_baked and not g.hydrobake_rain.is_baked, "still baked")
+    check(slots() == {"Ground": ["GroundMat"], "Water": [], "Glass": []}, f"slots {slots()}")
+    clean()
+elif case == "slot_changed":  # 2: the baked material replaced in its slot, or its slot removed
+    g = glass()
+    h = glass("Pane", "PaneMat", (5, 0, 1))
+    before = {n: state(bpy.data.materials[n]) for n in ("GlassMat", "PaneMat")}
+    bake("Glass", "rain")
+    bake("Pane", "rain")
+    g.material_slots[0].material = in_blender.node_material("Other")
+    h.data.materials.pop(index=0)
+    free("Glass", "rain")
+    free("Pane", "rain")
+    for name, was in before.items():
+        m = bpy.data.materials[name]
+        check(state(m) == was, f"{name} is {state(m)}, was {was}")
+    clean()
+elif case in ("copy_made", "copy_made_copy_first"):  # 5: a material the bake made, in a
+    g = glass(mat=None)                                 # Shift+D copy of the object
+    bake("Glass", "rain")
+    in_blender.duplicate(g)
+    for name in ("Glass", "Glass.001")[::1 if case == "copy_made" else -1]:
+        free(name, "rain")
+    check(slots() == {"Glass": [], "Glass.001": []}, f"slots {slots()}")
+    clean()
+elif case == "copy_made_rebaked":  # 5: ... the copy's own bake in a copy of the material
+    g = glass(mat=None)
+    bake("Glass", "rain")
+    in_blender.duplicate(g)
+    free("Glass.001", "rain")
+    bake("Glass.001", "rain")
+    check(slots()["Glass.001"] == ["HBK_Glass_glass (Glass.001)"], f"slots {slots()}")
+    free("Glass", "rain")
+    free("Glass.001", "rain")
+    check(slots() == {"Glass": [], "Glass.001": []}, f"slots {slots()}")
+    clean()
+elif case == "copy_made_swapped":  # 5: ... taken out of the copy's slot before its Free
+    g = glass(mat=None)
+    bake("Glass", "rain")
+    in_blender.duplicate(g)
+    free("Glass", "rain")
+    bpy.data.objects["Glass.001"].material_slots[0].material = in_blender.node_material("M")
+    free("Glass.001", "rain")
+    check(slots() == {"Glass": [], "Glass.001": ["M"]}, f"slots {slots()}")
+    clean()
+elif case == "shared_two":  # 3: two objects sharing a material, both baked, both freed
+    a = glass()
+    b = glass("Glass B", "GlassMat", (5, 0, 1))
+    before = state(bpy.data.materials["GlassMat"])
+    bake("Glass", "rain")
+    bake("Glass B", "rain")
+    free("Glass", "rain")
+    free("Glass B", "rain")
+    check(slots() == {"Glass": ["GlassMat"], "Glass B": ["GlassMat"]}, f"slots {slots()}")
+    check(state(bpy.data.materials["GlassMat"]) == before, "GlassMat changed")
+    clean()
+elif case == "copy_rebake":  # 3: a Shift+D copy, the original re-baked, both freed
+    g = glass()
+    before = state(bpy.data.materials["GlassMat"])
+    bake("Glass", "rain")
+    in_blender.duplicate(g)
+    bake("Glass", "rain")
+    free("Glass", "rain")
+    free("Glass.001", "rain")
+    check(slots() == {"Glass": ["GlassMat"], "Glass.001": ["GlassMat"]}, f"slots {slots()}")
+    check(state(bpy.data.materials["GlassMat"]) == before, "GlassMat changed")
+    clean()
+elif case == "copy_free_rebake":  # 4: copy freed, the original re-baked and freed
+    o = plane("Snowy", 0.5, (-3, 0, 0))
+    o.data.materials.append(in_blender.node_material("SnowyMat"))
+    in_blender.snow(o, (1, 3), 40.0, 16)
+    before = state(bpy.data.materials["SnowyMat"])
+    bake("Snowy", "snow")
+    in_blender.duplicate(o)
+    free("Snowy.001", "snow")
+    bake("Snowy", "snow")
+    free("Snowy", "snow")
+    check(not any(x.hydrobake_snow.is_baked for x in bpy.data.objects), "still baked")
+    check(slots() == {"Snowy": ["SnowyMat"], "Snowy.001": ["SnowyMat"]}, f"slots {slots()}")
+    check(state(bpy.data.materials["SnowyMat"]) == before,
+          f"SnowyMat is {state(bpy.data.materials['SnowyMat'])}, was {before}")
+    clean()
+else:
+    raise SystemExit(f"no case {case}")
+print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -1,0 +1,1019 @@
+"""A randomized, seeded "monkey" test of the real addon in ``blender -b``: random sequences of
+what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel + Resume,
+re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots, modifiers,
+visibility, save and reopen, undo, the command line in-process and in a subprocess), with the
+invariants checked after every step:
+
+* no Python exception but the addon's clear refusals (ValueError / RuntimeError naming an
+  object or a setting), no traceback printed;
+* every object whose settings say is_baked has a folder with a valid, complete or resumable
+  manifest whose listed files (frames and checkpoints) exist and match their SHA-256, and
+  nothing else but the manifest in it (no temporaries, no lock, no unlisted frame);
+* no bake folder on disk that no object records, unless it was freed on purpose (a
+  superseded folder of a renamed object waits for the save; a deleted object's stays);
+* whenever nothing is baked: every object and material is as it was before its first bake
+  (material per slot, the material's node count, links and shader values, modifiers,
+  visibility, Hydrobake's custom properties), no node tagged by Hydrobake, no HBK_* object,
+  material, image or modifier is left;
+* at the end the scene renders a frame in Cycles (32 x 32 px, 1 sample, no denoiser).
+
+    blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
+        [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked]
+        [--no-subprocess] [--no-render] [--known] [--trace]
+
+--known goes on past the violations already reported (KNOWN below), to find others; --trace
+prints every object's state after each step. Prints ``MONKEY OK seed=S steps=N`` on success, else ``MONKEY FAIL seed=S step=K kind=...``
+with the violation; the action log (replayable with --replay) is written to
+TMPDIR/actions.json either way."""
+import argparse
+import contextlib
+import io
+import json
+import os
+import random
+import subprocess
+import sys
+import traceback
+
+import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import in_blender  # noqa: E402
+
+in_blender.enable()
+from hydrobake.blender import cli, jobs, paths  # noqa: E402
+from hydrobake.core import errors  # noqa: E402
+from hydrobake.core.bake.cache import BakeCache, file_checksum  # noqa: E402
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
+BATCH = os.path.join(ROOT, "build", "hydrobake-batch")
+EFFECTS = ("caustics", "rain", "snow", "fluid")
+SETTINGS_KEYS = {f"hydrobake_{e}" for e in EFFECTS} | {"hydrobake_fluid_paint"}
+REFUSALS = (ValueError, RuntimeError, KeyError, errors.HydrobakeError)
+
+
+# Violations already reported (--known masks them so that a run goes on to find others):
+# kind -> predicate on the offending item (a name, or the violation's detail).
+KNOWN = {
+    # A bake sent to another folder on purpose (the command line's --output) leaves the old
+    # one, by design; and a Shift+D copy that holds the original's record and re-bakes into
+    # its own folder after the original was freed leaves the original's (not fixed yet).
+    "orphan-folder": lambda m, item: os.path.realpath(item) in m.output_orphans or
+    m.folder_object(item) not in {o.name for o in bpy.data.objects} or
+    os.path.realpath(item).startswith(os.path.realpath(m.farm) + os.sep),
+}
+
+
+class Violation(Exception):
+    def __init__(self, kind, detail):
+        super().__init__(f"{kind}: {detail}")
+        self.kind, self.detail = kind, detail
+
+
+# --- output capture: a traceback printed by the addon is a bug even if nothing raises -------
+class Tee(io.TextIOBase):
+    def __init__(self, real):
+        self.real, self.buf = real, io.StringIO()
+
+    def write(self, s):
+        self.real.write(s)
+        self.buf.write(s)
+        return len(s)
+
+    def flush(self):
+        self.real.flush()
+
+
+@contextlib.contextmanager
+def captured():
+    out, err = Tee(sys.stdout), Tee(sys.stderr)
+    old = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = out, err
+    try:
+        yield out.buf, err.buf
+    finally:
+        sys.stdout, sys.stderr = old
+
+
+# --- the scene ------------------------------------------------------------------------------
+def uv_plane(name, size, loc):
+    obj = in_blender.new_plane(name)
+    obj.scale, obj.location = (size, size, 1.0), loc
+    uv = obj.data.uv_layers.new(name="UVMap")
+    for loop, c in zip(uv.data, ((0, 0), (1, 0), (1, 1), (0, 1))):
+        loop.uv = c
+    return obj
+
+
+def uv_cube(name, size, loc):
+    import bmesh
+    obj = in_blender.new_plane(name)
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0, calc_uvs=True)
+    bm.to_mesh(obj.data)
+    bm.free()
+    if not obj.data.uv_layers:
+        obj.data.uv_layers.new(name="UVMap")
+    obj.scale, obj.location = (size,) * 3, loc
+    return obj
+
+
+def user_material(name, nodes=True, transmission=None):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = nodes
+    if nodes and transmission is not None:
+        bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+        bsdf.inputs["Transmission"].default_value = transmission
+    return mat
+
+
+def setup_caustics(obj, ground):
+    s = obj.hydrobake_caustics
+    s.enabled, s.ground_object = True, ground
+    s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
+    s.water.width, s.map_resolution = 16, 32
+
+
+def setup_rain(obj):
+    s = obj.hydrobake_rain
+    s.enabled, s.rain.cell_size = True, 0.05
+    s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
+
+
+def setup_snow(obj, rng_or_tex):
+    in_blender.snow(obj, (1, 3), 40.0, rng_or_tex)
+
+
+def build_scene(seed, effects, tmp):
+    """The seed's small scene: the effects' objects, a camera and a sun. Deterministic."""
+    rng = random.Random(seed * 7919 + 1)
+    for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
+                 bpy.data.lights):
+        for block in list(coll):
+            coll.remove(block)
+    blend = os.path.join(tmp, "monkey.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 3
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (0.0, -9.0, 7.0), (0.9, 0.0, 0.0)
+    scene.camera = cam
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    scene.collection.objects.link(sun)
+    sun.rotation_euler = (0.3, 0.2, 0.0)
+    if "caustics" in effects:
+        ground = uv_plane("Ground", 1.5, (0, 0, -0.4))
+        ground.data.materials.append(user_material("GroundMat"))
+        water = in_blender.new_plane("Water")
+        if rng.random() < 0.5:
+            water.data.materials.append(user_material("WaterMat", nodes=rng.random() < 0.7))
+        setup_caustics(water, ground)
+    if "rain" in effects:
+        glass = uv_plane("Glass", 0.5, (3.0, 0.0, 1.0))
+        r = rng.random()
+        if r < 0.5:
+            glass.data.materials.append(user_material("GlassMat", transmission=1.0))
+        elif r < 0.75:
+            glass.data.materials.append(user_material("GlassMat", transmission=0.0))
+            glass.data.materials.append(user_material("FritMat"))
+        setup_rain(glass)
+    if "snow" in effects:
+        tex = rng.choice((16, 24, 32))
+        snowy = uv_cube("Snowy", 0.5, (-3.0, 0.0, 0.5)) if rng.random() < 0.5 else \
+            uv_plane("Snowy", 0.5, (-3.0, 0.0, 0.0))
+        if rng.random() < 0.6:
+            snowy.data.materials.append(user_material("SnowyMat", nodes=rng.random() < 0.8))
+        setup_snow(snowy, tex)
+    if "fluid" in effects:
+        domain, fill, s = in_blender.dam_break((24, 12, 12), textures=2, frames=(1, 2))
+        for o in (domain, fill):
+            o.location.y += 3.0
+    bpy.ops.wm.save_mainfile()
+    return blend
+
+
+# --- what the scene holds now --------------------------------------------------------------
+def scene_objects():
+    return sorted((o for o in bpy.data.objects if o.type == "MESH" and
+                   not o.name.startswith("HBK")), key=lambda o: o.name)
+
+
+def targets(effect=None):
+    """(object name, effect) pairs with the effect enabled."""
+    out = []
+    for o in scene_objects():
+        for e in EFFECTS:
+            if (effect is None or e == effect) and getattr(o, f"hydrobake_{e}").enabled:
+                out.append((o.name, e))
+    return out
+
+
+def baked_pairs():
+    return [(o.name, e) for o in bpy.data.objects for e in EFFECTS
+            if getattr(o, f"hydrobake_{e}").is_baked]
+
+
+def _round(v):
+    if isinstance(v, float):
+        return round(v, 4)
+    try:
+        return tuple(round(float(x), 4) for x in v)
+    except TypeError:
+        return v
+
+
+def mat_state(m):
+    st = {"use_nodes": m.use_nodes,
+          "props": sorted(k for k in m.keys() if k != "hydrobake_snow")}
+    if m.node_tree and m.use_nodes:  # nodes switched off: what they hold does not show
+        tree = m.node_tree
+        st["nodes"] = sorted(n.name for n in tree.nodes)
+        st["links"] = sorted(f"{l.from_node.name}.{l.from_socket.identifier}>"
+                             f"{l.to_node.name}.{l.to_socket.identifier}" for l in tree.links)
+        vals = {}
+        for n in tree.nodes:
+            if n.type in ("BSDF_PRINCIPLED", "BSDF_GLASS"):
+                for k in ("Transmission", "Roughness", "IOR", "Base Color"):
+                    if k in n.inputs:
+                        vals[f"{n.name}.{k}"] = _round(n.inputs[k].default_value)
+        st["values"] = vals
+    return st
+
+
+def obj_state(o):
+    return {
+        "slots": [(s.link, s.material.name if s.material else None) for s in o.material_slots],
+        "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
+        "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
+                "visible_shadow": o.visible_shadow, "display_type": o.display_type,
+                "hidden": o.hide_get()},
+        "props": sorted(k for k in o.keys() if k not in SETTINGS_KEYS),
+        "mesh": {"uv": sorted(l.name for l in o.data.uv_layers),
+                 "props": sorted(o.data.keys())} if o.type == "MESH" else None,
+    }
+
+
+class Monkey:
+    def __init__(self, seed, tmp, effects, subprocess_ok=True, delete_baked=False):
+        self.seed, self.tmp, self.effects = seed, tmp, effects
+        self.rng = random.Random(seed)
+        self.subprocess_ok, self.delete_baked = subprocess_ok, delete_baked
+        self.log = []
+        self.blend = None
+        self.farm = os.path.join(tmp, "farm")
+        self.abandoned = set()  # folders of baked objects deleted on purpose
+        self.used_names = set()
+        self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
+        self.copies = {}  # copy name -> name of the object it was copied from
+        self.counter = 0
+        self.undo_works = None
+        self.notes = []
+        self.mask_known = False
+        self.trace = False
+        self.had_bake = False
+        self.all_copies = set()
+        self.output_orphans = set()
+        self.known_seen = set()
+
+    # --- invariants -------------------------------------------------------------------------
+    def known(self, kind, item):
+        if self.mask_known and kind in KNOWN and KNOWN[kind](self, item):
+            if (kind, str(item)) not in self.known_seen:  # said once per item
+                self.known_seen.add((kind, str(item)))
+                print(f"MONKEY KNOWN {kind}: {item}", flush=True)
+            return True
+        return False
+
+    def check(self, where):
+        if jobs.ACTIVE:
+            raise Violation("active-job", f"jobs still ACTIVE after {where}: {list(jobs.ACTIVE)}")
+        recorded = set()
+        for o in bpy.data.objects:
+            for e in EFFECTS:
+                s = getattr(o, f"hydrobake_{e}", None)
+                if s is None or not s.is_baked:
+                    continue
+                folder = s.bake_folder
+                self.check_folder(o.name, e, folder)
+                recorded.add(os.path.realpath(folder))
+        allowed = {os.path.realpath(f) for f in self.abandoned}
+        for o in bpy.data.objects:
+            for e in EFFECTS:
+                s = getattr(o, f"hydrobake_{e}", None)
+                if s is not None and "superseded" in s:  # freed at the next save
+                    for folder, _name in json.loads(s["superseded"]):
+                        allowed.add(os.path.realpath(bpy.path.abspath(folder)))
+        for folder in self.bake_folders_on_disk():
+            real = os.path.realpath(folder)
+            if real not in recorded and real not in allowed and \
+                    not self.known("orphan-folder", folder):
+                raise Violation("orphan-folder",
+                                f"{folder} holds {sorted(os.listdir(folder))} and no object "
+                                "records it")
+        if baked_pairs():
+            self.had_bake = True
+        else:  # compared with the snapshot from before the bakes, then a new one
+            self.check_clean(compare=self.had_bake)
+            self.take_snapshot()
+            self.had_bake = False
+
+    def check_folder(self, name, effect, folder):
+        where = f"{name}/{effect} is_baked"
+        if not folder or not os.path.isdir(folder):
+            raise Violation("missing-folder", f"{where} but its folder {folder!r} is missing")
+        cache = BakeCache(folder)
+        try:
+            m = cache.read_manifest()
+        except ValueError as exc:
+            raise Violation("bad-manifest", f"{where}: {exc}")
+        if m is None or not m.get("frames"):
+            raise Violation("bad-manifest", f"{where}: no manifest or no frames in {folder}")
+        if m.get("effect") != effect:
+            raise Violation("bad-manifest", f"{where}: manifest of {m.get('effect')!r}")
+        frames = sorted(int(f) for f in m["frames"])
+        if frames != list(range(m["frame_start"], m["frame_start"] + len(frames))):
+            raise Violation("bad-manifest", f"{where}: frames {frames} not an unbroken run")
+        if m.get("complete") and frames[-1] != m["frame_end"]:
+            raise Violation("bad-manifest", f"{where}: complete but frames {frames}, "
+                                            f"frame_end {m['frame_end']}")
+        listed = {"manifest.json"}
+        for f, files in m["frames"].items():
+            for fn, digest in files.items():
+                listed.add(fn)
+                p = os.path.join(folder, fn)
+                if not os.path.isfile(p):
+                    raise Violation("missing-file", f"{where}: frame {f}: {fn} missing")
+                if file_checksum(p) != digest:
+                    raise Violation("bad-checksum", f"{where}: frame {f}: {fn} sha256 differs")
+        for f, c in m.get("checkpoints", {}).items():
+            listed.add(c["file"])
+            p = os.path.join(folder, c["file"])
+            if not os.path.isfile(p) or file_checksum(p) != c["sha256"]:
+                raise Violation("bad-checkpoint", f"{where}: checkpoint {f} missing or damaged")
+        extra = sorted(set(os.listdir(folder)) - listed)
+        if extra:
+            raise Violation("unlisted-files", f"{where}: {folder} also holds {extra}")
+
+    def bake_folder_roots(self):
+        roots = {self.farm}
+        for o in bpy.data.objects:
+            for e in EFFECTS:
+                s = getattr(o, f"hydrobake_{e}", None)
+                if s is not None:
+                    roots.add(bpy.path.abspath(s.cache_dir or "//hydrobake_cache/"))
+        return roots
+
+    def bake_folders_on_disk(self):
+        out = []
+        for root in self.bake_folder_roots():
+            if not os.path.isdir(root):
+                continue
+            for stem in sorted(os.listdir(root)):
+                top = os.path.join(root, stem)
+                if os.path.isdir(top):
+                    out += [os.path.join(top, leaf) for leaf in sorted(os.listdir(top))
+                            if os.path.isdir(os.path.join(top, leaf))]
+        return out
+
+    def check_clean(self, compare=True):
+        """Nothing is baked: nothing of Hydrobake's is left, and everything is as before."""
+        for m in bpy.data.materials:
+            if m.node_tree:
+                tagged = [n.name for n in m.node_tree.nodes if n.get("hydrobake")]
+                if tagged and not self.known("wiring-left", m):
+                    raise Violation("wiring-left", f"material {m.name!r} still has Hydrobake "
+                                                   f"nodes {tagged} with nothing baked")
+        for coll, what in ((bpy.data.materials, "material"), (bpy.data.images, "image"),
+                           (bpy.data.objects, "object")):
+            left = [(b.name, b.users) for b in coll if b.name.startswith("HBK")]
+            left = [x for x in left if not self.known(f"hbk-{what}-left", x)]
+            if left:
+                raise Violation(f"hbk-{what}-left", f"with nothing baked: {left}")
+        for o in bpy.data.objects:
+            mods = [m.name for m in o.modifiers if m.name.startswith("HBK")]
+            if mods:
+                raise Violation("hbk-modifier-left", f"{o.name}: {mods}")
+        if not compare:
+            return
+        for name, want in self.snap_objs.items():
+            o = bpy.data.objects.get(name)
+            if o is None:
+                continue
+            have = obj_state(o)
+            for aspect in want:
+                if (name, aspect) in self.dirty:
+                    continue
+                if have[aspect] != want[aspect] and \
+                        not self.known(f"object-{aspect}", (name, have[aspect], want[aspect])):
+                    raise Violation(f"object-{aspect}",
+                                    f"{name}: {aspect} {have[aspect]} after everything was "
+                                    f"freed, was {want[aspect]} before the bakes")
+        for name, want in self.snap_mats.items():
+            m = bpy.data.materials.get(name)
+            if m is None or ("mat", name) in self.dirty:
+                continue
+            have = mat_state(m)
+            if have != want and not self.known("material-state", m):
+                diff = {k: (have.get(k), want.get(k)) for k in set(have) | set(want)
+                        if have.get(k) != want.get(k)}
+                raise Violation("material-state",
+                                f"material {name!r} after everything was freed differs from "
+                                f"before the bakes: (now, before) {diff}")
+
+    def take_snapshot(self):
+        self.snap_objs = {o.name: obj_state(o) for o in scene_objects()}
+        self.snap_mats = {m.name: mat_state(m) for m in bpy.data.materials}
+        self.dirty = set()
+        self.copies = {}
+
+    @staticmethod
+    def folder_object(folder):
+        try:
+            return (BakeCache(folder).read_manifest() or {}).get("object")
+        except ValueError:
+            return None
+
+    def only_copies_use(self, mat_name):
+        users = [o.name for o in bpy.data.objects
+                 if any(s.material and s.material.name == mat_name for s in o.material_slots)]
+        return bool(users) and all(u in self.all_copies for u in users)
+
+    def touched(self, name, aspect):
+        """An artist's edit of ``name`` while something is baked: its before-state no longer
+        says what Free should give back."""
+        if baked_pairs():
+            self.dirty.add((name, aspect))
+
+    # --- running actions --------------------------------------------------------------------
+    def run_action(self, a):
+        op = a["op"]
+        fn = getattr(self, f"do_{op}")
+        with captured() as (out, err):
+            try:
+                result = fn(**{k: v for k, v in a.items() if k != "op"})
+            except (Violation, Skip):
+                raise
+            except REFUSALS as exc:
+                result = f"refused: {type(exc).__name__}: {exc}"
+                self.check_refusal(exc)
+            except Exception as exc:
+                raise Violation("exception", f"{type(exc).__name__}: {exc}\n"
+                                             f"{traceback.format_exc()}")
+        text = out.getvalue() + err.getvalue()
+        if "Traceback (most recent call last)" in text:
+            raise Violation("traceback-printed", text[text.index("Traceback"):][:3000])
+        return result
+
+    def check_refusal(self, exc):
+        msg = str(exc).strip()
+        names = {o.name for o in bpy.data.objects} | self.used_names
+        words = ("Save the .blend", "frame", "Free the bake", "cannot resume", "--", "setting",
+                 "folder", "effect", "preset", "needs", "Cell Size", "Sun", "Ground", "Wipers",
+                 "UV", "material", "texture")
+        if not msg or not (any(n and n in msg for n in names) or any(w in msg for w in words)):
+            raise Violation("unclear-refusal", f"{type(exc).__name__}: {msg!r}")
+
+    def obj(self, name):
+        o = bpy.data.objects.get(name)
+        if o is None:
+            raise Skip(f"no object {name}")
+        return o
+
+    def do_bake(self, name, effect, resume=False):
+        self.obj(name)
+        r = bpy.ops.hydrobake.bake(effect=effect, object_name=name, resume=resume)
+        return str(r)
+
+    def do_free(self, name, effect):
+        self.obj(name)
+        return str(bpy.ops.hydrobake.free_bake(effect=effect, object_name=name))
+
+    def do_free_all(self):
+        for name, effect in sorted(baked_pairs()):
+            if bpy.data.objects.get(name) is not None and \
+                    getattr(bpy.data.objects[name], f"hydrobake_{effect}").is_baked:
+                bpy.ops.hydrobake.free_bake(effect=effect, object_name=name)
+        return "ok"
+
+    def do_cancel(self, name, effect, after):
+        """A bake cancelled after ``after`` frames (0: before it began), as Esc does: the
+        runner's cancel from the bake's own thread once the frames are recorded."""
+        obj = self.obj(name)
+        if (name, effect) in jobs.ACTIVE:
+            raise Skip("running")
+        try:
+            job = jobs.Job(bpy.context, obj, effect)
+        except (errors.HydrobakeError, paths.CacheFolderError, KeyError, ValueError) as exc:
+            return f"refused: {exc}"  # what the operator reports
+        jobs.ACTIVE[job.key] = job
+
+        def on_frame(state):
+            if state.done >= after:
+                job.runner.cancel()
+        job.runner.on_frame = on_frame
+        if after == 0:
+            job.runner.cancel()
+        job.runner.start()
+        if not job.runner.join(600):
+            raise Violation("hang", f"{name}/{effect}: bake did not stop after cancel")
+        job.finalize(bpy.context)
+        s = job.runner.state
+        if s.status == "FAILED":
+            raise RuntimeError(f"{name} {effect}: {s.message}")
+        return f"{s.status} done={s.done}"
+
+    def do_set(self, name, effect, key, value):
+        obj = self.obj(name)
+        target = getattr(obj, f"hydrobake_{effect}")
+        *path, attr = key.split(".")
+        for p in path:
+            target = getattr(target, p)
+        if attr.endswith("_object"):
+            value = bpy.data.objects.get(value) if value else None
+        if attr == "texture_size":
+            target.texture_width = target.texture_height = value
+            return "ok"
+        if attr == "texture_scale0":
+            target.texture_scale[0] = value
+            return "ok"
+        setattr(target, attr, value)
+        return "ok"
+
+    def do_preset(self, name, effect, preset):
+        self.obj(name)
+        r = bpy.ops.hydrobake.apply_preset(effect=effect, object_name=name, preset=preset)
+        return str(r)
+
+    def do_copy(self, name):
+        obj = self.obj(name)
+        if not obj.visible_get():
+            raise Skip("hidden: cannot be selected")
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o == obj)
+        bpy.context.view_layer.objects.active = obj
+        assert bpy.ops.object.duplicate() == {"FINISHED"}
+        copy = bpy.context.view_layer.objects.active
+        self.all_copies.add(copy.name)
+        src = self.copies.get(name, name)
+        self.copies[copy.name] = src
+        if any(d[0] == src for d in self.dirty):
+            for d in list(self.dirty):
+                if d[0] == src:
+                    self.dirty.add((copy.name, d[1]))
+        return copy.name
+
+    def do_rename(self, name, new):
+        obj = self.obj(name)
+        self.used_names.add(name)
+        obj.name = new
+        new = obj.name  # Blender may have added .001
+        self.used_names.add(new)
+        for table in (self.snap_objs,):
+            if name in table:
+                table[new] = table.pop(name)
+        self.dirty = {(new if n == name else n, a) for n, a in self.dirty}
+        if name in self.all_copies:
+            self.all_copies.add(new)
+        self.copies = {(new if k == name else k): (new if v == name else v)
+                       for k, v in self.copies.items()}
+        return new
+
+    def do_delete(self, name):
+        obj = self.obj(name)
+        baked = [e for e in EFFECTS if getattr(obj, f"hydrobake_{e}").is_baked]
+        if baked and not self.delete_baked:
+            for e in baked:  # the artist frees it first
+                bpy.ops.hydrobake.free_bake(effect=e, object_name=name)
+        for e in EFFECTS:
+            s = getattr(obj, f"hydrobake_{e}")
+            if s.is_baked and not jobs.holders(s.bake_folder, e, but=obj):
+                self.abandoned.add(s.bake_folder)
+        if not obj.visible_get():
+            bpy.data.objects.remove(obj)
+            return "removed (hidden)"
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o == obj)
+        bpy.context.view_layer.objects.active = obj
+        assert bpy.ops.object.delete() == {"FINISHED"}
+        return "deleted"
+
+    def do_material(self, name, kind, slot, material, nodes=True):
+        obj = self.obj(name)
+        self.touched(name, "slots")
+        if kind == "add":
+            obj.active_material_index = max(0, len(obj.material_slots) - 1)
+            with bpy.context.temp_override(object=obj):
+                bpy.ops.object.material_slot_add()
+            slot = len(obj.material_slots) - 1
+            kind = "change"
+        if slot >= len(obj.material_slots):
+            raise Skip("no such slot")
+        if kind == "remove":
+            obj.active_material_index = slot
+            with bpy.context.temp_override(object=obj):
+                bpy.ops.object.material_slot_remove()
+            return "removed"
+        mat = None
+        if material:
+            mat = bpy.data.materials.get(material)
+            if mat is None:
+                mat = user_material(material, nodes=nodes)
+                if not baked_pairs():
+                    self.snap_mats[mat.name] = mat_state(mat)
+                else:  # made now: its before-state is this one
+                    self.snap_mats[mat.name] = mat_state(mat)
+        obj.material_slots[slot].material = mat
+        return "changed"
+
+    def do_modifier(self, name, kind, index=0, mtype="SOLIDIFY", attr="show_render"):
+        obj = self.obj(name)
+        self.touched(name, "mods")
+        if kind == "add":
+            mod = obj.modifiers.new(f"User {mtype.title()}", mtype)
+            if mtype == "SUBSURF":
+                mod.levels = mod.render_levels = 1
+            if mtype == "SOLIDIFY":
+                mod.thickness = 0.01
+            return mod.name
+        if index >= len(obj.modifiers):
+            raise Skip("no such modifier")
+        mod = obj.modifiers[index]
+        if kind == "remove":
+            obj.modifiers.remove(mod)
+            return "removed"
+        setattr(mod, attr, not getattr(mod, attr))
+        return "toggled"
+
+    def do_visibility(self, name, attr):
+        obj = self.obj(name)
+        self.touched(name, "vis")
+        if attr == "hide_set":
+            obj.hide_set(not obj.hide_get())
+        else:
+            setattr(obj, attr, not getattr(obj, attr))
+        return "toggled"
+
+    def do_frame(self, frame):
+        bpy.context.scene.frame_set(frame)
+        return "ok"
+
+    def do_save(self):
+        bpy.ops.wm.save_mainfile()
+        return "saved"
+
+    def do_reopen(self):
+        bpy.ops.wm.save_mainfile()
+        bpy.ops.wm.open_mainfile(filepath=self.blend)
+        return "reopened"
+
+    def do_undo(self):
+        if self.undo_works is False:
+            raise Skip("undo does not work in background")
+        try:
+            bpy.ops.ed.undo()
+        except RuntimeError as exc:
+            if "poll" in str(exc):
+                self.undo_works = False
+                raise Skip("undo does not work in background")
+            raise
+        self.undo_works = True
+        return "undone"
+
+    def cli_argv(self, command, name, effect, frames, output):
+        argv = [command]
+        if command == "list":
+            return argv
+        if name:
+            argv += ["--objects", name]
+        if effect:
+            argv += ["--effects", effect]
+        if command in ("bake", "resume") and frames:
+            argv += ["--frames", frames]
+        if command in ("bake", "resume") and output:
+            argv += ["--output", self.farm]
+        return argv
+
+    def do_cli(self, command, name=None, effect=None, frames=None, output=False, sub=False):
+        if name and bpy.data.objects.get(name) is None:
+            raise Skip(f"no object {name}")
+        argv = self.cli_argv(command, name, effect, frames, output)
+        if output and command == "bake":
+            for o in bpy.data.objects:
+                s = getattr(o, f"hydrobake_{effect}", None)
+                if s is not None and s.is_baked and (o.name == name or not name):
+                    self.output_orphans.add(os.path.realpath(s.bake_folder))
+        if sub:
+            if not self.subprocess_ok:
+                raise Skip("no subprocess")
+            bpy.ops.wm.save_mainfile()
+            r = subprocess.run([BATCH, self.blend, *argv], capture_output=True, text=True,
+                               timeout=900, env=dict(os.environ, PYTHONPATH=""))
+            code, text = r.returncode, r.stdout + r.stderr
+            bpy.ops.wm.open_mainfile(filepath=self.blend)
+        else:
+            err = io.StringIO()
+            real = sys.stderr
+            try:
+                sys.stderr = Tee(real)
+                err = sys.stderr.buf
+                try:
+                    cli.main(argv)
+                    code = 0
+                except SystemExit as exc:
+                    code = exc.code
+            finally:
+                sys.stderr = real
+            text = err.getvalue()
+        if "Traceback" in text:
+            raise Violation("traceback-printed", f"cli {argv}: {text[text.index('Traceback'):][:3000]}")
+        if code not in (0, 1):
+            raise Violation("cli-exit", f"cli {argv} exited {code}: {text[-2000:]}")
+        if code == 1:
+            lines = [l for l in text.splitlines() if l.startswith("hydrobake:") and
+                     ("failed:" in l or "error:" in l)]
+            if not lines:
+                raise Violation("cli-exit", f"cli {argv} exited 1 without saying why: "
+                                            f"{text[-2000:]}")
+            return f"exit 1: {lines[0]}"
+        return f"exit {code}"
+
+    # --- choosing actions -------------------------------------------------------------------
+    def setting_change(self, name, effect):
+        rng = self.rng
+        choices = {
+            "caustics": [("water.width", rng.choice((12, 16, 20))),
+                         ("map_resolution", rng.choice((24, 32, 48))),
+                         ("displace_surface", rng.random() < 0.5),
+                         ("projector", rng.random() < 0.5),
+                         ("loop", rng.random() < 0.3), ("loop_blend", 1),
+                         ("ground_object", rng.choice(["Ground", None] + [
+                             o.name for o in scene_objects()][:3])),
+                         ("frame_end", rng.choice((2, 3, 4)))],
+            "rain": [("rain.cell_size", rng.choice((0.04, 0.05, 0.0625))),
+                     ("substeps", rng.choice((1, 2))),
+                     ("frame_end", rng.choice((2, 3, 4)))],
+            "snow": [("flake_density", rng.choice((20.0, 40.0, 80.0))),
+                     ("texture_size", rng.choice((16, 24, 32))),
+                     ("use_displacement", rng.random() < 0.5),
+                     ("snow.contact_mode", rng.choice(("TRIANGLES", "BOX"))),
+                     ("write_flakes", rng.random() < 0.5),
+                     ("frame_end", rng.choice((2, 3, 4)))],
+            "fluid": [("fluid.substeps", rng.choice((2, 4))),
+                      ("texture_scale0", rng.choice((1.0, 2.0))),
+                      ("frame_end", rng.choice((2, 3)))],
+        }[effect]
+        key, value = rng.choice(choices)
+        if key == "texture_size":
+            key = "snow.texture_size"
+        if key == "texture_scale0":
+            key = "fluid.texture_scale0"
+        return {"op": "set", "name": name, "effect": effect, "key": key, "value": value}
+
+    def new_name(self, base):
+        self.counter += 1
+        r = self.rng.random()
+        if r < 0.15:
+            return f"{base}.A" if self.rng.random() < 0.5 else f"{base} A"
+        if r < 0.35 and self.used_names:
+            return self.rng.choice(sorted(self.used_names))  # an old name again
+        return f"{base}{self.counter}"
+
+    def choose(self):
+        """The next actions (a macro is a few an artist does in a row)."""
+        rng = self.rng
+        tg = targets()
+        objs = [o.name for o in scene_objects()]
+        if not tg:
+            return [{"op": "save"}]
+        name, effect = rng.choice(tg)
+        frames = getattr(bpy.data.objects[name], f"hydrobake_{effect}").frame_end
+        ops = [("bake", 14), ("free", 8), ("cancel", 8), ("resume", 4), ("rebake", 8),
+               ("copy", 6), ("rename", 6), ("delete", 2), ("material", 6), ("modifier", 5),
+               ("visibility", 4), ("save", 2), ("reopen", 3), ("undo", 1), ("cli", 6),
+               ("frame", 2), ("preset", 2), ("free_all", 2)]
+        op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
+        if op == "bake":
+            return [{"op": "bake", "name": name, "effect": effect}]
+        if op == "free":
+            return [{"op": "free", "name": name, "effect": effect}]
+        if op == "free_all":
+            return [{"op": "free_all"}]
+        if op == "cancel":
+            out = [{"op": "cancel", "name": name, "effect": effect,
+                    "after": rng.randint(0, max(0, frames - 1))}]
+            if rng.random() < 0.7:
+                out.append({"op": "bake", "name": name, "effect": effect, "resume": True})
+            return out
+        if op == "resume":
+            return [{"op": "bake", "name": name, "effect": effect, "resume": True}]
+        if op == "rebake":
+            out = [] if (rng.random() < 0.4) else [{"op": "free", "name": name,
+                                                     "effect": effect}]
+            return out + [self.setting_change(name, effect),
+                          {"op": "bake", "name": name, "effect": effect}]
+        if op == "copy":
+            out = [{"op": "copy", "name": name}]
+            # then bake or free the copy (its name is only known then) or the original
+            r = rng.random()
+            copy_name = self._predict_copy_name(name)
+            who = copy_name if r < 0.6 else name
+            out.append({"op": rng.choice(("bake", "free")), "name": who, "effect": effect})
+            return out
+        if op == "rename":
+            return [{"op": "rename", "name": name, "new": self.new_name(name.split(".")[0][:6])}]
+        if op == "delete":
+            return [{"op": "delete", "name": rng.choice(objs)}]
+        if op == "material":
+            who = rng.choice(objs)
+            nslots = len(bpy.data.objects[who].material_slots)
+            kind = rng.choice(("add", "change", "change", "remove"))
+            mats = sorted(m.name for m in bpy.data.materials if not m.name.startswith("HBK"))
+            self.counter += 1
+            material = rng.choice(mats + [f"UserMat{self.counter}"] * 2 + [None])
+            return [{"op": "material", "name": who, "kind": kind,
+                     "slot": rng.randint(0, max(0, nslots - 1)), "material": material,
+                     "nodes": rng.random() < 0.8}]
+        if op == "modifier":
+            who = rng.choice(objs)
+            n = len(bpy.data.objects[who].modifiers)
+            kind = rng.choice(("add", "toggle", "toggle", "remove")) if n else "add"
+            return [{"op": "modifier", "name": who, "kind": kind,
+                     "index": rng.randint(0, max(0, n - 1)),
+                     "mtype": rng.choice(("SOLIDIFY", "SUBSURF", "TRIANGULATE")),
+                     "attr": rng.choice(("show_render", "show_viewport"))}]
+        if op == "visibility":
+            attrs = ["hide_render", "visible_shadow", "hide_set", "hide_viewport"]
+            attr = rng.choice(attrs)
+            if attr == "hide_viewport" and self.mask_known:
+                # Known: Free Bake of an object disabled in viewports whose material the bake
+                # made fails in give_back (material_slot_remove: "Cannot edit hidden object").
+                attr = "hide_set"
+            return [{"op": "visibility", "name": rng.choice(objs), "attr": attr}]
+        if op == "frame":
+            return [{"op": "frame", "frame": rng.randint(0, 5)}]
+        if op == "preset":
+            presets = {"caustics": ["Calm Pool", "Rainy Pond", "Dispersive"],
+                       "rain": ["Drizzle", "Downpour", "Highway"],
+                       "snow": ["Wet Snow (+1 °C)", "Powder (-8 °C)"],
+                       "fluid": []}[effect]
+            if not presets:
+                return [{"op": "save"}]
+            out = [{"op": "preset", "name": name, "effect": effect,
+                    "preset": rng.choice(presets)}]
+            if effect == "snow":  # the presets' densities bake for minutes
+                out.append({"op": "set", "name": name, "effect": effect,
+                            "key": "flake_density", "value": 40.0})
+            return out
+        if op == "cli":
+            command = rng.choice(("bake", "bake", "free", "list", "resume"))
+            return [{"op": "cli", "command": command, "name": name, "effect": effect,
+                     "frames": rng.choice((None, "1-2")) if command == "bake" else None,
+                     "output": command == "bake" and rng.random() < 0.15,
+                     "sub": self.subprocess_ok and rng.random() < 0.3}]
+        return [{"op": op}]
+
+    @staticmethod
+    def _predict_copy_name(name):
+        """The name Shift+D will give the copy: the next free '<base>.NNN'."""
+        base = name.rsplit(".", 1)[0] if name[-4:-3] == "." and name[-3:].isdigit() else name
+        k = 1
+        while f"{base}.{k:03d}" in bpy.data.objects:
+            k += 1
+        return f"{base}.{k:03d}"
+
+    # --- the run -----------------------------------------------------------------------------
+    def start(self):
+        self.blend = build_scene(self.seed, self.effects, self.tmp)
+        self.check("setup")
+
+    def step(self, a, k):
+        self.log.append(dict(a))
+        try:
+            result = self.run_action(a)
+        except Skip as s:
+            result = f"skipped: {s}"
+        print(f"monkey: step {k}: {json.dumps(a)} -> {result}", flush=True)
+        if self.trace:
+            for o in scene_objects():
+                print(f"    {o.name}: {obj_state(o)} baked="
+                      f"{[e for e in EFFECTS if getattr(o, f'hydrobake_{e}').is_baked]}")
+            for mat in bpy.data.materials:
+                print(f"    mat {mat.name!r} users={mat.users} {dict(mat.items()) if 0 else sorted(mat.keys())}"
+                      f" tagged={[n.get('hydrobake') for n in mat.node_tree.nodes if n.get('hydrobake')] if mat.node_tree else None}")
+        self.check(f"step {k} {a['op']}")
+
+    def finish(self, render=True):
+        k = len(self.log)
+        if render:
+            self.step({"op": "render"}, k)
+        self.step({"op": "free_all"}, k + 1)
+        if baked_pairs():  # copies' records: freed in any order, every one goes
+            self.step({"op": "free_all"}, k + 2)
+        if baked_pairs():
+            raise Violation("cannot-free", f"still baked after Free on every record: "
+                                           f"{baked_pairs()}")
+        if render:
+            self.step({"op": "render"}, k + 3)
+
+    def do_render(self):
+        scene = bpy.context.scene
+        if scene.camera is None:
+            cams = [o for o in bpy.data.objects if o.type == "CAMERA"]
+            if not cams:
+                raise Skip("no camera")
+            scene.camera = cams[0]
+        scene.render.engine = "CYCLES"
+        scene.cycles.samples = 1
+        scene.cycles.use_denoising = False
+        scene.cycles.device = "CPU"
+        scene.render.resolution_x = scene.render.resolution_y = 32
+        scene.render.resolution_percentage = 100
+        out = os.path.join(self.tmp, "render.png")
+        if os.path.exists(out):
+            os.remove(out)
+        scene.render.filepath = out
+        bpy.ops.render.render(write_still=True)
+        if not os.path.isfile(out):
+            raise Violation("render", "Cycles wrote no image")
+        img = bpy.data.images.load(out)
+        size = tuple(img.size)
+        bpy.data.images.remove(img)
+        if size != (32, 32):
+            raise Violation("render", f"render is {size}")
+        return "rendered"
+
+
+class Skip(Exception):
+    pass
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("tmp")
+    p.add_argument("seed", type=int)
+    p.add_argument("--steps", type=int, default=20)
+    p.add_argument("--effects", default=None)
+    p.add_argument("--replay", default=None)
+    p.add_argument("--delete-baked", action="store_true")
+    p.add_argument("--no-subprocess", action="store_true")
+    p.add_argument("--no-render", action="store_true")
+    p.add_argument("--trace", action="store_true", help="print the objects after each step")
+    p.add_argument("--known", action="store_true",
+                   help="do not fail on the violations in KNOWN (already reported)")
+    args = p.parse_args(in_blender.args())
+    tmp = os.path.abspath(args.tmp)
+    os.makedirs(tmp, exist_ok=True)
+    replay = None
+    if args.replay:
+        with open(args.replay) as f:
+            replay = json.load(f)
+        effects = replay["effects"]
+    elif args.effects:
+        effects = args.effects.split(",")
+    else:
+        r = random.Random(args.seed * 31 + 7)
+        effects = [e for e in EFFECTS if r.random() < 0.6] or [r.choice(EFFECTS)]
+    effects = [e for e in EFFECTS if e in effects]
+    m = Monkey(args.seed, tmp, effects, subprocess_ok=not args.no_subprocess,
+               delete_baked=args.delete_baked or bool(replay and replay.get("delete_baked")))
+    m.mask_known = args.known
+    m.trace = args.trace
+    record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
+              "actions": m.log}
+    status = "OK"
+    try:
+        m.start()
+        if replay is not None:
+            actions = replay["actions"][:replay.get("main_steps", len(replay["actions"]))]
+            for k, a in enumerate(actions):
+                if a["op"] == "render" and args.no_render:
+                    continue
+                m.step(a, k)
+            record["main_steps"] = len(m.log)
+            if replay.get("finish", True):
+                m.finish(render=not args.no_render)
+        else:
+            k = 0
+            while k < args.steps:
+                for a in m.choose():
+                    m.step(a, k)
+                    k += 1
+            record["main_steps"] = len(m.log)
+            m.finish(render=not args.no_render)
+    except Violation as v:
+        status = "FAIL"
+        record["violation"] = {"kind": v.kind, "detail": v.detail, "step": len(m.log)}
+        print(f"MONKEY FAIL seed={args.seed} step={len(m.log)} kind={v.kind}\n{v.detail}",
+              flush=True)
+    with open(os.path.join(tmp, "actions.json"), "w") as f:
+        json.dump(record, f, indent=1)
+    if status == "OK":
+        print(f"MONKEY OK seed={args.seed} steps={len(m.log)} effects={','.join(effects)}",
+              flush=True)
+    sys.stdout.flush()
+    # Leave Blender at once: a bake's thread must never outlive the check.
+    os._exit(0 if status == "OK" else 1)
+
+
+main()

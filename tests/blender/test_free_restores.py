@@ -1,0 +1,15 @@
+"""Free Bake puts materials back as they were, whatever happened since the bake (the monkey
+test's findings): a hidden object or one in no view layer, a baked material taken out of its
+slot, a material the bake made shown by a Shift+D copy, shared materials and their copies."""
+import pytest
+
+CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_made_rebaked",
+         "copy_made_swapped", "shared_two", "copy_rebake", "copy_free_rebake")
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_free_restores(blender, tmp_path, case):
+    r = blender.run("free_restores.py", tmp_path, case, check=False)
+    assert f"FREE RESTORES {case} OK" in r.stdout, \
+        f"exit {r.returncode}\n--- stdout\n{r.stdout[-4000:]}\n--- stderr\n{r.stderr[-3000:]}"
+    assert r.returncode == 0

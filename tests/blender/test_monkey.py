@@ -1,0 +1,24 @@
+"""The randomized monkey test (scripts/monkey.py) for a few fixed seeds: random artist actions
+on small scenes of the effects (bake, free, cancel + resume, re-bakes with changed settings,
+Shift+D copies, renames, deletes, material slots, modifiers, visibility, save and reopen, the
+command line in-process and in a subprocess), with the bake folders, orphans, Free Bake's
+give-back and a final Cycles render checked after every step.
+
+To run another seed by hand (the action log lands in TMPDIR/actions.json and replays with
+--replay):
+    blender -b --factory-startup --python tests/blender/scripts/monkey.py -- TMPDIR SEED
+"""
+import pytest
+
+# Seeds that pass (each a few seconds); 1, 6, 18, 25 and 95 found bugs now fixed (Free of a
+# hidden object, wiring left in a material taken out of its slot, the fluid domain's view,
+# made materials in Shift+D copies). A seed that finds a new bug goes here once it is fixed.
+SEEDS = (2, 21, 53, 1, 6, 18, 25, 95)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_monkey_seed(blender, tmp_path, seed):
+    r = blender.run("monkey.py", tmp_path, seed, "--steps", 20, check=False, timeout=240)
+    assert f"MONKEY OK seed={seed}" in r.stdout, \
+        f"exit {r.returncode}\n--- stdout\n{r.stdout[-6000:]}\n--- stderr\n{r.stderr[-3000:]}"
+    assert r.returncode == 0
