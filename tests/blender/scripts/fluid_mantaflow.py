@@ -84,11 +84,12 @@ assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Tank") == {"FINI
 from hydrobake.blender import jobs  # noqa: E402
 job = jobs.Job(bpy.context, dom, "fluid")
 job.runner.effect.close()
-assert job.warnings == [], job.warnings
+assert not [w for w in job.warnings if w.startswith("Liquid Domain")], job.warnings
 d.use_mesh = False
 job = jobs.Job(bpy.context, dom, "fluid")
 job.runner.effect.close()
-assert len(job.warnings) == 1 and job.warnings[0].startswith(
+domain_said = [w for w in job.warnings if w.startswith("Liquid Domain")]
+assert len(domain_said) == 1 and domain_said[0].startswith(
     "Liquid Domain: Tank has Mesh off, so there is no liquid surface"), job.warnings
 d.use_mesh = True
 

@@ -532,11 +532,8 @@ class FluidBlender(BlenderEffect):
             bpy.data.objects.remove(vol)
             if data.users == 0:
                 bpy.data.volumes.remove(data)
-        prefix = f"HBK_{cls.baked_name(obj, settings)}"
-        for name in (f"{prefix}_textured", f"{prefix}_volume"):  # made for the bake
-            mat = bpy.data.materials.get(name)
-            if mat is not None and mat.users == 0:
-                bpy.data.materials.remove(mat)
+        # The textured materials stay, unused, for the session: a re-bake sampling the same
+        # textures takes them up again with the artist's edits (a save drops them if not).
         cls._show_again(obj, settings)
 
     @classmethod
