@@ -20,27 +20,9 @@ bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "liquid.blend"))
 scene = bpy.context.scene
 scene.frame_start, scene.frame_end = 1, 5
 scene.render.fps = 24
-bpy.ops.mesh.primitive_cube_add(size=2, location=(0, 0, 1))
-dom = bpy.context.active_object
-dom.name = "Tank"
-mod = dom.modifiers.new("Fluid", "FLUID")
-mod.fluid_type = "DOMAIN"
-d = mod.domain_settings
-d.domain_type = "LIQUID"
-d.resolution_max = 24
-d.use_mesh = True
-d.cache_directory = os.path.join(tmp, "manta")
-d.cache_frame_start, d.cache_frame_end = 1, 5
-d.cache_type = "ALL"
+dom, d, _flow = in_blender.liquid((0, 0, 1), 24, os.path.join(tmp, "manta"), 0.4, (0, 0, 1.3))
 d.time_scale = time_scale
-bpy.ops.mesh.primitive_uv_sphere_add(radius=0.4, location=(0, 0, 1.3))
-ball = bpy.context.active_object
-fm = ball.modifiers.new("Fluid", "FLUID")
-fm.fluid_type = "FLOW"
-fm.flow_settings.flow_type, fm.flow_settings.flow_behavior = "LIQUID", "GEOMETRY"
-with bpy.context.temp_override(object=dom, active_object=dom, scene=scene):
-    assert bpy.ops.fluid.bake_all() == {"FINISHED"}
-ball.hide_render = ball.hide_viewport = True
+in_blender.bake_liquid(dom)
 
 s = dom.hydrobake_fluid
 s.enabled = True

@@ -17,30 +17,12 @@ bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "turned.blend"))
 scene = bpy.context.scene
 scene.frame_start, scene.frame_end = 1, 5
 scene.render.fps = 24
-bpy.ops.mesh.primitive_cube_add(size=2, location=(3, 0, 1))
-dom = bpy.context.active_object
-dom.name = "Tank"
+dom, d, flow = in_blender.liquid((3, 0, 1), 20, "//manta", 0.3, (3, 0, 1.3))
 dom.rotation_euler = (0.0, 0.0, np.pi / 2)  # the domain's x is the world's +y
 dom.scale = (1.0, 0.5, 1.0)
-mod = dom.modifiers.new("Fluid", "FLUID")
-mod.fluid_type = "DOMAIN"
-d = mod.domain_settings
-d.domain_type = "LIQUID"
-d.resolution_max = 20
-d.use_mesh = True
-d.cache_directory = "//manta"
-d.cache_frame_start, d.cache_frame_end = 1, 5
-d.cache_type = "ALL"
-bpy.ops.mesh.primitive_uv_sphere_add(radius=0.3, location=(3, 0, 1.3))
-ball = bpy.context.active_object
-fm = ball.modifiers.new("Fluid", "FLUID")
-fm.fluid_type = "FLOW"
-fm.flow_settings.flow_type, fm.flow_settings.flow_behavior = "LIQUID", "GEOMETRY"
-fm.flow_settings.use_initial_velocity = True
-fm.flow_settings.velocity_coord = (2.0, 0.0, 0.0)  # Mantaflow's (the domain's) axes
-with bpy.context.temp_override(object=dom, active_object=dom, scene=scene):
-    assert bpy.ops.fluid.bake_all() == {"FINISHED"}
-ball.hide_render = ball.hide_viewport = True
+flow.use_initial_velocity = True
+flow.velocity_coord = (2.0, 0.0, 0.0)  # Mantaflow's (the domain's) axes
+in_blender.bake_liquid(dom)
 
 
 def liquid_centre(frame):

@@ -36,6 +36,37 @@ def uv_plane(name="Glass"):
     return obj
 
 
+def liquid(location, resolution, cache_directory, ball_radius, ball_location):
+    """A Mantaflow liquid domain "Tank" (a 2 m cube at ``location``, Mesh on, caching the
+    scene's frames) and a ball of liquid in it, not baked yet: (domain, its domain settings,
+    the ball's flow settings). bake_liquid() bakes it."""
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_cube_add(size=2, location=location)
+    dom = bpy.context.active_object
+    dom.name = "Tank"
+    mod = dom.modifiers.new("Fluid", "FLUID")
+    mod.fluid_type = "DOMAIN"
+    d = mod.domain_settings
+    d.domain_type, d.resolution_max, d.use_mesh = "LIQUID", resolution, True
+    d.cache_directory, d.cache_type = cache_directory, "ALL"
+    d.cache_frame_start, d.cache_frame_end = scene.frame_start, scene.frame_end
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=ball_radius, location=ball_location)
+    ball = bpy.context.active_object
+    fm = ball.modifiers.new("Fluid", "FLUID")
+    fm.fluid_type = "FLOW"
+    fm.flow_settings.flow_type, fm.flow_settings.flow_behavior = "LIQUID", "GEOMETRY"
+    return dom, d, fm.flow_settings
+
+
+def bake_liquid(dom):
+    """Bakes the liquid() scene with Blender's own operator and hides the ball."""
+    with bpy.context.temp_override(object=dom, active_object=dom, scene=bpy.context.scene):
+        assert bpy.ops.fluid.bake_all() == {"FINISHED"}
+    for o in bpy.data.objects:
+        if o != dom and any(m.type == "FLUID" for m in o.modifiers):
+            o.hide_render = o.hide_viewport = True
+
+
 def new_box(name, scale, location):
     """A unit cube scaled and placed (the fluid tests' domains and fills)."""
     import bmesh
