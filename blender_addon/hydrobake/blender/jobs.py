@@ -143,6 +143,7 @@ class Job:
         self.beffect = effects.get(effect_name)
         settings = settings_of(obj, effect_name)
         self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
+        self.override = folder_override
         if not (resume and settings.bake_folder and not folder_override):
             holder = name_holder(obj, effect_name, self.folder)
             if holder is not None:  # its files and wiring would be taken for this object's
@@ -184,6 +185,13 @@ class Job:
     def key(self):
         return (self.object_name, self.effect_name)
 
+    def _beside(self, folder):
+        """Whether ``folder`` is another object name's folder of this bake's cache (not an
+        --output or another Cache Folder's)."""
+        return self.override is None and _same_folder(
+            os.path.dirname(os.path.abspath(bpy.path.abspath(folder))),
+            os.path.dirname(self.folder))
+
     def target(self):
         """The object being baked: the one its token marks (renamed since, maybe; of a
         Shift+D copy and its original, the original), else the one still called by its name
@@ -218,14 +226,17 @@ class Job:
             old_name, old_folder = settings.get("baked_as", obj.name), settings.bake_folder
             if self.copy_of is not None:
                 pass  # the record was a copy of another object's bake: nothing of ours
-            elif old_name != obj.name:  # renamed: unwire the old
-                self.beffect.remove(context, obj, settings)
+            else:
+                if old_name != obj.name:  # renamed: unwire the old
+                    self.beffect.remove(context, obj, settings)
                 if settings.is_baked and old_folder and \
-                        not _same_folder(old_folder, self.folder):
-                    # Re-baked under the new name, the old bake is replaced as in place: freed
-                    # once this one is complete (resumed, if cancelled) and the file saved. A
-                    # bake sent elsewhere (--output) replaces nothing: both were asked for.
-                    supersede(settings, old_folder, old_name)
+                        not _same_folder(old_folder, self.folder) and \
+                        (old_name != obj.name or self._beside(old_folder)):
+                    # Re-baked under a new name (now or at a resume since, which kept the
+                    # old folder), the old bake is replaced as in place: freed once this one
+                    # is complete (resumed, if cancelled) and the file saved. A bake sent
+                    # elsewhere (--output, another Cache Folder) replaces nothing.
+                    supersede(settings, old_folder, _made_for(old_folder, old_name))
             # Relative to where the file is now: it may have been saved elsewhere meanwhile.
             recorded = bpy.path.relpath(self.folder) if self.recorded.startswith("//") and \
                 bpy.data.filepath else self.recorded
@@ -279,6 +290,15 @@ def _superseded(settings):
     if isinstance(value, str):
         return [tuple(p) for p in json.loads(value)]
     return [(str(value[0]), str(value[1]))]
+
+
+def _made_for(folder, name):
+    """The object name the bake in ``folder`` was made for (its manifest's), else ``name``."""
+    try:
+        m = BakeCache(bpy.path.abspath(folder)).read_manifest()
+    except ValueError:
+        m = None
+    return str(m.get("object", name)) if m else name
 
 
 def supersede(settings, folder, name):

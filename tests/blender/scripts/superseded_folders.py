@@ -48,6 +48,28 @@ assert os.path.isdir(first)  # not before the save
 save()
 assert not os.path.exists(first), "the replaced bake stayed on disk after the save"
 
+# Renamed, then resumed (the bake stays in the folder of the old name), then baked anew:
+# the new name's folder replaces the old name's.
+pane = in_blender.uv_plane("Pane")
+p = pane.hydrobake_rain
+p.enabled, p.use_scene_range, p.frame_start, p.frame_end = True, False, 1, 3
+p.rain.cell_size = 0.05
+job = jobs.Job(bpy.context, pane, "rain")
+job.runner.on_frame = lambda state: job.runner.cancel()
+try:
+    job.runner.run()
+except errors.Cancelled:
+    pass
+job.finalize(bpy.context)
+pane_first = os.path.realpath(bpy.path.abspath(p.bake_folder))
+pane.name = "Pane2"
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Pane2", resume=True) == {"FINISHED"}
+assert os.path.realpath(bpy.path.abspath(p.bake_folder)) == pane_first
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Pane2") == {"FINISHED"}
+assert os.path.realpath(bpy.path.abspath(p.bake_folder)) != pane_first
+save()
+assert not os.path.exists(pane_first), "the old name's folder stayed after a resume and re-bake"
+
 # Baked to another folder on purpose (--output, another Cache Folder): both stay.
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass2") == {"FINISHED"}
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass2") == {"FINISHED"}
