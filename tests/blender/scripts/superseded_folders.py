@@ -28,16 +28,20 @@ def save():
     bpy.ops.wm.save_mainfile()
 
 
+def bake_cancelled_after_one_frame(obj):
+    job = jobs.Job(bpy.context, obj, "rain")
+    job.runner.on_frame = lambda state: job.runner.cancel()
+    try:
+        job.runner.run()
+    except errors.Cancelled:
+        pass
+    job.finalize(bpy.context)
+
+
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
 first = folder()
 glass.name = "Glass2"
-job = jobs.Job(bpy.context, glass, "rain")
-job.runner.on_frame = lambda state: job.runner.cancel()
-try:
-    job.runner.run()
-except errors.Cancelled:
-    pass
-job.finalize(bpy.context)
+bake_cancelled_after_one_frame(glass)
 second = folder()
 assert second != first and jobs.bake_state(glass, "rain") == "PARTIAL"
 save()
@@ -54,13 +58,7 @@ pane = in_blender.uv_plane("Pane")
 p = pane.hydrobake_rain
 p.enabled, p.use_scene_range, p.frame_start, p.frame_end = True, False, 1, 3
 p.rain.cell_size = 0.05
-job = jobs.Job(bpy.context, pane, "rain")
-job.runner.on_frame = lambda state: job.runner.cancel()
-try:
-    job.runner.run()
-except errors.Cancelled:
-    pass
-job.finalize(bpy.context)
+bake_cancelled_after_one_frame(pane)
 pane_first = os.path.realpath(bpy.path.abspath(p.bake_folder))
 pane.name = "Pane2"
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Pane2", resume=True) == {"FINISHED"}
