@@ -1,8 +1,13 @@
 """Shared by the test scripts: enable the installed addon, read arguments."""
+import faulthandler
 import sys
 
 import addon_utils
 import bpy
+
+# A crash prints every thread's Python stack, the crashing one marked "Current thread", before
+# Blender's own handler (whose Python backtrace is that of whichever thread holds the GIL).
+faulthandler.enable(all_threads=True)
 
 
 def enable():
