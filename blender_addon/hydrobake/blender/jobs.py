@@ -322,22 +322,31 @@ def free_superseded():
             if SUPERSEDED not in settings:
                 continue
             if not settings.is_baked:
-                del settings[SUPERSEDED]  # freed since: the old bakes are no one's business
+                del settings[SUPERSEDED]  # a Shift+D copy's, freed since (free frees its own)
                 continue
             if bake_state(obj, effect_name) != "COMPLETE":
                 continue  # a cancelled re-bake replaces nothing yet: kept until it completes
-            pending = _superseded(settings)
-            del settings[SUPERSEDED]
-            for folder, name in pending:
-                if _same_folder(folder, settings.bake_folder) or holders(folder, effect_name):
-                    continue
-                cache = BakeCache(folder)
-                try:
-                    old = cache.read_manifest()
-                except ValueError:
-                    continue
-                if old and old.get("object") == name and old.get("effect") == effect_name:
-                    cache.free()
+            _free_replaced(settings, effect_name)
+
+
+def _free_replaced(settings, effect_name):
+    """Frees the bakes ``settings`` records as replaced (see supersede) and forgets them: each
+    only if made for that name and effect and recorded by no object now. Returns the files
+    removed."""
+    pending = _superseded(settings)
+    settings.pop(SUPERSEDED, None)
+    removed = []
+    for folder, name in pending:
+        if _same_folder(folder, settings.bake_folder) or holders(folder, effect_name):
+            continue
+        cache = BakeCache(folder)
+        try:
+            old = cache.read_manifest()
+        except ValueError:
+            continue
+        if old and old.get("object") == name and old.get("effect") == effect_name:
+            removed += cache.free()
+    return removed
 
 
 def bake_state(obj, effect_name):
@@ -388,7 +397,10 @@ def free(context, obj, effect_name):
         removed = cache.free()
     with contextlib.suppress(OSError):
         os.rmdir(cache.folder)  # only if empty: never remove what is not ours
-    return removed
+    # The bakes this one replaced under an older name, kept for the saved file until the next
+    # save: freed with it, as they would have been with a re-bake in place (left, nothing
+    # would free them once the object is deleted).
+    return removed + _free_replaced(settings, effect_name)
 
 
 def cancel_all(timeout=5.0):

@@ -391,6 +391,10 @@ class Monkey:
                 # unused, so that a re-bake in the session takes up the artist's edits
                 left = [x for x in left if not (x[0].endswith(("_textured", "_volume")) and
                                                 x[1] == 0)]
+            if what == "material":  # a deleted object's mesh stays, unused, until the save
+                orphans = [me for me in bpy.data.meshes if me.users == 0]
+                left = [x for x in left if x[1] == 0 or x[1] > sum(
+                    1 for me in orphans if bpy.data.materials[x[0]] in me.materials[:])]
             left = [x for x in left if not self.known(f"hbk-{what}-left", x)]
             if left:
                 raise Violation(f"hbk-{what}-left", f"with nothing baked: {left}")
@@ -593,6 +597,8 @@ class Monkey:
             s = getattr(obj, f"hydrobake_{e}")
             if s.is_baked and not jobs.holders(s.bake_folder, e, but=obj):
                 self.abandoned.add(s.bake_folder)
+                # and the bakes it replaced under older names, kept until the next save
+                self.abandoned.update(f for f, _ in jobs._superseded(s))
         if not obj.visible_get():
             bpy.data.objects.remove(obj)
             return "removed (hidden)"

@@ -1,8 +1,8 @@
 """A bake re-made in another folder replaces the old one, as a re-bake in place does: the old
 folder is freed when the new bake is complete and the file saved. A renamed glass whose
 re-bake was cancelled keeps its old bake (a partial bake replaces nothing yet) until the
-resumed re-bake completes. A bake sent to another folder on purpose (another Cache Folder,
---output) replaces nothing."""
+resumed re-bake completes. Free Bake frees the bakes the freed one replaced, saved or not. A
+bake sent to another folder on purpose (another Cache Folder, --output) replaces nothing."""
 import os
 
 import bpy
@@ -67,6 +67,37 @@ assert bpy.ops.hydrobake.bake(effect="rain", object_name="Pane2") == {"FINISHED"
 assert os.path.realpath(bpy.path.abspath(p.bake_folder)) != pane_first
 save()
 assert not os.path.exists(pane_first), "the old name's folder stayed after a resume and re-bake"
+
+# Renamed and re-baked, then freed before any save: the old name's bake, kept until the
+# save for the file on disk, goes with it (deleted after, nothing would have freed it).
+roof = in_blender.uv_plane("Roof")
+r = roof.hydrobake_rain
+r.enabled, r.use_scene_range, r.frame_start, r.frame_end = True, False, 1, 2
+r.rain.cell_size = 0.05
+save()
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof") == {"FINISHED"}
+roof_first = os.path.realpath(bpy.path.abspath(r.bake_folder))
+roof.name = "Roof2"
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof2") == {"FINISHED"}
+roof_second = os.path.realpath(bpy.path.abspath(r.bake_folder))
+assert roof_second != roof_first and os.path.isdir(roof_first)
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Roof2") == {"FINISHED"}
+assert not os.path.exists(roof_first) and not os.path.exists(roof_second), \
+    "Free Bake left the bake the freed one had replaced"
+assert "superseded" not in r.keys()
+# With a copy (Shift+D) holding the bake too, the first Free lets go of it and the last
+# frees it, and the one it replaced with it.
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof2") == {"FINISHED"}
+roof.name = "Roof3"
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof3") == {"FINISHED"}
+kept = os.path.realpath(bpy.path.abspath(r.bake_folder))
+twin = roof.copy()
+bpy.context.scene.collection.objects.link(twin)
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Roof3") == {"FINISHED"}
+assert os.path.isdir(kept) and os.path.isdir(roof_second), \
+    "Free Bake on one of two holders removed their bake or the one it replaced"
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name=twin.name) == {"FINISHED"}
+assert not os.path.exists(kept) and not os.path.exists(roof_second)
 
 # Baked to another folder on purpose (--output, another Cache Folder): both stay.
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass2") == {"FINISHED"}

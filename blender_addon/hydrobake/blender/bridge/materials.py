@@ -191,6 +191,8 @@ def own(obj, index, unwire):
         slot.link = "OBJECT"  # the mesh's slot would show it on every object of the mesh
         copy[LINK_WAS] = "DATA"
     slot.material = copy
+    if COPY_OF in mat and mat.users == 0:  # this object's copy from before a rename
+        bpy.data.materials.remove(mat)
     return copy
 
 
@@ -253,10 +255,11 @@ def restore(obj, prefix):
         if other != obj:
             for slot in other.material_slots:
                 _put_shared_back(slot, prefix)
-    # A made material taken out of its slot (and so out of the bake's reach) while the bake
-    # was wired, and now wired by no bake: nothing else uses it, it leaves the file.
-    for mat in [m for m in bpy.data.materials if MADE in m and m.users == 0 and
-                not _has_wiring(m) and SAVED not in m]:
+    # A made material (or a clean copy own() made) taken out of its slot, and so out of the
+    # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
+    # it, it leaves the file.
+    for mat in [m for m in bpy.data.materials if (MADE in m or COPY_OF in m) and
+                m.users == 0 and not _has_wiring(m) and SAVED not in m]:
         bpy.data.materials.remove(mat)
 
 
