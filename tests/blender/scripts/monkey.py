@@ -55,12 +55,10 @@ REFUSALS = (ValueError, RuntimeError, KeyError, errors.HydrobakeError)
 # Violations already reported (--known masks them so that a run goes on to find others):
 # kind -> predicate on the offending item (a name, or the violation's detail).
 KNOWN = {
-    # A bake sent to another folder on purpose (the command line's --output) leaves the old
-    # one, by design; and a Shift+D copy that holds the original's record and re-bakes into
-    # its own folder after the original was freed leaves the original's (not fixed yet).
-    "orphan-folder": lambda m, item: os.path.realpath(item) in m.output_orphans or
-    m.folder_object(item) not in {o.name for o in bpy.data.objects} or
-    os.path.realpath(item).startswith(os.path.realpath(m.farm) + os.sep),
+    # A Shift+D copy that holds the original's record and re-bakes into its own folder after
+    # the original was freed leaves the original's (not fixed yet).
+    "orphan-folder": lambda m, item: m.folder_object(item) not in {
+        o.name for o in bpy.data.objects},
 }
 
 
@@ -298,6 +296,11 @@ class Monkey:
                 self.check_folder(o.name, e, folder)
                 recorded.add(os.path.realpath(folder))
         allowed = {os.path.realpath(f) for f in self.abandoned}
+        # By design a bake sent to another folder on purpose (the command line's --output, all
+        # under the farm folder) replaces nothing and is replaced by nothing: the bake it took
+        # the record from stays, and so does it once the object bakes elsewhere again.
+        allowed |= self.output_orphans
+        farm = os.path.realpath(self.farm) + os.sep
         for o in bpy.data.objects:
             for e in EFFECTS:
                 s = getattr(o, f"hydrobake_{e}", None)
@@ -306,8 +309,8 @@ class Monkey:
                         allowed.add(os.path.realpath(bpy.path.abspath(folder)))
         for folder in self.bake_folders_on_disk():
             real = os.path.realpath(folder)
-            if real not in recorded and real not in allowed and \
-                    not self.known("orphan-folder", folder):
+            if real not in recorded and real not in allowed and not real.startswith(farm) \
+                    and not self.known("orphan-folder", folder):
                 raise Violation("orphan-folder",
                                 f"{folder} holds {sorted(os.listdir(folder))} and no object "
                                 "records it")
@@ -573,18 +576,18 @@ class Monkey:
 
     def do_rename(self, name, new):
         obj = self.obj(name)
+        before = {o.as_pointer(): o.name for o in bpy.data.objects}
         self.used_names.add(name)
         obj.name = new
         new = obj.name  # Blender may have added .001
         self.used_names.add(new)
-        for table in (self.snap_objs,):
-            if name in table:
-                table[new] = table.pop(name)
-        self.dirty = {(new if n == name else n, a) for n, a in self.dirty}
-        if name in self.all_copies:
-            self.all_copies.add(new)
-        self.copies = {(new if k == name else k): (new if v == name else v)
-                       for k, v in self.copies.items()}
+        # ... or given the name to this object and .001 to the one that had it (3.4 does).
+        moved = {before[o.as_pointer()]: o.name for o in bpy.data.objects
+                 if before.get(o.as_pointer(), o.name) != o.name}
+        self.snap_objs = {moved.get(k, k): v for k, v in self.snap_objs.items()}
+        self.dirty = {(moved.get(n, n), a) for n, a in self.dirty}
+        self.all_copies |= {moved[n] for n in self.all_copies if n in moved}
+        self.copies = {moved.get(k, k): moved.get(v, v) for k, v in self.copies.items()}
         return new
 
     def do_delete(self, name):

@@ -239,28 +239,42 @@ def restore(obj, prefix):
                 del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes
                 _drop_slot(obj, index)
             continue
-        if mat is not None and COPY_OF_MADE in mat and shared is None and \
-                not _has_wiring(mat):
-            # A copy of a material made for the object this one was copied from (Shift+D),
-            # gone with its bake: made for this one as much, it goes as that one went.
-            mat[MADE] = mat[COPY_OF_MADE]
-            _take_out(obj, mat)
-            if mat.users == 0:
-                bpy.data.materials.remove(mat)
-            else:
-                del mat[MADE]
+        if _copy_of_gone_made(mat):
+            _take_out_copy(obj, mat)
             continue
         _put_shared_back(slot, prefix)
     for other in bpy.data.objects:
         if other != obj:
-            for slot in other.material_slots:
-                _put_shared_back(slot, prefix)
+            for slot in list(other.material_slots):
+                mat = slot.material
+                if _copy_of_gone_made(mat) and mat.get(LINK_WAS) != "DATA":
+                    _take_out_copy(other, mat)  # its made one went with this Free
+                else:
+                    _put_shared_back(slot, prefix)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
     # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
     # it, it leaves the file.
     for mat in [m for m in bpy.data.materials if (MADE in m or COPY_OF in m) and
                 m.users == 0 and not _has_wiring(m) and SAVED not in m]:
         bpy.data.materials.remove(mat)
+
+
+def _copy_of_gone_made(mat):
+    """Whether ``mat`` is a clean copy own() made of a material made for another object,
+    which has gone with that object's bake."""
+    return mat is not None and COPY_OF_MADE in mat and COPY_OF in mat and \
+        bpy.data.materials.get(mat[COPY_OF]) is None and not _has_wiring(mat)
+
+
+def _take_out_copy(obj, mat):
+    """A copy of a material made for the object ``obj`` was copied from (Shift+D), the made
+    one gone with its bake: made for ``obj`` as much, it goes as that one went."""
+    mat[MADE] = mat[COPY_OF_MADE]
+    _take_out(obj, mat)
+    if mat.users == 0:
+        bpy.data.materials.remove(mat)
+    else:
+        del mat[MADE]
 
 
 def _put_shared_back(slot, prefix):

@@ -1,12 +1,13 @@
 """Evaluated meshes as numpy arrays: triangles, per-corner UVs, material slots."""
-import bpy
 import numpy as np
+
+from .depsgraph import evaluated as evaluated_depsgraph
 
 
 def triangles(obj, depsgraph=None, world=True, uv_name=None):
     """(positions (V, 3), triangles (T, 3), uvs (T, 3, 2) or None, material_index (T,)) of
     the evaluated object; positions in world space unless ``world`` is False."""
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    depsgraph = depsgraph or evaluated_depsgraph()
     ev = obj.evaluated_get(depsgraph)
     mesh = ev.to_mesh()
     try:

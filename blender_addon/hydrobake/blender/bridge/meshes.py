@@ -1,8 +1,9 @@
 """Meshes as height fields: ray casts against evaluated objects in world space."""
-import bpy
 import numpy as np
 from mathutils import Vector
 from mathutils.bvhtree import BVHTree
+
+from .depsgraph import evaluated as evaluated_depsgraph
 
 
 def world_bounds(obj):
@@ -30,7 +31,7 @@ def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=No
     Cell (i, j) has its centre at origin + R(angle) ((i + 0.5) cell, (j + 0.5) cell), R a turn
     about z (a grid turned with its object). DOWN: the topmost surface (ground); UP: the
     lowest surface (an object's underside). Rows are j."""
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    depsgraph = depsgraph or evaluated_depsgraph()
     tree = _world_tree(obj, depsgraph)
     lo, hi = world_bounds(obj)
     h, w = shape
@@ -82,7 +83,7 @@ def z_crossings(obj, xs, ys, z_lo, z_hi, depsgraph=None):
     """Where the evaluated surface of ``obj`` crosses each vertical line (x, y) for x in xs, y
     in ys, between z_lo and z_hi: (heights, counts (len(ys), len(xs))), heights line after line
     (y rows, then x), ascending within a line."""
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    depsgraph = depsgraph or evaluated_depsgraph()
     tree = _world_tree(obj, depsgraph)
     up = Vector((0.0, 0.0, 1.0))
     eps = 1e-6 * max(z_hi - z_lo, 1e-6)

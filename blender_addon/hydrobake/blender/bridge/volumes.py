@@ -3,6 +3,8 @@ import os
 
 import bpy
 
+from .depsgraph import evaluated as evaluated_depsgraph
+
 
 def load_volume_sequence(folder, stream, frame_start, frame_count, name, collection=None):
     """A Volume object reading ``<folder>/<stream>_####.vdb`` as a sequence (reused by name:
@@ -34,7 +36,7 @@ def load_volume_sequence(folder, stream, frame_start, frame_count, name, collect
 def grid_names(obj, depsgraph=None):
     """{grid name: data type} of a Volume object at the current frame. A sequence is read
     through the evaluated object: the original volume does not follow the frame."""
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    depsgraph = depsgraph or evaluated_depsgraph()
     vol = obj.evaluated_get(depsgraph).data
     vol.grids.load()
     if vol.grids.error_message:

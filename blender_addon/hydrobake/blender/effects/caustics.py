@@ -10,6 +10,7 @@ import numpy as np
 from mathutils import Vector
 
 from ..bridge import animation, images, materials, meshes
+from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
 from .base import BlenderEffect
 
@@ -136,7 +137,7 @@ class CausticsBlender(BlenderEffect):
         for mod in ours:
             mod.show_viewport = False
         try:
-            ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()) if ours else obj
+            ev = obj.evaluated_get(evaluated_depsgraph()) if ours else obj
             return np.array([tuple(obj.matrix_world @ Vector(c)) for c in ev.bound_box])
         finally:
             for mod in ours:
@@ -171,7 +172,7 @@ class CausticsBlender(BlenderEffect):
         grid = cls.grid(obj, params["water"]["width"])
         origin, cell, shape, level = grid.origin, grid.cell, grid.shape, grid.level
         params["water"].update(height=shape[0], cell_size=cell)
-        depsgraph = context.evaluated_depsgraph_get()
+        depsgraph = evaluated_depsgraph(context)
         if settings.ground_object:
             ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
                                            "DOWN", depsgraph, angle=grid.angle)
@@ -202,7 +203,7 @@ class CausticsBlender(BlenderEffect):
         footprints = {}
         if settings.disturber_object:
             def footprint(_f):
-                dg = context.evaluated_depsgraph_get()
+                dg = evaluated_depsgraph(context)
                 under = meshes.sample_heights(settings.disturber_object, origin, cell, shape,
                                               "UP", dg, angle=grid.angle)
                 # Only where the object crosses the surface: wholly under it, it moves no

@@ -9,6 +9,7 @@ from mathutils import Vector
 
 from ...core.rain import MAX_CELLS
 from ..bridge import animation, images, materials, mesh_data, uv_grid
+from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
 from .base import BlenderEffect, warn_uv_overlap
 
@@ -67,7 +68,7 @@ class RainBlender(BlenderEffect):
         for m in thick:
             m.show_viewport = False
         try:
-            pos, tris, uvs, _ = mesh_data.triangles(obj, context.evaluated_depsgraph_get())
+            pos, tris, uvs, _ = mesh_data.triangles(obj, evaluated_depsgraph(context))
         finally:
             for m in thick:
                 m.show_viewport = True

@@ -11,6 +11,7 @@ import numpy as np
 from mathutils import Vector
 
 from ..bridge import animation, frame_meshes, images, materials, mesh_data, points
+from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
 from .base import BlenderEffect, warn_uv_overlap
 
@@ -340,7 +341,7 @@ class SnowBlender(BlenderEffect):
     @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
-        dg = context.evaluated_depsgraph_get()
+        dg = evaluated_depsgraph(context)
         sp = params["snow"]
         box = _is_box(sp["contact_mode"])
         pos, tris, uvs, mi = mesh_data.triangles(obj, dg, world=False)
@@ -432,7 +433,7 @@ class SnowBlender(BlenderEffect):
         frame); normals turn by its inverse transpose (with a non-uniform scale, the matrix
         itself tilts them)."""
         m = np.asarray(matrix, np.float64)
-        pos, tris, _, mi = mesh_data.triangles(obj, context.evaluated_depsgraph_get(),
+        pos, tris, _, mi = mesh_data.triangles(obj, evaluated_depsgraph(context),
                                                world=False)
         world = pos @ m[:3, :3].T + m[:3, 3]
         mi = np.clip(mi, 0, slots - 1)  # as prepare clips them
