@@ -70,3 +70,8 @@ def test_free_that_cannot_unwire_keeps_the_files_and_record(blender, tmp_path):
 def test_a_bake_remade_in_another_folder_replaces_the_old_once_complete(blender, tmp_path):
     r = blender.run("superseded_folders.py", tmp_path)
     assert "SUPERSEDED FOLDERS OK" in r.stdout
+
+
+def test_evaluated_depsgraph_without_context_lookups(blender, tmp_path):
+    r = blender.run("depsgraph_evaluated.py", tmp_path)
+    assert "DEPSGRAPH EVALUATED OK" in r.stdout
