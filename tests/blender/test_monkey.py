@@ -35,3 +35,17 @@ def test_monkey_long_seed(blender, tmp_path, seed):
     assert f"MONKEY OK seed={seed}" in r.stdout, \
         f"exit {r.returncode}\n--- stdout\n{r.stdout[-6000:]}\n--- stderr\n{r.stderr[-3000:]}"
     assert r.returncode == 0
+
+
+# Baked objects deleted as they are, not freed first (--delete-baked): their folders stay, and
+# their materials keep the wiring, used by nothing once the file is saved.
+DELETE_BAKED = (82, 83)
+
+
+@pytest.mark.parametrize("seed", DELETE_BAKED)
+def test_monkey_delete_baked_seed(blender, tmp_path, seed):
+    r = blender.run("monkey.py", tmp_path, seed, "--steps", 40, "--delete-baked", check=False,
+                    timeout=300)
+    assert f"MONKEY OK seed={seed}" in r.stdout, \
+        f"exit {r.returncode}\n--- stdout\n{r.stdout[-6000:]}\n--- stderr\n{r.stderr[-3000:]}"
+    assert r.returncode == 0

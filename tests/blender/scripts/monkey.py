@@ -379,10 +379,24 @@ class Monkey:
                             if os.path.isdir(os.path.join(top, leaf))]
         return out
 
+    def only_orphans_hold(self, mat):
+        """Whether only meshes of deleted objects (unused until the save drops them) use
+        ``mat``: a baked object deleted (--delete-baked) leaves its wiring there, and once
+        the file is saved and opened again such a material is used by nothing."""
+        orphans = sum(1 for me in bpy.data.meshes if me.users == 0 and mat in me.materials[:])
+        return 0 < mat.users == orphans or (self.delete_baked and mat.users == 0)
+
+    def image_only_orphans_hold(self, img):
+        """Whether only materials that only deleted objects' meshes use show ``img``."""
+        nodes = [(m, n) for m in bpy.data.materials if m.node_tree
+                 for n in m.node_tree.nodes if getattr(n, "image", None) == img]
+        return bool(nodes) and img.users <= len(nodes) and all(
+            self.only_orphans_hold(m) for m, _n in nodes)
+
     def check_clean(self, compare=True):
         """Nothing is baked: nothing of Hydrobake's is left, and everything is as before."""
         for m in bpy.data.materials:
-            if m.node_tree:
+            if m.node_tree and not self.only_orphans_hold(m):
                 tagged = [n.name for n in m.node_tree.nodes if n.get("hydrobake")]
                 if tagged and not self.known("wiring-left", m):
                     raise Violation("wiring-left", f"material {m.name!r} still has Hydrobake "
@@ -395,9 +409,9 @@ class Monkey:
                 left = [x for x in left if not (x[0].endswith(("_textured", "_volume")) and
                                                 x[1] == 0)]
             if what == "material":  # a deleted object's mesh stays, unused, until the save
-                orphans = [me for me in bpy.data.meshes if me.users == 0]
-                left = [x for x in left if x[1] == 0 or x[1] > sum(
-                    1 for me in orphans if bpy.data.materials[x[0]] in me.materials[:])]
+                left = [x for x in left if not self.only_orphans_hold(bpy.data.materials[x[0]])]
+            if what == "image":
+                left = [x for x in left if not self.image_only_orphans_hold(bpy.data.images[x[0]])]
             left = [x for x in left if not self.known(f"hbk-{what}-left", x)]
             if left:
                 raise Violation(f"hbk-{what}-left", f"with nothing baked: {left}")
@@ -422,8 +436,8 @@ class Monkey:
                                     f"freed, was {want[aspect]} before the bakes")
         for name, want in self.snap_mats.items():
             m = bpy.data.materials.get(name)
-            if m is None or ("mat", name) in self.dirty:
-                continue
+            if m is None or ("mat", name) in self.dirty or self.only_orphans_hold(m):
+                continue  # (a deleted baked object's material keeps its bake, unused)
             have = mat_state(m)
             if have != want and not self.known("material-state", m):
                 diff = {k: (have.get(k), want.get(k)) for k in set(have) | set(want)
