@@ -189,6 +189,19 @@ elif case == "copy_free_rebake":  # 4: copy freed, the original re-baked and fre
     check(state(bpy.data.materials["SnowyMat"]) == before,
           f"SnowyMat is {state(bpy.data.materials['SnowyMat'])}, was {before}")
     clean()
+elif case == "shared_nodeless":  # 6: a shared material that never had nodes, one baked
+    plain = bpy.data.materials.new("Plain")  # no node tree until nodes are turned on
+    for name, x in (("Snowy", -3), ("Snowy B", -5)):
+        o = plane(name, 0.5, (x, 0, 0))
+        o.data.materials.append(plain)
+    in_blender.snow(bpy.data.objects["Snowy"], (1, 3), 40.0, 16)
+    bake("Snowy", "snow")
+    check(slots() == {"Snowy": ["Plain (Snowy)"], "Snowy B": ["Plain"]}, f"slots {slots()}")
+    check(tagged(bpy.data.materials["Plain (Snowy)"]), "the copy is not wired")
+    free("Snowy", "snow")
+    check(slots() == {"Snowy": ["Plain"], "Snowy B": ["Plain"]}, f"slots {slots()}")
+    check(not plain.use_nodes and plain.node_tree is None, "Plain got nodes")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

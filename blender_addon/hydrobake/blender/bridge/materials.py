@@ -186,7 +186,8 @@ def own(obj, index, unwire):
     for key in (MADE, NODES_WERE_OFF):  # the original's record, not the copy's
         if key in copy:
             del copy[key]
-    unwire(copy.node_tree)  # another object's, if the shared material had it
+    if copy.node_tree:  # (a material without nodes holds no wiring)
+        unwire(copy.node_tree)  # another object's, if the shared material had it
     if slot.link == "DATA" and obj.data.users > 1:
         slot.link = "OBJECT"  # the mesh's slot would show it on every object of the mesh
         copy[LINK_WAS] = "DATA"
