@@ -928,6 +928,11 @@ class Monkey:
             for mat in bpy.data.materials:
                 print(f"    mat {mat.name!r} users={mat.users} {dict(mat.items()) if 0 else sorted(mat.keys())}"
                       f" tagged={[n.get('hydrobake') for n in mat.node_tree.nodes if n.get('hydrobake')] if mat.node_tree else None}")
+            for img in bpy.data.images:
+                if img.name.startswith("HBK"):
+                    shown = [m.name for m in bpy.data.materials if m.node_tree and any(
+                        getattr(n, "image", None) == img for n in m.node_tree.nodes)]
+                    print(f"    image {img.name!r} users={img.users} in {shown}")
         self.check(f"step {k} {a['op']}")
 
     def finish(self, render=True):

@@ -309,6 +309,8 @@ def add_node(node_tree, bl_idname, role, location=(0, 0), label=None, owner=None
     """Adds (or reuses) a node tagged with ``role``; ``owner`` names the object it is for,
     where one tree takes several objects' bakes (a floor under two pools)."""
     node = tagged(node_tree, role, owner)
+    if getattr(node, "image", None) is not None:  # given the new bake's image next
+        _let_go_of_image(node)
     if node is None or node.bl_idname != bl_idname:
         if node is not None:
             node_tree.nodes.remove(node)
@@ -324,12 +326,24 @@ def add_node(node_tree, bl_idname, role, location=(0, 0), label=None, owner=None
 
 def remove_tagged(node_tree, prefix="", owner=ANY):
     """Removes every Hydrobake node whose role starts with ``prefix`` (added for ``owner``
-    only, if given: None for nodes added for no one); returns the count."""
+    only, if given: None for nodes added for no one), and a baked image one of them showed
+    that nothing shows any more (a deleted object's, whose wiring another bake replaced);
+    returns the count."""
     gone = [n for n in node_tree.nodes if isinstance(n.get(TAG), str) and
             n[TAG].startswith(prefix) and (owner is ANY or n.get(OWNER) == owner)]
     for n in gone:
+        if getattr(n, "image", None) is not None:
+            _let_go_of_image(n)
         node_tree.nodes.remove(n)
     return len(gone)
+
+
+def _let_go_of_image(node):
+    """Takes the image out of our image node, and removes it if it is a baked one nothing
+    shows any more (a deleted object's, whose wiring another object's bake replaced)."""
+    img, node.image = node.image, None
+    if img.name.startswith("HBK_") and img.users == 0:
+        bpy.data.images.remove(img)
 
 
 def principled(node_tree):
