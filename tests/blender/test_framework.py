@@ -75,3 +75,8 @@ def test_a_bake_remade_in_another_folder_replaces_the_old_once_complete(blender,
 def test_evaluated_depsgraph_without_context_lookups(blender, tmp_path):
     r = blender.run("depsgraph_evaluated.py", tmp_path)
     assert "DEPSGRAPH EVALUATED OK" in r.stdout
+
+
+def test_a_deleted_pools_caustics_leave_the_floor(blender, tmp_path):
+    r = blender.run("deleted_pool.py", tmp_path)
+    assert "DELETED POOL OK" in r.stdout

@@ -387,11 +387,13 @@ class Monkey:
         return 0 < mat.users == orphans or (self.delete_baked and mat.users == 0)
 
     def image_only_orphans_hold(self, img):
-        """Whether only materials that only deleted objects' meshes use show ``img``."""
+        """Whether only materials that only deleted objects' meshes use show ``img`` (or,
+        after the file was saved and opened again, nothing)."""
         nodes = [(m, n) for m in bpy.data.materials if m.node_tree
                  for n in m.node_tree.nodes if getattr(n, "image", None) == img]
-        return bool(nodes) and img.users <= len(nodes) and all(
-            self.only_orphans_hold(m) for m, _n in nodes)
+        if not nodes:
+            return self.delete_baked and img.users == 0
+        return img.users <= len(nodes) and all(self.only_orphans_hold(m) for m, _n in nodes)
 
     def check_clean(self, compare=True):
         """Nothing is baked: nothing of Hydrobake's is left, and everything is as before."""
@@ -618,11 +620,13 @@ class Monkey:
                 self.abandoned.update(f for f, _ in jobs._superseded(s))
         if not obj.visible_get():
             bpy.data.objects.remove(obj)
+            bpy.context.view_layer.update()  # as the UI evaluates after every change
             return "removed (hidden)"
         for o in bpy.context.view_layer.objects:
             o.select_set(o == obj)
         bpy.context.view_layer.objects.active = obj
         assert bpy.ops.object.delete() == {"FINISHED"}
+        bpy.context.view_layer.update()
         return "deleted"
 
     def do_material(self, name, kind, slot, material, nodes=True):

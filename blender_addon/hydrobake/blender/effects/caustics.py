@@ -42,6 +42,9 @@ class Grid(namedtuple("Grid", "origin angle cell shape level")):
 OWN_MODIFIERS = ("HBK Subdivision", "HBK Displace")
 
 
+STREAM_IMAGES = ("view", "caustics", "surface", "height")  # HBK_<pool>_<stream>
+
+
 @register_effect
 class CausticsBlender(BlenderEffect):
     name = "caustics"
@@ -511,14 +514,54 @@ class CausticsBlender(BlenderEffect):
             del obj["hydrobake_shadow"]
 
     @classmethod
+    def forget_deleted(cls):
+        """Takes the floors' wiring of pools deleted while baked (not freed first) out of the
+        floors, with the pools' projector, grid and images: no object records those pools
+        now. Their files stay, as any deleted object's bake; undo brings pool and wiring
+        back together. Returns the pools' names."""
+        pools = {cls.baked_name(o, o.hydrobake_caustics) for o in bpy.data.objects
+                 if o.hydrobake_caustics.is_baked}
+        gone = {n.get(materials.OWNER) for m in bpy.data.materials if m.node_tree
+                for n in m.node_tree.nodes
+                if str(n.get(materials.TAG, "")).startswith("caustics.")} - pools - {None}
+        for pool in sorted(gone):
+            grounds = [o for o in bpy.data.objects if any(
+                s.material and s.material.node_tree and
+                materials.tagged(s.material.node_tree, "caustics.map", pool)
+                for s in o.material_slots)]
+            cls._unwire_floors(pool, grounds)
+            cls._remove_helpers(f"HBK_{pool}")
+            for stream in STREAM_IMAGES:  # those nothing shows any more
+                images.remove(f"HBK_{pool}_{stream}")
+        return gone
+
+    @staticmethod
+    def _remove_helpers(prefix):
+        """The pool's projector (and its light) and its grid object."""
+        for name in (f"{prefix}_projector", f"{prefix}_grid"):
+            if name in bpy.data.objects:
+                bpy.data.objects.remove(bpy.data.objects[name])
+        light = bpy.data.lights.get(f"{prefix}_projector")
+        if light is not None and light.users == 0:
+            bpy.data.lights.remove(light)
+
+    @classmethod
+    def register_extra(cls):
+        bpy.app.handlers.depsgraph_update_post.append(_after_deletes)
+        bpy.app.handlers.save_pre.append(_before_save)
+
+    @classmethod
+    def unregister_extra(cls):
+        for handlers, fn in ((bpy.app.handlers.depsgraph_update_post, _after_deletes),
+                             (bpy.app.handlers.save_pre, _before_save)):
+            if fn in handlers:
+                handlers.remove(fn)
+
+    @classmethod
     def remove(cls, context, obj, settings):
         pool = cls.baked_name(obj, settings)
         prefix = f"HBK_{pool}"
-        name = f"{prefix}_projector"
-        if name in bpy.data.objects:
-            bpy.data.objects.remove(bpy.data.objects[name])
-        if name in bpy.data.lights and bpy.data.lights[name].users == 0:
-            bpy.data.lights.remove(bpy.data.lights[name])
+        cls._remove_helpers(prefix)
         for name in ("HBK Displace", "HBK Subdivision"):
             mod = obj.modifiers.get(name)
             if mod is not None:
@@ -528,8 +571,6 @@ class CausticsBlender(BlenderEffect):
             bpy.data.textures.remove(height)
         if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):  # from older bakes
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
-        if f"{prefix}_grid" in bpy.data.objects:
-            bpy.data.objects.remove(bpy.data.objects[f"{prefix}_grid"])
         # The water's wiring wherever it is: in the pool's slots, and in materials taken out
         # of them since (or a shared one a re-bake made a copy of), known by its images.
         for mat in {s.material for s in obj.material_slots if s.material}:
@@ -546,7 +587,7 @@ class CausticsBlender(BlenderEffect):
         cls._unwire_floors(pool, grounds)
         settings.pop("wired_ground", None)
         cls._give_shadow_back(obj)
-        for stream in ("view", "caustics", "surface", "height"):
+        for stream in STREAM_IMAGES:
             images.remove(f"{prefix}_{stream}")
 
     @classmethod
@@ -560,3 +601,22 @@ class CausticsBlender(BlenderEffect):
         super().draw_settings(layout, settings)
 
 
+
+
+_objects_seen = [0]
+
+
+@bpy.app.handlers.persistent
+def _after_deletes(*_args):
+    """After an update that left fewer objects (a delete): a deleted pool's floor wiring
+    goes (CausticsBlender.forget_deleted). Counting is all the other updates cost."""
+    count = len(bpy.data.objects)
+    fewer, _objects_seen[0] = count < _objects_seen[0], count
+    if fewer:
+        CausticsBlender.forget_deleted()
+
+
+@bpy.app.handlers.persistent
+def _before_save(*_args):
+    """A script may delete a pool and save with no update between."""
+    CausticsBlender.forget_deleted()
