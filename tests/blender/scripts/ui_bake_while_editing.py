@@ -12,7 +12,8 @@ rain and the fluid at 32 x 16 x 16.
    frames baked before.
 4. The fluid cancelled with the panel's Cancel: frames kept, Resume offered, and it finishes.
 5. Undo after a bake: the bake is one undo step, its record and wiring undone and redone
-   together."""
+   together.
+6. A baked pool deleted: its caustics leave the floor, and undo and redo agree."""
 import os
 import time
 import traceback
@@ -250,6 +251,38 @@ def scenario():
         bpy.ops.ed.redo()
     check(hat_state() == (True, True), f"redoing the bake: {hat_state()}")
     print("PHASE 5 OK: undo and redo after a bake", flush=True)
+
+    # 6. A baked pool deleted (not freed): its caustics leave the floor; Ctrl+Z brings pool
+    # and caustics back, Ctrl+Shift+Z deletes it again.
+    floor = new_mesh(bpy.ops.mesh.primitive_plane_add, "Floor", size=4, location=(0, 14, -1))
+    floor.data.materials.append(in_blender.node_material("Tiles"))
+    pool = new_mesh(bpy.ops.mesh.primitive_plane_add, "Pool", size=2, location=(0, 14, 0))
+    c = pool.hydrobake_caustics
+    c.enabled, c.ground_object = True, floor
+    c.use_scene_range, c.frame_start, c.frame_end = False, 1, 2
+    c.water.width, c.map_resolution = 16, 32
+    check(invoke("caustics", "Pool") == {"RUNNING_MODAL"}, "pool bake did not start")
+    yield from wait(lambda: not jobs.ACTIVE, "the pool's bake")
+    yield 0.2
+
+    def floor_wired():
+        return any(n.get("hydrobake") for n in bpy.data.materials["Tiles"].node_tree.nodes)
+    check(floor_wired(), "the floor was not wired")
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o.name == "Pool")
+    check(bpy.ops.object.delete("EXEC_DEFAULT", True) == {"FINISHED"}, "delete")
+    yield 0.3  # the UI's update after the delete
+    check(not floor_wired() and "Pool" not in bpy.data.objects,
+          "the deleted pool's caustics stayed on the floor")
+    with window_context():
+        bpy.ops.ed.undo()
+    yield 0.3
+    check("Pool" in bpy.data.objects and floor_wired(), "undo did not bring the pool back")
+    with window_context():
+        bpy.ops.ed.redo()
+    yield 0.3
+    check("Pool" not in bpy.data.objects and not floor_wired(), "redo: the caustics came back")
+    print("PHASE 6 OK: a baked pool deleted, undone, redone", flush=True)
     print("UI BAKE WHILE EDITING OK", flush=True)
     os._exit(0)
 
