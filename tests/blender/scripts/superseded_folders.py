@@ -14,14 +14,21 @@ from hydrobake.blender import jobs  # noqa: E402
 from hydrobake.core import errors  # noqa: E402
 
 tmp = in_blender.empty_file("superseded.blend")
-glass = in_blender.uv_plane("Glass")
-s = glass.hydrobake_rain
-s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 3
-s.rain.cell_size = 0.05
 
 
-def folder():
-    return os.path.realpath(bpy.path.abspath(s.bake_folder))
+def rain_plane(name, frames=3):
+    obj = in_blender.uv_plane(name)
+    r = obj.hydrobake_rain
+    r.enabled, r.use_scene_range, r.frame_start, r.frame_end = True, False, 1, frames
+    r.rain.cell_size = 0.05
+    return obj, r
+
+
+def folder(settings=None):
+    return os.path.realpath(bpy.path.abspath((settings or s).bake_folder))
+
+
+glass, s = rain_plane("Glass")
 
 
 def save():
@@ -54,32 +61,26 @@ assert not os.path.exists(first), "the replaced bake stayed on disk after the sa
 
 # Renamed, then resumed (the bake stays in the folder of the old name), then baked anew:
 # the new name's folder replaces the old name's.
-pane = in_blender.uv_plane("Pane")
-p = pane.hydrobake_rain
-p.enabled, p.use_scene_range, p.frame_start, p.frame_end = True, False, 1, 3
-p.rain.cell_size = 0.05
+pane, p = rain_plane("Pane")
 bake_cancelled_after_one_frame(pane)
-pane_first = os.path.realpath(bpy.path.abspath(p.bake_folder))
+pane_first = folder(p)
 pane.name = "Pane2"
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Pane2", resume=True) == {"FINISHED"}
-assert os.path.realpath(bpy.path.abspath(p.bake_folder)) == pane_first
+assert folder(p) == pane_first
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Pane2") == {"FINISHED"}
-assert os.path.realpath(bpy.path.abspath(p.bake_folder)) != pane_first
+assert folder(p) != pane_first
 save()
 assert not os.path.exists(pane_first), "the old name's folder stayed after a resume and re-bake"
 
 # Renamed and re-baked, then freed before any save: the old name's bake, kept until the
 # save for the file on disk, goes with it (deleted after, nothing would have freed it).
-roof = in_blender.uv_plane("Roof")
-r = roof.hydrobake_rain
-r.enabled, r.use_scene_range, r.frame_start, r.frame_end = True, False, 1, 2
-r.rain.cell_size = 0.05
+roof, r = rain_plane("Roof", frames=2)
 save()
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof") == {"FINISHED"}
-roof_first = os.path.realpath(bpy.path.abspath(r.bake_folder))
+roof_first = folder(r)
 roof.name = "Roof2"
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof2") == {"FINISHED"}
-roof_second = os.path.realpath(bpy.path.abspath(r.bake_folder))
+roof_second = folder(r)
 assert roof_second != roof_first and os.path.isdir(roof_first)
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Roof2") == {"FINISHED"}
 assert not os.path.exists(roof_first) and not os.path.exists(roof_second), \
@@ -90,7 +91,7 @@ assert "superseded" not in r.keys()
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof2") == {"FINISHED"}
 roof.name = "Roof3"
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Roof3") == {"FINISHED"}
-kept = os.path.realpath(bpy.path.abspath(r.bake_folder))
+kept = folder(r)
 twin = roof.copy()
 bpy.context.scene.collection.objects.link(twin)
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Roof3") == {"FINISHED"}
