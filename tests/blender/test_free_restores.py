@@ -1,12 +1,12 @@
 """Free Bake puts materials back as they were, whatever happened since the bake (the monkey
 test's findings): a hidden object or one in no view layer, a baked material taken out of its
-slot, a material the bake made shown by a Shift+D copy, shared materials (one without nodes)
-and their copies."""
+slot, a material the bake made shown by a Shift+D copy, shared materials (one without nodes,
+one gone from the file before the Free) and their copies."""
 import pytest
 
 CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_made_rebaked",
          "copy_made_swapped", "shared_two", "copy_rebake", "copy_free_rebake",
-         "shared_nodeless")
+         "shared_nodeless", "shared_vanished")
 
 
 @pytest.mark.parametrize("case", CASES)

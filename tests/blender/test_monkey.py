@@ -17,8 +17,8 @@ SEEDS = (2, 21, 53, 1, 6, 18, 25, 95)
 # Longer runs of seeds whose orphan folders (a renamed object's bake resumed, then re-baked;
 # 49: a renamed copy re-baked, freed and deleted before a save) and material copies left
 # (49: a renamed copy's, re-baked; 30, 38: a copy of a made material in another object's
-# slot, its made one freed) are fixed.
-LONG = (9, 12, 49, 30, 38)
+# slot, its made one freed; 137: a copy whose shared material left the file) are fixed.
+LONG = (9, 12, 49, 30, 38, 137)
 
 
 @pytest.mark.parametrize("seed", SEEDS)

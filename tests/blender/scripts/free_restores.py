@@ -202,6 +202,21 @@ elif case == "shared_nodeless":  # 6: a shared material that never had nodes, on
     check(slots() == {"Snowy": ["Plain"], "Snowy B": ["Plain"]}, f"slots {slots()}")
     check(not plain.use_nodes and plain.node_tree is None, "Plain got nodes")
     clean()
+elif case == "shared_vanished":  # 7: the shared material left the file before the Free
+    for name, x in (("Snowy", -3), ("Snowy B", -5)):
+        o = plane(name, 0.5, (x, 0, 0))
+        o.data.materials.append(bpy.data.materials.get("Felt") or in_blender.node_material("Felt"))
+    in_blender.snow(bpy.data.objects["Snowy B"], (1, 3), 40.0, 16)
+    bake("Snowy B", "snow")  # Snowy shows Felt too: Snowy B gets its own copy
+    bpy.data.objects["Snowy"].material_slots[0].material = in_blender.node_material("Other")
+    bpy.ops.wm.save_mainfile()  # Felt, used by nothing, is not saved
+    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
+    check("Felt" not in bpy.data.materials, "Felt was saved")
+    free("Snowy B", "snow")
+    check(slots()["Snowy B"] == ["Felt"], f"slots {slots()}")
+    check(not any(k.startswith("hydrobake_copy") for k in bpy.data.materials["Felt"].keys()),
+          "Felt still says it is a copy")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -243,6 +243,14 @@ def restore(obj, prefix):
         if _copy_of_gone_made(mat):
             _take_out_copy(obj, mat)
             continue
+        if mat is not None and COPY_OF in mat and shared is None and COPY_OF_MADE not in mat \
+                and not _has_wiring(mat) and mat.get(LINK_WAS) != "DATA":
+            # The shared one left the file meanwhile (its slots changed, it had no user at a
+            # save): the clean copy becomes it again, and other copies of it go back to it.
+            mat.name = mat[COPY_OF]
+            for key in (COPY_OF, COPY_FOR):
+                del mat[key]
+            continue
         _put_shared_back(slot, prefix)
     for other in bpy.data.objects:
         if other != obj:
