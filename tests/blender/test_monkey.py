@@ -21,20 +21,22 @@ SEEDS = (2, 21, 53, 1, 6, 18, 25, 95)
 LONG = (9, 12, 49, 30, 38, 137)
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-def test_monkey_seed(blender, tmp_path, seed):
-    r = blender.run("monkey.py", tmp_path, seed, "--steps", 20, check=False, timeout=240)
+def run_seed(blender, tmp_path, seed, steps, *extra):
+    r = blender.run("monkey.py", tmp_path, seed, "--steps", steps, *extra, check=False,
+                    timeout=300)
     assert f"MONKEY OK seed={seed}" in r.stdout, \
         f"exit {r.returncode}\n--- stdout\n{r.stdout[-6000:]}\n--- stderr\n{r.stderr[-3000:]}"
     assert r.returncode == 0
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_monkey_seed(blender, tmp_path, seed):
+    run_seed(blender, tmp_path, seed, 20)
 
 
 @pytest.mark.parametrize("seed", LONG)
 def test_monkey_long_seed(blender, tmp_path, seed):
-    r = blender.run("monkey.py", tmp_path, seed, "--steps", 40, check=False, timeout=300)
-    assert f"MONKEY OK seed={seed}" in r.stdout, \
-        f"exit {r.returncode}\n--- stdout\n{r.stdout[-6000:]}\n--- stderr\n{r.stderr[-3000:]}"
-    assert r.returncode == 0
+    run_seed(blender, tmp_path, seed, 40)
 
 
 # Baked objects deleted as they are, not freed first (--delete-baked): their folders stay, and
@@ -46,8 +48,4 @@ DELETE_BAKED = (82, 83, 96, 91)
 
 @pytest.mark.parametrize("seed", DELETE_BAKED)
 def test_monkey_delete_baked_seed(blender, tmp_path, seed):
-    r = blender.run("monkey.py", tmp_path, seed, "--steps", 40, "--delete-baked", check=False,
-                    timeout=300)
-    assert f"MONKEY OK seed={seed}" in r.stdout, \
-        f"exit {r.returncode}\n--- stdout\n{r.stdout[-6000:]}\n--- stderr\n{r.stderr[-3000:]}"
-    assert r.returncode == 0
+    run_seed(blender, tmp_path, seed, 40, "--delete-baked")
