@@ -6,7 +6,7 @@ import pytest
 
 CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_made_rebaked",
          "copy_made_swapped", "shared_two", "copy_rebake", "copy_free_rebake",
-         "shared_nodeless", "shared_vanished")
+         "shared_nodeless", "shared_nodeless_pool", "shared_vanished")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -202,6 +202,18 @@ elif case == "shared_nodeless":  # 6: a shared material that never had nodes, on
     check(slots() == {"Snowy": ["Plain"], "Snowy B": ["Plain"]}, f"slots {slots()}")
     check(not plain.use_nodes and plain.node_tree is None, "Plain got nodes")
     clean()
+elif case == "shared_nodeless_pool":  # 8: ... the material of two pools (monkey seed 204)
+    w = pool()
+    plain = bpy.data.materials.new("Plain")
+    w.data.materials.append(plain)
+    in_blender.duplicate(w)
+    bake("Water", "caustics")
+    check(slots()["Water"] == ["Plain (Water)"], f"slots {slots()}")
+    check(not plain.use_nodes and plain.node_tree is None, "Bake turned Plain's nodes on")
+    free("Water", "caustics")
+    check(slots()["Water"] == ["Plain"] == slots()["Water.001"], f"slots {slots()}")
+    check(not plain.use_nodes and not plain.keys(), f"Plain keeps {list(plain.keys())}")
+    clean()
 elif case == "shared_vanished":  # 7: the shared material left the file before the Free
     for name, x in (("Snowy", -3), ("Snowy B", -5)):
         o = plane(name, 0.5, (x, 0, 0))

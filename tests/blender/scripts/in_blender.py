@@ -110,6 +110,7 @@ def snow(obj, frames, density, texture=64):
 def duplicate(obj):
     """Shift+D on ``obj`` alone, as the artist does it (the copy keeps every property, a bake
     record too); returns the copy."""
+    bpy.context.view_layer.update()  # objects just linked are not the view layer's before
     for o in bpy.context.view_layer.objects:
         o.select_set(o == obj)
     bpy.context.view_layer.objects.active = obj

@@ -12,9 +12,10 @@ SAVED = "hydrobake_saved"  # on a material: the values set_inputs replaced, by i
 NODES_WERE_OFF = "hydrobake_nodes_were_off"  # use_nodes() turned its nodes on
 
 
-def ensure_material(obj, name):
+def ensure_material(obj, name, nodes=True):
     """The material the object's first slot renders with (its mesh's or, linked to the
-    object, its own), or a new node material ``name`` given to it; with its nodes on."""
+    object, its own), or a new node material ``name`` given to it; with its nodes on, unless
+    ``nodes`` is False (a caller that gives the object its own copy first: own())."""
     # The mesh's list says whether there is a slot: the object's slots can lag behind it.
     has_slot = len(obj.data.materials) > 0 and len(obj.material_slots) > 0
     mat = obj.material_slots[0].material if has_slot else None
@@ -26,7 +27,8 @@ def ensure_material(obj, name):
         else:
             obj.data.materials.append(mat)
             mat[MADE] = "appended"
-    use_nodes(mat)
+    if nodes:
+        use_nodes(mat)
     return mat
 
 

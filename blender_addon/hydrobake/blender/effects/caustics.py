@@ -286,8 +286,10 @@ class CausticsBlender(BlenderEffect):
             settings["wired_ground"] = ground.name
         # The water: a clear refracting material with the baked surface normals (the pool's
         # own: another pool sharing the material has other normals).
-        materials.ensure_material(obj, f"HBK_{obj.name}_water")
+        # Nodes on in the pool's own copy only: the shared material stays as it was.
+        materials.ensure_material(obj, f"HBK_{obj.name}_water", nodes=False)
         mat = materials.own(obj, 0, lambda tree: materials.remove_tagged(tree, "caustics."))
+        materials.use_nodes(mat)
         tree = mat.node_tree
         bsdf = materials.principled(tree)
         if bsdf is not None:
