@@ -80,8 +80,3 @@ def test_evaluated_depsgraph_without_context_lookups(blender, tmp_path):
 def test_a_deleted_pools_caustics_leave_the_floor(blender, tmp_path):
     r = blender.run("deleted_pool.py", tmp_path)
     assert "DELETED POOL OK" in r.stdout
-
-
-def test_deleted_snow_and_rain_objects_leave_their_materials(blender, tmp_path):
-    r = blender.run("deleted_baked.py", tmp_path)
-    assert "DELETED BAKED OK" in r.stdout

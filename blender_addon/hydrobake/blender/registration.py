@@ -28,37 +28,6 @@ def _free_superseded_on_save(*_args):
     jobs.free_superseded()
 
 
-_objects_seen = [0]
-
-
-@bpy.app.handlers.persistent
-def _forget_deleted_after_update(*_args):
-    """After an update that left fewer objects (a delete): the wiring of bakes whose
-    objects were deleted goes (forget_deleted). Counting is all other updates cost."""
-    count = len(bpy.data.objects)
-    fewer, _objects_seen[0] = count < _objects_seen[0], count
-    if fewer:
-        _forget_deleted()
-
-
-@bpy.app.handlers.persistent
-def _forget_deleted_before_save(*_args):
-    """A script may delete a baked object and save with no update between."""
-    _forget_deleted()
-
-
-def _forget_deleted():
-    for beffect in effects.load_all().values():
-        beffect.forget_deleted()
-
-
-HANDLERS = ((bpy.app.handlers.load_pre, _cancel_on_load),
-            (bpy.app.handlers.load_post, _refresh_on_load),
-            (bpy.app.handlers.save_post, _free_superseded_on_save),
-            (bpy.app.handlers.depsgraph_update_post, _forget_deleted_after_update),
-            (bpy.app.handlers.save_pre, _forget_deleted_before_save))
-
-
 def register():
     classes, settings = [properties.HydrobakeSceneSettings, *operators.CLASSES], {}
     for name, beffect in effects.load_all().items():
@@ -76,16 +45,20 @@ def register():
         setattr(bpy.types.Object, f"hydrobake_{name}", bpy.props.PointerProperty(type=cls))
         _object_props.append(f"hydrobake_{name}")
         effects.BLENDER_EFFECTS[name].register_extra()
-    for handlers, fn in HANDLERS:
-        handlers.append(fn)
+    bpy.app.handlers.load_pre.append(_cancel_on_load)
+    bpy.app.handlers.load_post.append(_refresh_on_load)
+    bpy.app.handlers.save_post.append(_free_superseded_on_save)
 
 
 def unregister():
     from . import jobs
     jobs.cancel_all()
-    for handlers, fn in HANDLERS:
-        if fn in handlers:
-            handlers.remove(fn)
+    if _cancel_on_load in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.remove(_cancel_on_load)
+    if _refresh_on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_refresh_on_load)
+    if _free_superseded_on_save in bpy.app.handlers.save_post:
+        bpy.app.handlers.save_post.remove(_free_superseded_on_save)
     for attr in _object_props:
         delattr(bpy.types.Object, attr)
         effects.BLENDER_EFFECTS[attr[len("hydrobake_"):]].unregister_extra()

@@ -143,6 +143,15 @@ elif case == "copy_made_rebaked":  # 5: ... the copy's own bake in a copy of the
     free("Glass.001", "rain")
     check(slots() == {"Glass": [], "Glass.001": []}, f"slots {slots()}")
     clean()
+elif case == "copy_made_original_deleted":  # 5: ... the original deleted first (its mesh,
+    g = glass(mat=None)                         # used by nothing, still holds the material)
+    bake("Glass", "rain")
+    in_blender.duplicate(g)
+    bpy.data.objects.remove(g)
+    free("Glass.001", "rain")
+    check(slots() == {"Glass.001": []}, f"slots {slots()}")
+    check("HBK_Glass_glass" not in bpy.data.materials, "the made material stayed")
+    clean()
 elif case == "copy_made_swapped":  # 5: ... taken out of the copy's slot before its Free
     g = glass(mat=None)
     bake("Glass", "rain")

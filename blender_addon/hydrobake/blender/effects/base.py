@@ -1,8 +1,6 @@
 """The Blender half of an effect: scene inputs in, baked outputs wired back."""
 import warnings
 
-import bpy
-
 
 class BakeWarning(UserWarning):
     """What prepare can bake but the artist should hear of (an overlapping UV map): Job
@@ -83,32 +81,6 @@ class BlenderEffect:
     def baked_name(obj, settings):
         """The object's name when its bake was wired (jobs.finalize records it)."""
         return settings.get("baked_as") or obj.name
-
-    @classmethod
-    def wired_names(cls):
-        """The baked_names whose wiring (or helper objects) apply left in the file."""
-        return set()
-
-    @classmethod
-    def forget(cls, name):
-        """Undoes what ``apply`` left outside the object for the bake wired under ``name``,
-        whose object was deleted while baked (not freed first). Main thread."""
-
-    @classmethod
-    def forget_deleted(cls):
-        """Forgets the bakes wired in the file that no object records now: a deleted
-        object's wiring went on showing its bake in the material it left (reused, or shown
-        by another object) with no Free Bake to take it out. Their files stay, as any
-        deleted object's bake; undo brings object and wiring back together. Returns the
-        names."""
-        gone = cls.wired_names()
-        if gone:
-            attr = f"hydrobake_{cls.name}"
-            gone -= {cls.baked_name(o, getattr(o, attr)) for o in bpy.data.objects
-                     if getattr(o, attr).is_baked}
-        for name in sorted(gone):
-            cls.forget(name)
-        return gone
 
     @classmethod
     def derived(cls, settings):

@@ -516,30 +516,26 @@ class CausticsBlender(BlenderEffect):
             del obj["hydrobake_shadow"]
 
     @classmethod
-    def wired_names(cls):
-        """The pools the floors' nodes are for, and those whose surface a water shows."""
-        floors = {n.get(materials.OWNER) for m in bpy.data.materials if m.node_tree
-                  for n in m.node_tree.nodes
-                  if str(n.get(materials.TAG, "")).startswith("caustics.")} - {None}
-        return floors | materials.shown_bakes("caustics.", ("surface",))
-
-    @classmethod
-    def forget(cls, pool):
-        """The floors' wiring, the water's (in the material the pool left), the projector,
-        grid and images."""
-        grounds = [o for o in bpy.data.objects if any(
-            s.material and s.material.node_tree and
-            materials.tagged(s.material.node_tree, "caustics.map", pool)
-            for s in o.material_slots)]
-        cls._unwire_floors(pool, grounds)
-        materials.forget(pool, "caustics.", {f"HBK_{pool}_surface"},
-                         lambda tree: materials.remove_tagged(tree, "caustics.", owner=None))
-        cls._remove_helpers(f"HBK_{pool}")
-        height = bpy.data.textures.get(f"HBK_{pool}_height")  # the pool's Displace's
-        if height is not None and height.users == 0:
-            bpy.data.textures.remove(height)
-        for stream in STREAM_IMAGES:  # those nothing shows any more
-            images.remove(f"HBK_{pool}_{stream}")
+    def forget_deleted(cls):
+        """Takes the floors' wiring of pools deleted while baked (not freed first) out of the
+        floors, with the pools' projector, grid and images: no object records those pools
+        now. Their files stay, as any deleted object's bake; undo brings pool and wiring
+        back together. Returns the pools' names."""
+        pools = {cls.baked_name(o, o.hydrobake_caustics) for o in bpy.data.objects
+                 if o.hydrobake_caustics.is_baked}
+        gone = {n.get(materials.OWNER) for m in bpy.data.materials if m.node_tree
+                for n in m.node_tree.nodes
+                if str(n.get(materials.TAG, "")).startswith("caustics.")} - pools - {None}
+        for pool in sorted(gone):
+            grounds = [o for o in bpy.data.objects if any(
+                s.material and s.material.node_tree and
+                materials.tagged(s.material.node_tree, "caustics.map", pool)
+                for s in o.material_slots)]
+            cls._unwire_floors(pool, grounds)
+            cls._remove_helpers(f"HBK_{pool}")
+            for stream in STREAM_IMAGES:  # those nothing shows any more
+                images.remove(f"HBK_{pool}_{stream}")
+        return gone
 
     @staticmethod
     def _remove_helpers(prefix):
@@ -550,6 +546,18 @@ class CausticsBlender(BlenderEffect):
         light = bpy.data.lights.get(f"{prefix}_projector")
         if light is not None and light.users == 0:
             bpy.data.lights.remove(light)
+
+    @classmethod
+    def register_extra(cls):
+        bpy.app.handlers.depsgraph_update_post.append(_after_deletes)
+        bpy.app.handlers.save_pre.append(_before_save)
+
+    @classmethod
+    def unregister_extra(cls):
+        for handlers, fn in ((bpy.app.handlers.depsgraph_update_post, _after_deletes),
+                             (bpy.app.handlers.save_pre, _before_save)):
+            if fn in handlers:
+                handlers.remove(fn)
 
     @classmethod
     def remove(cls, context, obj, settings):
@@ -593,3 +601,24 @@ class CausticsBlender(BlenderEffect):
                      "projector_power", "preview_camera", "ground_texture", "environment"):
             col.prop(settings, name)
         super().draw_settings(layout, settings)
+
+
+
+
+_objects_seen = [0]
+
+
+@bpy.app.handlers.persistent
+def _after_deletes(*_args):
+    """After an update that left fewer objects (a delete): a deleted pool's floor wiring
+    goes (CausticsBlender.forget_deleted). Counting is all the other updates cost."""
+    count = len(bpy.data.objects)
+    fewer, _objects_seen[0] = count < _objects_seen[0], count
+    if fewer:
+        CausticsBlender.forget_deleted()
+
+
+@bpy.app.handlers.persistent
+def _before_save(*_args):
+    """A script may delete a pool and save with no update between."""
+    CausticsBlender.forget_deleted()

@@ -300,16 +300,6 @@ class RainBlender(BlenderEffect):
             images.remove(f"HBK_{name}_rain_{stream}")
 
     @classmethod
-    def wired_names(cls):
-        return materials.shown_bakes("rain.", ("rain_normal",))
-
-    @classmethod
-    def forget(cls, name):
-        materials.forget(name, "rain.", {f"HBK_{name}_rain_normal"}, cls._unwire)
-        for stream in ("preview", "normal"):
-            images.remove(f"HBK_{name}_rain_{stream}")
-
-    @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
         for name in ("car_object", "forward_axis", "wiper_0", "wiper_1", "background_image",
