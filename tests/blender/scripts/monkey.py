@@ -261,6 +261,7 @@ class Monkey:
         self.blend = None
         self.farm = os.path.join(tmp, "farm")
         self.abandoned = set()  # folders of baked objects deleted on purpose
+        self.deleted_bakes = set()  # ... and the names their bakes were wired under
         self.used_names = set()
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
@@ -395,10 +396,22 @@ class Monkey:
             return self.delete_baked and img.users == 0
         return img.users <= len(nodes) and all(self.only_orphans_hold(m) for m, _n in nodes)
 
+    def of_deleted(self, name):
+        """Whether ``name`` (HBK_<bake>_...) is of a bake whose object was deleted while baked
+        (--delete-baked): by design its wiring stays in the materials it showed (a change
+        made after the delete's undo step would not be undone with it), a fluid domain's
+        surface and volume objects with their materials too."""
+        return any(name.startswith(f"HBK_{n}_") for n in self.deleted_bakes)
+
+    def shows_deleted(self, mat):
+        images = [n.image.name for n in mat.node_tree.nodes
+                  if n.get("hydrobake") and getattr(n, "image", None) is not None]
+        return bool(images) and all(self.of_deleted(i) for i in images)
+
     def check_clean(self, compare=True):
         """Nothing is baked: nothing of Hydrobake's is left, and everything is as before."""
         for m in bpy.data.materials:
-            if m.node_tree and not self.only_orphans_hold(m):
+            if m.node_tree and not self.only_orphans_hold(m) and not self.shows_deleted(m):
                 tagged = [n.name for n in m.node_tree.nodes if n.get("hydrobake")]
                 if tagged and not self.known("wiring-left", m):
                     raise Violation("wiring-left", f"material {m.name!r} still has Hydrobake "
@@ -414,6 +427,7 @@ class Monkey:
                 left = [x for x in left if not self.only_orphans_hold(bpy.data.materials[x[0]])]
             if what == "image":
                 left = [x for x in left if not self.image_only_orphans_hold(bpy.data.images[x[0]])]
+            left = [x for x in left if not self.of_deleted(x[0])]
             left = [x for x in left if not self.known(f"hbk-{what}-left", x)]
             if left:
                 raise Violation(f"hbk-{what}-left", f"with nothing baked: {left}")
@@ -616,6 +630,7 @@ class Monkey:
             s = getattr(obj, f"hydrobake_{e}")
             if s.is_baked and not jobs.holders(s.bake_folder, e, but=obj):
                 self.abandoned.add(s.bake_folder)
+                self.deleted_bakes.add(s.get("baked_as") or name)
                 # and the bakes it replaced under older names, kept until the next save
                 self.abandoned.update(f for f, _ in jobs._superseded(s))
         if not obj.visible_get():
