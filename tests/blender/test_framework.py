@@ -80,3 +80,8 @@ def test_evaluated_depsgraph_without_context_lookups(blender, tmp_path):
 def test_a_deleted_pools_caustics_leave_the_floor(blender, tmp_path):
     r = blender.run("deleted_pool.py", tmp_path)
     assert "DELETED POOL OK" in r.stdout
+
+
+def test_deleted_objects_bakes_are_shown_and_removed_on_request(blender, tmp_path):
+    r = blender.run("deleted_baked.py", tmp_path)
+    assert "DELETED BAKED OK" in r.stdout

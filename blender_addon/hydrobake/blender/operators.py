@@ -1,5 +1,5 @@
 """Thin operators: bake (modal with progress and Esc in the UI, blocking in background mode and
-from scripts), cancel, free, presets."""
+from scripts), cancel, free, presets, and the removal of deleted objects' bakes."""
 import traceback
 
 import bpy
@@ -219,5 +219,43 @@ class HYDROBAKE_OT_apply_preset(_EffectTarget, bpy.types.Operator):
         return {"FINISHED"}
 
 
+class HYDROBAKE_OT_remove_deleted_bakes(bpy.types.Operator):
+    """Take the bakes of objects deleted while baked out of the materials that still show
+    them, as their Free Bake would have (their files stay)"""
+    bl_idname = "hydrobake.remove_deleted_bakes"
+    bl_label = "Remove Deleted Objects' Bakes"
+    bl_options = {"REGISTER", "UNDO"}
+
+    effect: bpy.props.StringProperty(
+        name="Effect", description="Only this effect's, e.g. 'snow'; empty for every effect's")
+
+    def execute(self, context):
+        known = effects.load_all()
+        if self.effect and self.effect not in known:
+            self.report({"ERROR"}, f"effect = {self.effect!r}: must be one of "
+                                   f"{', '.join(sorted(known))}, or empty for all")
+            return {"CANCELLED"}
+        removed = []
+        for name, beffect in known.items():
+            if self.effect in ("", name):
+                try:
+                    removed += [f"{name} of '{n}'" for n in sorted(beffect.forget_deleted())]
+                except Exception as exc:
+                    traceback.print_exc()
+                    self.report({"ERROR"}, f"{name}: could not remove a deleted object's "
+                                           f"bake ({type(exc).__name__}: {exc})")
+                    return {"CANCELLED"}
+        if not removed:
+            self.report({"INFO"}, "No deleted object's bake is shown in this file")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Removed the {', '.join(removed)} (the files stay)")
+        return {"FINISHED"}
+
+
+def draw_cleanup_menu(self, context):
+    """File > Clean Up, beside Purge Unused Data."""
+    self.layout.operator(HYDROBAKE_OT_remove_deleted_bakes.bl_idname)
+
+
 CLASSES = (HYDROBAKE_OT_bake, HYDROBAKE_OT_cancel_bake, HYDROBAKE_OT_free_bake,
-           HYDROBAKE_OT_apply_preset)
+           HYDROBAKE_OT_apply_preset, HYDROBAKE_OT_remove_deleted_bakes)

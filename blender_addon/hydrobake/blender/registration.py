@@ -45,6 +45,7 @@ def register():
         setattr(bpy.types.Object, f"hydrobake_{name}", bpy.props.PointerProperty(type=cls))
         _object_props.append(f"hydrobake_{name}")
         effects.BLENDER_EFFECTS[name].register_extra()
+    bpy.types.TOPBAR_MT_file_cleanup.append(operators.draw_cleanup_menu)
     bpy.app.handlers.load_pre.append(_cancel_on_load)
     bpy.app.handlers.load_post.append(_refresh_on_load)
     bpy.app.handlers.save_post.append(_free_superseded_on_save)
@@ -53,6 +54,7 @@ def register():
 def unregister():
     from . import jobs
     jobs.cancel_all()
+    bpy.types.TOPBAR_MT_file_cleanup.remove(operators.draw_cleanup_menu)
     if _cancel_on_load in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.remove(_cancel_on_load)
     if _refresh_on_load in bpy.app.handlers.load_post:

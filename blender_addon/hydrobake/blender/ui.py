@@ -33,6 +33,7 @@ def draw_effect(layout, context, beffect):
             op.effect, op.object_name, op.resume = beffect.name, obj.name, True
         op = row.operator("hydrobake.bake", text="Bake", icon="RENDER_ANIMATION")
     op.effect, op.object_name = beffect.name, obj.name
+    _draw_deleted_bakes(layout, obj, beffect)
     if settings.is_baked and job is None:
         layout.label(text=f"Baked in {bpy.path.relpath(settings.bake_folder)}", icon="CHECKMARK")
 
@@ -55,6 +56,20 @@ def draw_effect(layout, context, beffect):
             op.effect, op.object_name, op.preset = beffect.name, obj.name, name
     box = col.box()
     beffect.draw_settings(box, settings)
+
+
+def _draw_deleted_bakes(layout, obj, beffect):
+    """A material of the object shows the bake of an object deleted while baked (it was given
+    that object's material): say so, with the button that takes it out."""
+    shown = beffect.shown_in([s.material for s in obj.material_slots])
+    shown = sorted(beffect.deleted_bakes(shown)) if shown else []
+    if shown:
+        row = layout.row()
+        row.alert = True
+        row.label(text=f"Shows the {beffect.label.lower()} of deleted "
+                       f"{', '.join(repr(n) for n in shown)}", icon="ERROR")
+        op = row.operator("hydrobake.remove_deleted_bakes", text="Remove")
+        op.effect = beffect.name
 
 
 def make_panel(beffect):

@@ -13,7 +13,9 @@ rain and the fluid at 32 x 16 x 16.
 4. The fluid cancelled with the panel's Cancel: frames kept, Resume offered, and it finishes.
 5. Undo after a bake: the bake is one undo step, its record and wiring undone and redone
    together.
-6. A baked pool deleted: its caustics leave the floor, and undo and redo agree."""
+6. A baked pool deleted: its caustics leave the floor, and undo and redo agree. The snowy hat
+   deleted keeps its wiring in its material; Remove Deleted Objects' Bakes takes it out, and
+   undo brings it back, then the hat."""
 import os
 import time
 import traceback
@@ -282,7 +284,29 @@ def scenario():
         bpy.ops.ed.redo()
     yield 0.3
     check("Pool" not in bpy.data.objects and not floor_wired(), "redo: the caustics came back")
-    print("PHASE 6 OK: a baked pool deleted, undone, redone", flush=True)
+    def felt_wired():
+        return any(n.get("hydrobake") for n in bpy.data.materials["Felt"].node_tree.nodes)
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o.name == "Hat")
+    check(bpy.ops.object.delete("EXEC_DEFAULT", True) == {"FINISHED"}, "delete the hat")
+    yield 0.3
+    check("Hat" not in bpy.data.objects and felt_wired(), "the hat's delete changed Felt")
+    with window_context():
+        check(bpy.ops.hydrobake.remove_deleted_bakes("EXEC_DEFAULT", True) == {"FINISHED"},
+              "remove the deleted hat's bake")
+    yield 0.3
+    check(not felt_wired(), "Remove left the deleted hat's snow in Felt")
+    with window_context():
+        bpy.ops.ed.undo()
+    yield 0.3
+    check("Hat" not in bpy.data.objects and felt_wired(), "undoing Remove")
+    with window_context():
+        bpy.ops.ed.undo()
+    yield 0.3
+    check("Hat" in bpy.data.objects and felt_wired() and
+          bpy.data.objects["Hat"].hydrobake_snow.is_baked, "undoing the hat's delete")
+    print("PHASE 6 OK: a baked pool deleted, undone, redone; a deleted hat's bake removed, "
+          "undone", flush=True)
     print("UI BAKE WHILE EDITING OK", flush=True)
     os._exit(0)
 

@@ -1,5 +1,7 @@
 """Small helpers for wiring baked maps into node materials non-destructively: every node
 Hydrobake adds is labelled, so it can be found again and removed by Free Bake."""
+import re
+
 import bpy
 
 TAG = "hydrobake"
@@ -62,9 +64,10 @@ def _has_wiring(mat):
 
 def give_back(obj, mat, prefix):
     """Free Bake's undo of set_inputs for the effect (role ``prefix``), once none of its
-    nodes is left in ``mat`` (one of ``obj``'s); and, once no Hydrobake node of any effect is
-    left, of use_nodes and ensure_material: the nodes get their off switch back, and a
-    material made for the object leaves its slot (and the file, with no other user)."""
+    nodes is left in ``mat`` (one of ``obj``'s, or None: the object was deleted); and, once
+    no Hydrobake node of any effect is left, of use_nodes and ensure_material: the nodes get
+    their off switch back, and a material made for the object leaves its slot (and the file,
+    with no other user)."""
     tree = mat.node_tree
     if tree and any(str(n.get(TAG, "")).startswith(prefix) for n in tree.nodes):
         return
@@ -89,7 +92,8 @@ def give_back(obj, mat, prefix):
         mat.use_nodes = False
         del mat[NODES_WERE_OFF]
     if MADE in mat:
-        _take_out(obj, mat)
+        if obj is not None:
+            _take_out(obj, mat)
         # A Shift+D copy of the object that holds no bake now shows it alone: it goes there
         # too (while a copy holds the bake's record, the mark stays for its own Free).
         for other in bpy.data.objects:
@@ -164,6 +168,34 @@ def holding(prefix, image_names, owner=ANY):
                 for n in mat.node_tree.nodes):
             found.append(mat)
     return found
+
+
+def shown_bakes(prefix, streams, mats=None):
+    """The names of the bakes whose images (``HBK_<name>_<stream>``) the materials (default:
+    the file's) show in Hydrobake nodes of an effect (role ``prefix``)."""
+    pattern = re.compile(rf"HBK_(.+)_(?:{'|'.join(map(re.escape, streams))})")
+    found = set()
+    for mat in bpy.data.materials if mats is None else mats:
+        for n in mat.node_tree.nodes if mat is not None and mat.node_tree else ():
+            image = getattr(n, "image", None)
+            match = pattern.fullmatch(image.name) if image is not None and \
+                str(n.get(TAG, "")).startswith(prefix) else None
+            if match:
+                found.add(match.group(1))
+    return found
+
+
+def forget(name, prefix, image_names, unwire):
+    """Takes the wiring of a deleted object's bake (wired under ``name``; the materials
+    showing one of ``image_names`` in nodes of role ``prefix``) out of the file's materials,
+    as its Free Bake would have: unwire(node_tree), give_back. The object's own copies of
+    shared materials (own()), used by nothing now, go."""
+    for mat in holding(prefix, image_names):
+        unwire(mat.node_tree)
+        give_back(None, mat, prefix)
+    for mat in [m for m in bpy.data.materials if m.get(COPY_FOR) == name]:
+        if not _has_wiring(mat) and _unused(mat):
+            bpy.data.materials.remove(mat)
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for

@@ -1,6 +1,10 @@
 """The Blender half of an effect: scene inputs in, baked outputs wired back."""
 import warnings
 
+import bpy
+
+from ..bridge import materials
+
 
 class BakeWarning(UserWarning):
     """What prepare can bake but the artist should hear of (an overlapping UV map): Job
@@ -81,6 +85,49 @@ class BlenderEffect:
     def baked_name(obj, settings):
         """The object's name when its bake was wired (jobs.finalize records it)."""
         return settings.get("baked_as") or obj.name
+
+    wired_prefix = ""   # the role of the Hydrobake nodes apply adds to materials: "snow."
+    wired_streams = ()  # the images they show: HBK_<baked_name>_<stream>
+
+    @classmethod
+    def shown_in(cls, mats=None):
+        """The baked_names whose images the materials (default: the file's) show."""
+        return materials.shown_bakes(cls.wired_prefix, cls.wired_streams, mats) \
+            if cls.wired_streams else set()
+
+    @classmethod
+    def wired_names(cls):
+        """The baked_names whose wiring (or helper objects) apply left in the file."""
+        return cls.shown_in()
+
+    @classmethod
+    def forget(cls, name):
+        """Undoes what ``apply`` left outside the object for the bake wired under ``name``,
+        whose object was deleted while baked (not freed first). Main thread."""
+
+    @classmethod
+    def deleted_bakes(cls, names=None):
+        """Of the bakes wired in the file (or of ``names``), those no object records: their
+        object was deleted while baked (not freed first), and their wiring goes on showing
+        them in the materials it left, which may be given to other objects, with no Free Bake
+        to take it out."""
+        gone = set(cls.wired_names() if names is None else names)
+        if gone:
+            attr = f"hydrobake_{cls.name}"
+            gone -= {cls.baked_name(o, getattr(o, attr)) for o in bpy.data.objects
+                     if getattr(o, attr).is_baked}
+        return gone
+
+    @classmethod
+    def forget_deleted(cls):
+        """Takes the deleted objects' bakes out of the file (Remove Deleted Bakes, an
+        operator: its own undo step, where a handler's change after a delete would not be
+        undone with it). Their files stay, as any deleted object's bake. Returns the
+        names."""
+        gone = cls.deleted_bakes()
+        for name in sorted(gone):
+            cls.forget(name)
+        return gone
 
     @classmethod
     def derived(cls, settings):

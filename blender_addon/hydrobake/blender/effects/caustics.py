@@ -49,6 +49,7 @@ STREAM_IMAGES = ("view", "caustics", "surface", "height")  # HBK_<pool>_<stream>
 class CausticsBlender(BlenderEffect):
     name = "caustics"
     label = "Caustics"
+    wired_prefix, wired_streams = "caustics.", ("surface",)
     icon = "MOD_OCEAN"
     presets = {
         "Calm Pool": {"water": {"rain_rate": 0.0, "substeps": 4, "implicitness": 0.55},
@@ -516,26 +517,48 @@ class CausticsBlender(BlenderEffect):
             del obj["hydrobake_shadow"]
 
     @classmethod
-    def forget_deleted(cls):
+    def forget_deleted_floors(cls):
         """Takes the floors' wiring of pools deleted while baked (not freed first) out of the
         floors, with the pools' projector, grid and images: no object records those pools
         now. Their files stay, as any deleted object's bake; undo brings pool and wiring
-        back together. Returns the pools' names."""
-        pools = {cls.baked_name(o, o.hydrobake_caustics) for o in bpy.data.objects
-                 if o.hydrobake_caustics.is_baked}
-        gone = {n.get(materials.OWNER) for m in bpy.data.materials if m.node_tree
-                for n in m.node_tree.nodes
-                if str(n.get(materials.TAG, "")).startswith("caustics.")} - pools - {None}
+        back together (measured in the UI). Returns the pools' names."""
+        gone = cls.deleted_bakes(cls._floor_owners())
         for pool in sorted(gone):
-            grounds = [o for o in bpy.data.objects if any(
-                s.material and s.material.node_tree and
-                materials.tagged(s.material.node_tree, "caustics.map", pool)
-                for s in o.material_slots)]
-            cls._unwire_floors(pool, grounds)
-            cls._remove_helpers(f"HBK_{pool}")
-            for stream in STREAM_IMAGES:  # those nothing shows any more
-                images.remove(f"HBK_{pool}_{stream}")
+            cls._forget_floors(pool)
         return gone
+
+    @staticmethod
+    def _floor_owners():
+        return {n.get(materials.OWNER) for m in bpy.data.materials if m.node_tree
+                for n in m.node_tree.nodes
+                if str(n.get(materials.TAG, "")).startswith("caustics.")} - {None}
+
+    @classmethod
+    def _forget_floors(cls, pool):
+        grounds = [o for o in bpy.data.objects if any(
+            s.material and s.material.node_tree and
+            materials.tagged(s.material.node_tree, "caustics.map", pool)
+            for s in o.material_slots)]
+        cls._unwire_floors(pool, grounds)
+        cls._remove_helpers(f"HBK_{pool}")
+        for stream in STREAM_IMAGES:  # those nothing shows any more
+            images.remove(f"HBK_{pool}_{stream}")
+
+    @classmethod
+    def wired_names(cls):
+        """The pools the floors' nodes are for, and those whose surface a water shows."""
+        return cls._floor_owners() | cls.shown_in()
+
+    @classmethod
+    def forget(cls, pool):
+        """The floors' wiring, the water's (in the material the pool left), the projector,
+        grid and images."""
+        materials.forget(pool, "caustics.", {f"HBK_{pool}_surface"},
+                         lambda tree: materials.remove_tagged(tree, "caustics.", owner=None))
+        cls._forget_floors(pool)
+        height = bpy.data.textures.get(f"HBK_{pool}_height")  # the pool's Displace's
+        if height is not None and height.users == 0:
+            bpy.data.textures.remove(height)
 
     @staticmethod
     def _remove_helpers(prefix):
@@ -611,14 +634,14 @@ _objects_seen = [0]
 @bpy.app.handlers.persistent
 def _after_deletes(*_args):
     """After an update that left fewer objects (a delete): a deleted pool's floor wiring
-    goes (CausticsBlender.forget_deleted). Counting is all the other updates cost."""
+    goes (CausticsBlender.forget_deleted_floors). Counting is all the other updates cost."""
     count = len(bpy.data.objects)
     fewer, _objects_seen[0] = count < _objects_seen[0], count
     if fewer:
-        CausticsBlender.forget_deleted()
+        CausticsBlender.forget_deleted_floors()
 
 
 @bpy.app.handlers.persistent
 def _before_save(*_args):
     """A script may delete a pool and save with no update between."""
-    CausticsBlender.forget_deleted()
+    CausticsBlender.forget_deleted_floors()

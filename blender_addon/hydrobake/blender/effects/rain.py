@@ -21,6 +21,7 @@ AXES = {"-Y": (0, -1, 0), "+Y": (0, 1, 0), "-X": (-1, 0, 0), "+X": (1, 0, 0)}
 class RainBlender(BlenderEffect):
     name = "rain"
     label = "Windshield Rain"
+    wired_prefix, wired_streams = "rain.", ("rain_normal",)
     icon = "MOD_FLUIDSIM"
     presets = {
         "Drizzle": {"rain": {"rain_rate": 80.0, "drop_mass": 1.5}},
@@ -296,6 +297,12 @@ class RainBlender(BlenderEffect):
                 cls._unwire(mat.node_tree)
             materials.give_back(obj, mat, "rain.")
         materials.restore(obj, "rain.")
+        for stream in ("preview", "normal"):
+            images.remove(f"HBK_{name}_rain_{stream}")
+
+    @classmethod
+    def forget(cls, name):
+        materials.forget(name, "rain.", {f"HBK_{name}_rain_normal"}, cls._unwire)
         for stream in ("preview", "normal"):
             images.remove(f"HBK_{name}_rain_{stream}")
 

@@ -47,6 +47,8 @@ class HYDROBAKE_PG_snow_material(bpy.types.PropertyGroup):
         description="Moving surface (spinning tyres): flakes are thrown off and leave no snow")
 
 
+STREAMS = ("snow_coverage", "snow_depth")  # the images apply wires: HBK_<name>_<stream>
+
 # An empty slot 0 gets a new node material from Bake (ensure_material), whose Principled BSDF
 # has Blender's default roughness 0.5 and metallic 0: the slot catches what that one will.
 EMPTY_SLOT_CATCH = 0.5 * 0.5 * (1.0 - 0.0)
@@ -285,6 +287,7 @@ def _flake_count(obj, density, lo, hi, most):
 class SnowBlender(BlenderEffect):
     name = "snow"
     label = "Snow"
+    wired_prefix, wired_streams = "snow.", STREAMS
     icon = "FREEZE"
     presets = {
         "Wet Snow (+1 °C)": {"snow": {"temperature": 1.0, "fall_speed": 1.2},
@@ -580,15 +583,31 @@ class SnowBlender(BlenderEffect):
         # out of them since (or a shared one a re-bake made a copy of), known by its images.
         name = cls.baked_name(obj, settings)
         mats = {s.material for s in obj.material_slots if s.material is not None}
-        mats |= set(materials.holding("snow.", {f"HBK_{name}_snow_coverage",
-                                                f"HBK_{name}_snow_depth"}))
+        mats |= set(materials.holding("snow.", {f"HBK_{name}_{s}" for s in STREAMS}))
         for mat in mats:
             if mat.node_tree:
                 _unwire(mat.node_tree)
             materials.give_back(obj, mat, "snow.")  # nodes switched on, a material made
         materials.restore(obj, "snow.")
-        for stream in ("coverage", "depth"):
-            images.remove(f"HBK_{name}_snow_{stream}")
+        for stream in STREAMS:
+            images.remove(f"HBK_{name}_{stream}")
+
+    @classmethod
+    def wired_names(cls):
+        names = cls.shown_in()
+        for o in bpy.data.objects:  # the flakes
+            if o.name.startswith("HBK_") and o.name.endswith("_flakes") and \
+                    str(o.get(frame_meshes.PROP, "")).startswith("points|"):
+                names.add(o.name[len("HBK_"):-len("_flakes")])
+        return names
+
+    @classmethod
+    def forget(cls, name):
+        points.detach(f"HBK_{name}_flakes")
+        shown = {f"HBK_{name}_{stream}" for stream in STREAMS}
+        materials.forget(name, "snow.", shown, _unwire)
+        for image in shown:
+            images.remove(image)
 
     @classmethod
     def draw_settings(cls, layout, settings):
