@@ -262,6 +262,7 @@ class Monkey:
         self.farm = os.path.join(tmp, "farm")
         self.abandoned = set()  # folders of baked objects deleted on purpose
         self.deleted_bakes = set()  # ... and the names their bakes were wired under
+        self.removed_deleted = False  # Remove Deleted Objects' Bakes ran (at the end)
         self.used_names = set()
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
@@ -396,14 +397,24 @@ class Monkey:
             return self.delete_baked and img.users == 0
         return img.users <= len(nodes) and all(self.only_orphans_hold(m) for m, _n in nodes)
 
-    def of_deleted(self, name):
+    def of_deleted(self, name, what="material"):
         """Whether ``name`` (HBK_<bake>_...) is of a bake whose object was deleted while baked
         (--delete-baked): by design its wiring stays in the materials it showed (a change
-        made after the delete's undo step would not be undone with it), a fluid domain's
-        surface and volume objects with their materials too."""
+        made after the delete's undo step would not be undone with it) until Remove Deleted
+        Objects' Bakes; a fluid domain's surface and volume objects with their materials
+        stay."""
+        if self.removed_deleted and not (
+                what == "object" or name.endswith(("_textured", "_volume"))):
+            return False
         return any(name.startswith(f"HBK_{n}_") for n in self.deleted_bakes)
 
+    def do_remove_deleted(self):
+        self.removed_deleted = True
+        return bpy.ops.hydrobake.remove_deleted_bakes()
+
     def shows_deleted(self, mat):
+        if self.removed_deleted:
+            return False
         images = [n.image.name for n in mat.node_tree.nodes
                   if n.get("hydrobake") and getattr(n, "image", None) is not None]
         return bool(images) and all(self.of_deleted(i) for i in images)
@@ -427,7 +438,7 @@ class Monkey:
                 left = [x for x in left if not self.only_orphans_hold(bpy.data.materials[x[0]])]
             if what == "image":
                 left = [x for x in left if not self.image_only_orphans_hold(bpy.data.images[x[0]])]
-            left = [x for x in left if not self.of_deleted(x[0])]
+            left = [x for x in left if not self.of_deleted(x[0], what)]
             left = [x for x in left if not self.known(f"hbk-{what}-left", x)]
             if left:
                 raise Violation(f"hbk-{what}-left", f"with nothing baked: {left}")
@@ -964,8 +975,10 @@ class Monkey:
         if baked_pairs():
             raise Violation("cannot-free", f"still baked after Free on every record: "
                                            f"{baked_pairs()}")
+        if self.deleted_bakes:  # File > Clean Up: what they left goes too
+            self.step({"op": "remove_deleted"}, k + 3)
         if render:
-            self.step({"op": "render"}, k + 3)
+            self.step({"op": "render"}, k + 4)
 
     def do_render(self):
         scene = bpy.context.scene
