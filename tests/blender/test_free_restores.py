@@ -5,8 +5,9 @@ one gone from the file before the Free) and their copies."""
 import pytest
 
 CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_made_rebaked",
-         "copy_made_original_deleted", "copy_made_swapped", "shared_two", "copy_rebake",
-         "copy_free_rebake", "shared_nodeless", "shared_nodeless_pool", "shared_vanished")
+         "copy_made_original_deleted", "copy_made_swapped", "copy_original_deleted",
+         "shared_two", "copy_rebake", "copy_free_rebake", "shared_nodeless",
+         "shared_nodeless_pool", "shared_vanished")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -11,7 +11,6 @@ import bpy
 import in_blender
 
 in_blender.enable()
-from hydrobake.blender import effects, ui  # noqa: E402
 from hydrobake.blender.bridge import materials  # noqa: E402
 
 tmp = in_blender.empty_file("deleted_baked.blend")
@@ -46,26 +45,11 @@ def remove(effect=""):
     return bpy.ops.hydrobake.remove_deleted_bakes(effect=effect)
 
 
-class Layout:
-    """Records what a panel draws."""
-
-    def __init__(self, log):
-        self.__dict__["log"] = log
-
-    def __getattr__(self, name):
-        def call(*args, **kwargs):
-            self.log.append((name, args, kwargs))
-            return Layout(self.log)
-        return call
-
-
 def panel_says(obj, effect):
     """The labels and operators the effect's panel draws for ``obj``."""
-    log = []
-    with bpy.context.temp_override(object=obj, active_object=obj):
-        ui.draw_effect(Layout(log), bpy.context, effects.get(effect))
     return [(name, (args[0] if args else "") or kw.get("text", ""))
-            for name, args, kw in log if name in ("label", "operator")]
+            for name, args, kw in in_blender.panel_calls(obj, effect)
+            if name in ("label", "operator")]
 
 
 def glass(name, mat):

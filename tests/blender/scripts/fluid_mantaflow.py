@@ -11,7 +11,7 @@ import numpy as np
 import in_blender
 
 in_blender.enable()
-from hydrobake.core import mantaflow, vdb  # noqa: E402
+from hydrobake.core import vdb  # noqa: E402
 
 tmp = in_blender.args()[0]
 # An optional time scale: a slowed simulation moves the textures by what a frame moves.

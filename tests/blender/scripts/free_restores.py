@@ -152,6 +152,24 @@ elif case == "copy_made_original_deleted":  # 5: ... the original deleted first 
     check(slots() == {"Glass.001": []}, f"slots {slots()}")
     check("HBK_Glass_glass" not in bpy.data.materials, "the made material stayed")
     clean()
+elif case == "copy_original_deleted":  # 9: a Shift+D copy baked, the original deleted while
+    g = glass()                            # baked: the shared materials keep its wiring; the
+    g.data.materials.append(in_blender.node_material("FritMat"))  # copy's Free keeps its clean
+    bake("Glass", "rain")                  # copies, and so does another object's Free (seed 244)
+    g.name = "Glass1"
+    c = in_blender.duplicate(g)
+    bake(c.name, "rain")
+    bpy.data.objects.remove(g)
+    bpy.ops.wm.save_mainfile()
+    o = plane("Snowy", 0.5, (-3, 0, 0))
+    in_blender.snow(o, (1, 3), 40.0, 16)
+    bake("Snowy", "snow")
+    free(c.name, "rain")
+    free("Snowy", "snow")
+    mine = ["GlassMat (Glass1.001)", "FritMat (Glass1.001)"]
+    check(slots()[c.name] == mine, f"slots {slots()}")
+    check(not any(tagged(bpy.data.materials[m]) for m in mine if m in bpy.data.materials),
+          "the copy shows wiring")
 elif case == "copy_made_swapped":  # 5: ... taken out of the copy's slot before its Free
     g = glass(mat=None)
     bake("Glass", "rain")

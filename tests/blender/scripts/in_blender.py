@@ -134,3 +134,27 @@ def node_material(name):
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     return mat
+
+
+class Layout:
+    """Records what a panel draws: every call as (name, args, kwargs) in ``log``."""
+
+    def __init__(self, log):
+        self.__dict__["log"] = log
+
+    def __getattr__(self, name):
+        def call(*args, **kwargs):
+            self.log.append((name, args, kwargs))
+            return Layout(self.log)
+        return call
+
+
+def panel_calls(obj, effect):
+    """What the effect's panel draws for ``obj``: [(name, args, kwargs)]."""
+    from hydrobake.blender import effects, ui
+    log = []
+
+    class Context:
+        object, scene = obj, bpy.context.scene
+    ui.draw_effect(Layout(log), Context, effects.get(effect))
+    return log

@@ -1,7 +1,5 @@
 """Saves a .blend with two objects that have the fixture effect enabled (Glass and Rear), and
 the further objects named after the file: NAME, or !NAME for one whose bake fails to set up."""
-import os
-
 import bpy
 
 import in_blender

@@ -6,7 +6,6 @@ import json
 import os
 
 import bpy
-import numpy as np
 
 import in_blender
 

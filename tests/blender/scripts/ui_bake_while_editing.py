@@ -25,7 +25,7 @@ import bpy
 import in_blender
 
 in_blender.enable()
-from hydrobake.blender import effects, jobs, ui  # noqa: E402
+from hydrobake.blender import jobs  # noqa: E402
 from hydrobake.core.bake.cache import BakeCache  # noqa: E402
 
 tmp = in_blender.args()[0]
@@ -63,26 +63,9 @@ def invoke(effect, name, **kw):
             return str(exc)
 
 
-class Layout:
-    """Records what a panel draws."""
-
-    def __init__(self, log):
-        self.__dict__["log"] = log
-
-    def __getattr__(self, name):
-        def call(*args, **kwargs):
-            self.log.append((name, args, kwargs))
-            return Layout(self.log)
-        return call
-
-
 def buttons(obj, effect):
     """The operator buttons the effect's panel shows for ``obj``: [(operator, text)]."""
-    log = []
-
-    class Context:
-        object, scene = obj, bpy.context.scene
-    ui.draw_effect(Layout(log), Context, effects.get(effect))
+    log = in_blender.panel_calls(obj, effect)
     buttons.log = log
     return [(a[0], k.get("text")) for n, a, k in log if n == "operator" and
             a[0].startswith("hydrobake.") and a[0] != "hydrobake.apply_preset"]

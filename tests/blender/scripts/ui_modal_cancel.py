@@ -1,7 +1,6 @@
 """In the real Blender UI (under Xvfb, events simulated): Bake runs modal off the main thread,
 the UI keeps ticking, Esc cancels within a fraction of a second, earlier frames are intact."""
 import os
-import sys
 import time
 import traceback
 
@@ -40,7 +39,7 @@ def step():
     win = bpy.context.window_manager.windows[0]
     if state["phase"] == "start":
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "ui.blend"))
-        obj = in_blender.new_plane("Glass")
+        in_blender.new_plane("Glass")
         bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 60
         area = next(a for a in win.screen.areas if a.type == "VIEW_3D")
         with bpy.context.temp_override(window=win, area=area):

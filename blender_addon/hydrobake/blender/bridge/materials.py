@@ -295,7 +295,7 @@ def restore(obj, prefix):
             for key in (COPY_OF, COPY_FOR):
                 del mat[key]
             continue
-        _put_shared_back(slot, prefix)
+        _put_shared_back(slot, prefix, obj)
     for other in bpy.data.objects:
         if other != obj:
             for slot in list(other.material_slots):
@@ -303,7 +303,7 @@ def restore(obj, prefix):
                 if _copy_of_gone_made(mat) and mat.get(LINK_WAS) != "DATA":
                     _take_out_copy(other, mat)  # its made one went with this Free
                 else:
-                    _put_shared_back(slot, prefix)
+                    _put_shared_back(slot, prefix, other)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
     # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
     # it, it leaves the file.
@@ -330,14 +330,16 @@ def _take_out_copy(obj, mat):
         del mat[MADE]
 
 
-def _put_shared_back(slot, prefix):
-    """The shared material back in the slot in place of a clean copy own() made, unless the
-    shared one holds another object's wiring of the effect."""
+def _put_shared_back(slot, prefix, obj):
+    """The shared material back in the object's slot in place of a clean copy own() made,
+    unless the shared one holds another object's wiring of the effect, or shows a bake the
+    object holds no record of (of an object deleted while baked, its wiring left there)."""
     mat = slot.material
     shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
         else None
     if shared is None or _has_wiring(mat) or (shared.node_tree and any(
-            str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
+            str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)) or \
+            _shows_others(shared, obj):
         return  # another effect's bake still in the copy, or another object's in it
     if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
         slot.material = None
@@ -346,6 +348,18 @@ def _put_shared_back(slot, prefix):
         slot.material = shared
     if mat.users == 0:
         bpy.data.materials.remove(mat)
+
+
+def _shows_others(mat, obj):
+    """Whether the material's Hydrobake nodes show images (HBK_<name>_...) of a bake that
+    ``obj`` holds no record of. (A floor's nodes, owned by their pool, show on whatever the
+    floor material is given to.)"""
+    held = [getattr(obj, e).get("baked_as") or obj.name for e in EFFECT_SETTINGS
+            if getattr(getattr(obj, e, None), "is_baked", False)]
+    return bool(mat.node_tree) and any(
+        n.get(TAG) and OWNER not in n and getattr(n, "image", None) is not None and
+        not any(n.image.name.startswith(f"HBK_{h}_") for h in held)
+        for n in mat.node_tree.nodes)
 
 
 def tagged(node_tree, role, owner=None):
