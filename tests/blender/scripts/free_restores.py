@@ -241,6 +241,30 @@ elif case == "shared_nodeless_pool":  # 8: ... the material of two pools (monkey
     check(slots()["Water"] == ["Plain"] == slots()["Water.001"], f"slots {slots()}")
     check(not plain.use_nodes and not plain.keys(), f"Plain keeps {list(plain.keys())}")
     clean()
+elif case == "floor_replaced":  # 10: the floor material the bake made replaced in its slot
+    w = pool()                    # (monkey seed 312)
+    g = bpy.data.objects["Ground"]
+    g.data.materials.clear()
+    bake("Water", "caustics")
+    check(slots()["Ground"] == ["HBK_Ground_floor"], f"slots {slots()}")
+    g.material_slots[0].material = in_blender.node_material("Other")
+    free("Water", "caustics")
+    check("HBK_Ground_floor" not in bpy.data.materials, "the made floor material stayed")
+    check(slots()["Ground"] == ["Other"], f"slots {slots()}")
+    clean()
+elif case == "pool_over_pool":  # 11: a pool whose ground is another pool of its material
+    w = pool()                  # (monkey seed 312)
+    w.data.materials.append(in_blender.node_material("WaterMat"))
+    before = state(bpy.data.materials["WaterMat"])
+    other = in_blender.duplicate(w)
+    w.hydrobake_caustics.ground_object = other
+    bake("Water", "caustics")
+    check(slots()["Water"] == ["WaterMat (Water)"] and
+          tagged(bpy.data.materials["WaterMat"]), f"slots {slots()}")
+    free("Water", "caustics")
+    check(slots()["Water"] == ["WaterMat"] == slots()[other.name], f"slots {slots()}")
+    check(state(bpy.data.materials["WaterMat"]) == before, "WaterMat changed")
+    clean()
 elif case == "shared_vanished":  # 7: the shared material left the file before the Free
     for name, x in (("Snowy", -3), ("Snowy B", -5)):
         o = plane(name, 0.5, (x, 0, 0))

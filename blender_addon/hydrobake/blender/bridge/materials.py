@@ -103,6 +103,14 @@ def give_back(obj, mat, prefix):
             bpy.data.materials.remove(mat)
 
 
+def drop_unused_made(mats):
+    """The materials ensure_material made among ``mats`` that nothing uses and that hold no
+    Hydrobake node leave the file (taken out of their object's slot since the bake)."""
+    for mat in list(mats):
+        if MADE in mat and not _has_wiring(mat) and _unused(mat):
+            bpy.data.materials.remove(mat)
+
+
 def _unused(mat):
     """Nothing uses the material but meshes nothing uses (a deleted object's: a save drops
     them)."""

@@ -374,6 +374,7 @@ class CausticsBlender(BlenderEffect):
         ground may have been changed or deleted since the bake), and nodes from before they
         had owners out of its grounds' materials; gives the grounds' materials back."""
         floors = {s.material for g in grounds for s in g.material_slots if s.material}
+        unwired = []
         for mat in bpy.data.materials:
             if not mat.node_tree or mat in keep:
                 continue
@@ -382,10 +383,13 @@ class CausticsBlender(BlenderEffect):
                 mix = materials.tagged(tree, "caustics.multiply", owner)
                 if mix is not None:
                     cls._unwire_multiply(tree, mix)
-                materials.remove_tagged(tree, "caustics.", owner=owner)
+                if materials.remove_tagged(tree, "caustics.", owner=owner):
+                    unwired.append(mat)
         for g in dict.fromkeys(grounds):
             for mat in {s.material for s in g.material_slots if s.material} - set(keep):
                 materials.give_back(g, mat, "caustics.")
+        # A floor material made for a ground that was given another one since (monkey 312).
+        materials.drop_unused_made(m for m in unwired if m not in floors)
 
     @staticmethod
     def _unwire_multiply(tree, mix):
@@ -605,11 +609,13 @@ class CausticsBlender(BlenderEffect):
         for mat in materials.holding("caustics.", {f"{prefix}_surface"}, owner=None):
             materials.remove_tagged(mat.node_tree, "caustics.", owner=None)
             materials.give_back(obj, mat, "caustics.")
-        materials.restore(obj, "caustics.")
         grounds = [g for g in (settings.ground_object,
                                bpy.data.objects.get(settings.get("wired_ground", "")))
                    if g is not None and g.type == "MESH"]
         cls._unwire_floors(pool, grounds)
+        # After the floors: the ground may be another pool showing the shared material this
+        # pool's clean copy stands for (monkey 312).
+        materials.restore(obj, "caustics.")
         settings.pop("wired_ground", None)
         cls._give_shadow_back(obj)
         for stream in STREAM_IMAGES:
