@@ -403,8 +403,9 @@ class Monkey:
         made after the delete's undo step would not be undone with it) until Remove Deleted
         Objects' Bakes; a fluid domain's surface and volume objects with their materials
         stay."""
-        if self.removed_deleted and not (
-                what == "object" or name.endswith(("_textured", "_volume"))):
+        if self.removed_deleted and not name.endswith(
+                {"object": ("_surface", "_volume"), "material": ("_textured", "_volume")}.get(
+                    what, ())):
             return False
         return any(name.startswith(f"HBK_{n}_") for n in self.deleted_bakes)
 
@@ -439,12 +440,16 @@ class Monkey:
             if what == "image":
                 left = [x for x in left if not self.image_only_orphans_hold(bpy.data.images[x[0]])]
             left = [x for x in left if not self.of_deleted(x[0], what)]
+            if what == "material":  # the shared flake material of a deleted object's flakes
+                users = bpy.data.user_map(subset=[bpy.data.materials[x[0]] for x in left])
+                left = [x for x in left if not users[bpy.data.materials[x[0]]] or not all(
+                    self.of_deleted(u.name, "object") for u in users[bpy.data.materials[x[0]]])]
             left = [x for x in left if not self.known(f"hbk-{what}-left", x)]
             if left:
                 raise Violation(f"hbk-{what}-left", f"with nothing baked: {left}")
         for o in bpy.data.objects:
             mods = [m.name for m in o.modifiers if m.name.startswith("HBK")]
-            if mods:
+            if mods and not self.of_deleted(o.name, "object"):  # (a deleted one's flakes)
                 raise Violation("hbk-modifier-left", f"{o.name}: {mods}")
         if not compare:
             return
