@@ -242,4 +242,11 @@ low.location = (8.0, 0.0, -0.2)
 b.preview_camera, b.ground_texture = low, bpy.data.images.new("g", 8, 8)
 msg = refused(bare)
 assert "Bare caustics: Preview Camera: Low is at z = -0.2 m" in msg, msg
+b.preview_camera = b.ground_texture = None
+# The water as its own ground (a script; the panel does not offer it): its floor wiring went
+# into the material its water copy was made of (monkey seed 419).
+b.ground_object = bare
+msg = refused(bare)
+assert "Bare caustics: Ground: Bare is the water itself" in msg, msg
+b.ground_object = None
 print("CAUSTICS FREE OK")

@@ -66,7 +66,8 @@ class CausticsBlender(BlenderEffect):
         mesh_only = lambda self, o: o.type == "MESH"  # noqa: E731
         return dict(
             ground_object=bpy.props.PointerProperty(
-                name="Ground", type=bpy.types.Object, poll=mesh_only,
+                name="Ground", type=bpy.types.Object,
+                poll=lambda self, o: o.type == "MESH" and o != self.id_data,
                 description="Mesh under the water (pool floor, beach); its material gets the "
                             "caustics. Empty: flat ground 1 m below the water"),
             ground_image=bpy.props.PointerProperty(
@@ -177,6 +178,9 @@ class CausticsBlender(BlenderEffect):
         origin, cell, shape, level = grid.origin, grid.cell, grid.shape, grid.level
         params["water"].update(height=shape[0], cell_size=cell)
         depsgraph = evaluated_depsgraph(context)
+        if settings.ground_object == obj:  # (a script may set what the panel would not offer)
+            raise ValueError(f"Ground: {obj.name} is the water itself; choose the mesh under "
+                             f"it, or none for flat ground 1 m below")
         if settings.ground_object:
             ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
                                            "DOWN", depsgraph, angle=grid.angle)
