@@ -7,7 +7,8 @@ import pytest
 CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_made_rebaked",
          "copy_made_original_deleted", "copy_made_swapped", "copy_original_deleted",
          "shared_two", "copy_rebake", "copy_free_rebake", "shared_nodeless",
-         "shared_nodeless_pool", "shared_vanished", "floor_replaced", "pool_over_pool")
+         "shared_nodeless_pool", "shared_vanished", "floor_replaced", "pool_over_pool",
+         "ground_copy_baked")
 
 
 @pytest.mark.parametrize("case", CASES)

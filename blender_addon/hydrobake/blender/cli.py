@@ -142,7 +142,8 @@ def targets(objects=None, effect_names=None):
             if effect_names and name not in effect_names:
                 continue
             settings = getattr(obj, f"hydrobake_{name}", None)
-            if settings is None or not beffect.poll(obj):
+            if settings is None or not beffect.poll(obj) or \
+                    (not objects and not obj.users_collection):  # (deleted: Job refuses it)
                 continue
             if settings.enabled or (objects and effect_names):
                 out.append((obj, name))

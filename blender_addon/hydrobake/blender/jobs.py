@@ -139,6 +139,10 @@ class Job:
     def __init__(self, context, obj, effect_name, frames=None, folder_override=None,
                  threads=None, scene=None, resume=False):
         scene = scene or context.scene
+        if not obj.users_collection:  # deleted, and kept only by a pointer to itself
+            raise ValueError(f"{obj.name}: in no collection (deleted?); the next save would "
+                             "drop it and leave its bake behind: link it to a collection to "
+                             "bake it")
         self.object_name, self.effect_name = obj.name, effect_name
         self.beffect = effects.get(effect_name)
         settings = settings_of(obj, effect_name)

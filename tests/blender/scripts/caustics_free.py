@@ -248,5 +248,14 @@ b.preview_camera = b.ground_texture = None
 b.ground_object = bare
 msg = refused(bare)
 assert "Bare caustics: Ground: Bare is the water itself" in msg, msg
+# Deleted so, the pointer to itself keeps it in the file, in no collection: baked, it would
+# leave at the next save with nothing recording its folder (monkey seed 460).
+homes = list(bare.users_collection)
+for c in homes:
+    c.objects.unlink(bare)
 b.ground_object = None
+msg = refused(bare)
+assert "Bare: in no collection (deleted?)" in msg, msg
+for c in homes:
+    c.objects.link(bare)
 print("CAUSTICS FREE OK")

@@ -265,6 +265,32 @@ elif case == "pool_over_pool":  # 11: a pool whose ground is another pool of its
     check(slots()["Water"] == ["WaterMat"] == slots()[other.name], f"slots {slots()}")
     check(state(bpy.data.materials["WaterMat"]) == before, "WaterMat changed")
     clean()
+elif case == "ground_copy_baked":  # 12: a Shift+D copy of a ground given a floor material
+    w = pool()                     # holds a bake of another effect (monkey seed 477)
+    g = bpy.data.objects["Ground"]
+    g.data.materials.clear()  # the bake makes the floor's material
+    fill = plane("Fill", 0.3, (0, 0, -0.4))
+    import bmesh
+    for o in (g, fill):  # boxes: the ground is a fluid domain, the fill its water
+        bm = bmesh.new()
+        bmesh.ops.create_cube(bm, size=1.0)
+        bm.to_mesh(o.data)
+        bm.free()
+    bake("Water", "caustics")
+    check(slots()["Ground"] == ["HBK_Ground_floor"], f"slots {slots()}")
+    copy = in_blender.duplicate(g)
+    s = copy.hydrobake_fluid
+    s.enabled, s.fill_object = True, fill
+    s.fluid.resolution, s.fluid.textures = (8, 8, 8), 1
+    s.use_scene_range, s.frame_start, s.frame_end = False, 1, 2
+    bake(copy.name, "fluid")
+    free("Water", "caustics")
+    check(slots()["Ground"] == [] and slots()[copy.name] == [], f"slots {slots()}")
+    free(copy.name, "fluid")
+    for m in [m for m in bpy.data.materials if m.users == 0 and m.name.startswith(
+            f"HBK_{copy.name}_")]:  # a fluid's textured materials, kept for a re-bake
+        bpy.data.materials.remove(m)
+    clean()
 elif case == "shared_vanished":  # 7: the shared material left the file before the Free
     for name, x in (("Snowy", -3), ("Snowy B", -5)):
         o = plane(name, 0.5, (x, 0, 0))

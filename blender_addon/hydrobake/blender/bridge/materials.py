@@ -94,10 +94,11 @@ def give_back(obj, mat, prefix):
     if MADE in mat:
         if obj is not None:
             _take_out(obj, mat)
-        # A Shift+D copy of the object that holds no bake now shows it alone: it goes there
-        # too (while a copy holds the bake's record, the mark stays for its own Free).
+        # A Shift+D copy of the object that holds no bake of the effect now shows it alone:
+        # it goes there too (while a copy holds the bake's record, the mark stays for its
+        # own Free; another effect's Free would never give it back: monkey seed 477).
         for other in bpy.data.objects:
-            if other != obj and not _holds_bake(other):
+            if other != obj and not _holds_bake(other, prefix):
                 _take_out(other, mat)
         if _unused(mat):
             bpy.data.materials.remove(mat)
@@ -125,9 +126,9 @@ EFFECT_SETTINGS = ("hydrobake_caustics", "hydrobake_rain", "hydrobake_snow",
                    "hydrobake_fluid")
 
 
-def _holds_bake(obj):
-    return any(getattr(getattr(obj, name, None), "is_baked", False)
-               for name in EFFECT_SETTINGS)
+def _holds_bake(obj, prefix):
+    """Whether the object holds a bake of the effect whose nodes' role is ``prefix``."""
+    return getattr(getattr(obj, "hydrobake_" + prefix.rstrip("."), None), "is_baked", False)
 
 
 def _take_out(obj, mat):
