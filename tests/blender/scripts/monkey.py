@@ -239,9 +239,19 @@ def mat_state(m):
     return st
 
 
+def slot_name(o, mat):
+    """A material's name, an object's own copy of a shared one (own()) named for what it
+    stands for: its name follows the object's renames."""
+    if mat is None:
+        return None
+    if mat.get("hydrobake_copy_for") == o.name and "hydrobake_copy_of" in mat:
+        return f"{mat['hydrobake_copy_of']} (own copy)"
+    return mat.name
+
+
 def obj_state(o):
     return {
-        "slots": [(s.link, s.material.name if s.material else None) for s in o.material_slots],
+        "slots": [(s.link, slot_name(o, s.material)) for s in o.material_slots],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,
@@ -385,7 +395,8 @@ class Monkey:
         """Whether only meshes of deleted objects (unused until the save drops them) use
         ``mat``: a baked object deleted (--delete-baked) leaves its wiring there, and once
         the file is saved and opened again such a material is used by nothing."""
-        orphans = sum(1 for me in bpy.data.meshes if me.users == 0 and mat in me.materials[:])
+        orphans = sum(me.materials[:].count(mat) for me in bpy.data.meshes  # (a user a slot)
+                      if me.users == 0)
         return 0 < mat.users == orphans or (self.delete_baked and mat.users == 0)
 
     def image_only_orphans_hold(self, img):
