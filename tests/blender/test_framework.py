@@ -27,6 +27,11 @@ def test_ui_bake_is_modal_and_esc_cancels(blender, tmp_path):
     assert "UI MODAL CANCEL OK" in r.stdout
 
 
+def test_ui_addon_disabled_while_baking_keeps_frames_and_lets_go(blender, tmp_path):
+    r = blender.run_ui("ui_disable_midbake.py", tmp_path)
+    assert "UI DISABLE MIDBAKE OK" in r.stdout
+
+
 def test_a_bake_in_another_scene_reads_that_scene_animation(blender, tmp_path):
     r = blender.run("other_scene.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
     assert "OTHER SCENE OK" in r.stdout

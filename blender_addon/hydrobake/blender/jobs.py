@@ -183,6 +183,7 @@ class Job:
         # The object is marked, so that the bake finds it again if it is renamed meanwhile
         # (and never takes another object given its old name).
         self.token, self.pointer = uuid.uuid4().hex, obj.as_pointer()
+        self.ui_end = None  # a modal bake's: lets its progress go when cancel_all stops it
         settings[BAKING] = self.token
 
     @property
@@ -413,6 +414,8 @@ def cancel_all(timeout=5.0):
         job.runner.cancel()
         if job.runner.join(timeout):  # never free a handle a live thread still uses
             job.runner.effect.close()
+        if job.ui_end is not None:
+            job.ui_end()
         for o in bpy.data.objects:  # unrecorded: the panel offers to resume it (ui)
             s = settings_of(o, job.effect_name)
             if s.get(BAKING) == job.token:

@@ -1,5 +1,6 @@
 """Thin operators: bake (modal with progress and Esc in the UI, blocking in background mode and
 from scripts), cancel, free, presets, and the removal of deleted objects' bakes."""
+import functools
 import traceback
 
 import bpy
@@ -113,6 +114,10 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
+        # Disabling the addon or opening a file cancels the bake and drops this handler
+        # unasked: the progress, the status text and the timer still go then.
+        job.ui_end = functools.partial(_end_progress, wm, self._timer,
+                                       context.window.as_pointer())
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
@@ -133,9 +138,8 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
                 area.tag_redraw()
         if job.runner.is_alive():
             return {"PASS_THROUGH"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
+        job.ui_end = None
+        _end_progress(wm, self._timer, context.window.as_pointer())
         wired = self._finalize(context, job)
         # The record and the wiring as one undo step: without it, the next Ctrl+Z went back
         # past the bake and dropped its record, yet kept its wiring (the materials had not
@@ -143,6 +147,17 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         if bpy.ops.ed.undo_push.poll():
             bpy.ops.ed.undo_push(message=f"Hydrobake {job.effect_name} bake")
         return self._report(job) if wired else {"CANCELLED"}
+
+
+def _end_progress(wm, timer, window):
+    """A modal bake's timer, progress and status text (in the window of that pointer, if it
+    is still open) let go."""
+    wm.event_timer_remove(timer)
+    wm.progress_end()
+    win = next((w for w in wm.windows if w.as_pointer() == window), None)
+    if win is not None:
+        with bpy.context.temp_override(window=win):
+            bpy.context.workspace.status_text_set(None)
 
 
 class HYDROBAKE_OT_cancel_bake(_EffectTarget, bpy.types.Operator):
