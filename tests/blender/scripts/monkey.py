@@ -479,7 +479,8 @@ class Monkey:
                                     f"freed, was {want[aspect]} before the bakes")
         for name, want in self.snap_mats.items():
             m = bpy.data.materials.get(name)
-            if m is None or ("mat", name) in self.dirty or self.only_orphans_hold(m):
+            if m is None or ("mat", name) in self.dirty or self.only_orphans_hold(m) or \
+                    self.shows_deleted(m):  # (given to another object since: seed 560)
                 continue  # (a deleted baked object's material keeps its bake, unused)
             have = mat_state(m)
             if have != want and not self.known("material-state", m):
