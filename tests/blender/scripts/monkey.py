@@ -425,7 +425,7 @@ class Monkey:
         return bpy.ops.hydrobake.remove_deleted_bakes()
 
     def shows_deleted(self, mat):
-        if self.removed_deleted:
+        if self.removed_deleted or mat.node_tree is None:
             return False
         images = [n.image.name for n in mat.node_tree.nodes
                   if n.get("hydrobake") and getattr(n, "image", None) is not None]
