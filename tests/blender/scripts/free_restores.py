@@ -170,6 +170,22 @@ elif case == "copy_original_deleted":  # 9: a Shift+D copy baked, the original d
     check(slots()[c.name] == mine, f"slots {slots()}")
     check(not any(tagged(bpy.data.materials[m]) for m in mine if m in bpy.data.materials),
           "the copy shows wiring")
+    # File > Clean Up > Remove Deleted Objects' Bakes: the shared ones are clean, they are
+    # back in the copy's slots.
+    assert bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}
+    check(slots()[c.name] == ["GlassMat", "FritMat"], f"slots after the removal {slots()}")
+    clean()
+elif case == "copy_made_original_deleted_removed":  # 13: a Shift+D copy of a glass given a
+    g = glass(mat=None)                                # made material, baked; the original
+    bake("Glass", "rain")                              # deleted while baked, the copy freed
+    c = in_blender.duplicate(g)                        # (its clean copy stays, the made one
+    bake(c.name, "rain")                               # wired), then the deleted one's bake
+    bpy.data.objects.remove(g)                         # removed (monkey seed 650)
+    free(c.name, "rain")
+    check(slots() == {c.name: ["HBK_Glass_glass (Glass.001)"]}, f"slots {slots()}")
+    assert bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}
+    check(slots() == {c.name: []}, f"slots after the removal {slots()}")
+    clean()
 elif case == "copy_made_swapped":  # 5: ... taken out of the copy's slot before its Free
     g = glass(mat=None)
     bake("Glass", "rain")

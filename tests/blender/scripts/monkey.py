@@ -239,19 +239,20 @@ def mat_state(m):
     return st
 
 
-def slot_name(o, mat):
+def slot_name(mat):
     """A material's name, an object's own copy of a shared one (own()) named for what it
-    stands for: its name follows the object's renames."""
+    stands for: its name follows the object's renames at its re-bakes (seed 533), not at
+    others (244)."""
     if mat is None:
         return None
-    if mat.get("hydrobake_copy_for") == o.name and "hydrobake_copy_of" in mat:
-        return f"{mat['hydrobake_copy_of']} (own copy)"
+    if "hydrobake_copy_of" in mat:
+        return f"{mat['hydrobake_copy_of']} (a copy)"
     return mat.name
 
 
 def obj_state(o):
     return {
-        "slots": [(s.link, slot_name(o, s.material)) for s in o.material_slots],
+        "slots": [(s.link, slot_name(s.material)) for s in o.material_slots],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,
@@ -650,6 +651,7 @@ class Monkey:
 
     def do_delete(self, name):
         obj = self.obj(name)
+        self.snap_objs.pop(name, None)  # (another object may take the name: seed 643)
         baked = [e for e in EFFECTS if getattr(obj, f"hydrobake_{e}").is_baked]
         if baked and not self.delete_baked:
             for e in baked:  # the artist frees it first

@@ -205,6 +205,7 @@ def forget(name, prefix, image_names, unwire):
     for mat in [m for m in bpy.data.materials if m.get(COPY_FOR) == name]:
         if not _has_wiring(mat) and _unused(mat):
             bpy.data.materials.remove(mat)
+    _put_back_others(prefix)  # clean copies that stood for them while they were wired
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
@@ -305,20 +306,27 @@ def restore(obj, prefix):
                 del mat[key]
             continue
         _put_shared_back(slot, prefix, obj)
-    for other in bpy.data.objects:
-        if other != obj:
-            for slot in list(other.material_slots):
-                mat = slot.material
-                if _copy_of_gone_made(mat) and mat.get(LINK_WAS) != "DATA":
-                    _take_out_copy(other, mat)  # its made one went with this Free
-                else:
-                    _put_shared_back(slot, prefix, other)
+    _put_back_others(prefix, but=obj)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
     # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
     # it, it leaves the file.
     for mat in [m for m in bpy.data.materials if (MADE in m or COPY_OF in m) and
                 m.users == 0 and not _has_wiring(m) and SAVED not in m]:
         bpy.data.materials.remove(mat)
+
+
+def _put_back_others(prefix, but=None):
+    """The clean copies in the slots of objects other than ``but`` that waited for their
+    shared material to be free of another object's wiring: the shared one back in its place,
+    or (a made one, gone with that wiring) the copy out."""
+    for other in bpy.data.objects:
+        if other != but:
+            for slot in list(other.material_slots):
+                mat = slot.material
+                if _copy_of_gone_made(mat) and mat.get(LINK_WAS) != "DATA":
+                    _take_out_copy(other, mat)  # its made one went with this Free
+                else:
+                    _put_shared_back(slot, prefix, other)
 
 
 def _copy_of_gone_made(mat):
