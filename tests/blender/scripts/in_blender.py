@@ -1,6 +1,8 @@
 """Shared by the test scripts: enable the installed addon, read arguments."""
 import faulthandler
+import os
 import sys
+import traceback
 
 import addon_utils
 import bpy
@@ -158,3 +160,21 @@ def panel_calls(obj, effect):
         object, scene = obj, bpy.context.scene
     ui.draw_effect(Layout(log), Context, effects.get(effect))
     return log
+
+
+def ui_fail(msg):
+    """Ends a UI test as failed (its window would stay open otherwise)."""
+    print("UI TEST FAILED:", msg, flush=True)
+    os._exit(1)
+
+
+def ui_steps(step):
+    """Runs ``step()`` on a timer in the UI, again after each interval it returns, until it
+    returns None; an exception fails the test."""
+    def tick():
+        try:
+            return step()
+        except Exception:
+            traceback.print_exc()
+            os._exit(1)
+    bpy.app.timers.register(tick, first_interval=0.5)

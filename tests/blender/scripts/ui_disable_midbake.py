@@ -4,12 +4,12 @@ the panel's Resume finishes the bake as if it had never stopped."""
 import os
 import threading
 import time
-import traceback
 
 import addon_utils
 import bpy
 
 import in_blender
+from in_blender import ui_fail as fail
 
 in_blender.enable()
 from hydrobake.blender import jobs  # noqa: E402
@@ -26,19 +26,6 @@ def status_text_set(self, text):  # what the status bar shows (it has no getter)
 
 
 bpy.types.WorkSpace.status_text_set = status_text_set
-
-
-def fail(msg):
-    print("UI TEST FAILED:", msg, flush=True)
-    os._exit(1)
-
-
-def tick():
-    try:
-        return step()
-    except Exception:
-        traceback.print_exc()
-        os._exit(1)
 
 
 def step():
@@ -104,4 +91,4 @@ def step():
     return None
 
 
-bpy.app.timers.register(tick, first_interval=0.5)
+in_blender.ui_steps(step)

@@ -2,30 +2,16 @@
 panel asks for the texture and source in a dialog, and Return captures the stroke."""
 import os
 import time
-import traceback
 
 import bpy
 import numpy as np
 
 import in_blender
+from in_blender import ui_fail as fail
 
 in_blender.enable()
 tmp = in_blender.args()[0]
 state = {"phase": "start"}
-
-
-def fail(msg):
-    print("UI TEST FAILED:", msg, flush=True)
-    os._exit(1)
-
-
-
-def tick():
-    try:
-        return step()
-    except Exception:
-        traceback.print_exc()
-        os._exit(1)
 
 
 def step():
@@ -65,4 +51,4 @@ def step():
     os._exit(0)
 
 
-bpy.app.timers.register(tick, first_interval=0.5)
+in_blender.ui_steps(step)

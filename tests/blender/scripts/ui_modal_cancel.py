@@ -2,11 +2,11 @@
 the UI keeps ticking, Esc cancels within a fraction of a second, earlier frames are intact."""
 import os
 import time
-import traceback
 
 import bpy
 
 import in_blender
+from in_blender import ui_fail as fail
 import fixture_wave
 
 in_blender.enable()
@@ -17,19 +17,6 @@ from hydrobake.core.bake import BakeCache  # noqa: E402
 tmp = in_blender.args()[0]
 fixture_wave.BlenderWave.delay = 0.15
 state = {"phase": "start", "ticks": [], "t_esc": None}
-
-
-def fail(msg):
-    print("UI TEST FAILED:", msg, flush=True)
-    os._exit(1)
-
-
-def tick():
-    try:
-        return step()
-    except Exception:
-        traceback.print_exc()
-        os._exit(1)
 
 
 def step():
@@ -87,4 +74,4 @@ def step():
     return None
 
 
-bpy.app.timers.register(tick, first_interval=0.5)
+in_blender.ui_steps(step)
