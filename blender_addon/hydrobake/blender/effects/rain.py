@@ -297,12 +297,15 @@ class RainBlender(BlenderEffect):
                 cls._unwire(mat.node_tree)
             materials.give_back(obj, mat, "rain.")
         materials.restore(obj, "rain.")
-        for stream in ("preview", "normal"):
-            images.remove(f"HBK_{name}_rain_{stream}")
+        cls._remove_images(name)
 
     @classmethod
     def forget(cls, name):
         materials.forget(name, "rain.", {f"HBK_{name}_rain_normal"}, cls._unwire)
+        cls._remove_images(name)
+
+    @staticmethod
+    def _remove_images(name):
         for stream in ("preview", "normal"):
             images.remove(f"HBK_{name}_rain_{stream}")
 
