@@ -67,6 +67,14 @@ def test_an_overlapping_uv_map_is_baked_with_a_warning(blender, tmp_path):
         in r.stdout + r.stderr
 
 
+def test_an_object_its_view_layer_leaves_out_is_refused_by_name(blender, tmp_path):
+    """A glass, collider, ground, disturber or emitter that Show in Viewports, an excluded or
+    a disabled collection leaves out is not evaluated (no modifiers, no particles): each bake
+    is refused naming it and its setting, with nothing written; closed eyes bake."""
+    r = blender.run("hidden_inputs.py", tmp_path)
+    assert "HIDDEN INPUTS OK" in r.stdout
+
+
 def test_free_that_cannot_unwire_keeps_the_files_and_record(blender, tmp_path):
     r = blender.run("free_keeps_on_error.py", tmp_path)
     assert "FREE KEEPS ON ERROR OK" in r.stdout

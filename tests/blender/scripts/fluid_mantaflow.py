@@ -74,6 +74,14 @@ domain_said = [w for w in job.warnings if w.startswith("Liquid Domain")]
 assert len(domain_said) == 1 and domain_said[0].startswith(
     "Liquid Domain: Tank has Mesh off, so there is no liquid surface"), job.warnings
 d.use_mesh = True
+# A domain disabled in viewports is not evaluated: its liquid mesh would be read as its box.
+dom.hide_viewport = True
+try:
+    jobs.Job(bpy.context, dom, "fluid")
+    raise AssertionError("read a domain Blender does not evaluate")
+except ValueError as exc:
+    assert str(exc).startswith("Liquid Domain: 'Tank' is not evaluated in view layer"), exc
+dom.hide_viewport = False
 
 # Errors name the setting.
 plain = in_blender.new_plane("Plain")

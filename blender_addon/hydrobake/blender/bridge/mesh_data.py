@@ -1,14 +1,15 @@
 """Evaluated meshes as numpy arrays: triangles, per-corner UVs, material slots."""
 import numpy as np
 
-from .depsgraph import evaluated as evaluated_depsgraph
+from .depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 
 
-def triangles(obj, depsgraph=None, world=True, uv_name=None):
+def triangles(obj, depsgraph=None, world=True, uv_name=None, role=None):
     """(positions (V, 3), triangles (T, 3), uvs (T, 3, 2) or None, material_index (T,)) of
-    the evaluated object; positions in world space unless ``world`` is False."""
+    the evaluated object; positions in world space unless ``world`` is False. ValueError
+    naming the object (as the setting ``role``, if given) where it is not evaluated."""
     depsgraph = depsgraph or evaluated_depsgraph()
-    ev = obj.evaluated_get(depsgraph)
+    ev = evaluated_object(obj, depsgraph, role)
     mesh = ev.to_mesh()
     try:
         mesh.calc_loop_triangles()

@@ -3,7 +3,7 @@ import numpy as np
 from mathutils import Vector
 from mathutils.bvhtree import BVHTree
 
-from .depsgraph import evaluated as evaluated_depsgraph
+from .depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 
 
 def world_bounds(obj):
@@ -12,8 +12,8 @@ def world_bounds(obj):
     return pts.min(axis=0), pts.max(axis=0)
 
 
-def _world_tree(obj, depsgraph):
-    ev = obj.evaluated_get(depsgraph)
+def _world_tree(obj, depsgraph, role):
+    ev = evaluated_object(obj, depsgraph, role)
     mesh = ev.to_mesh()
     try:
         mesh.transform(obj.matrix_world)
@@ -25,14 +25,15 @@ def _world_tree(obj, depsgraph):
 
 
 def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=None,
-                   miss=np.nan, angle=0.0):
+                   miss=np.nan, angle=0.0, role=None):
     """Heights (world z) where vertical rays through cell centres hit ``obj``.
 
     Cell (i, j) has its centre at origin + R(angle) ((i + 0.5) cell, (j + 0.5) cell), R a turn
     about z (a grid turned with its object). DOWN: the topmost surface (ground); UP: the
-    lowest surface (an object's underside). Rows are j."""
+    lowest surface (an object's underside). Rows are j. ``role`` names the setting ``obj``
+    is, in the error for an object that is not evaluated."""
     depsgraph = depsgraph or evaluated_depsgraph()
-    tree = _world_tree(obj, depsgraph)
+    tree = _world_tree(obj, depsgraph, role)
     lo, hi = world_bounds(obj)
     h, w = shape
     out = np.full(shape, miss, np.float32)
@@ -79,12 +80,12 @@ def data_world_bounds(obj):
     return pts.min(axis=0), pts.max(axis=0)
 
 
-def z_crossings(obj, xs, ys, z_lo, z_hi, depsgraph=None):
+def z_crossings(obj, xs, ys, z_lo, z_hi, depsgraph=None, role=None):
     """Where the evaluated surface of ``obj`` crosses each vertical line (x, y) for x in xs, y
     in ys, between z_lo and z_hi: (heights, counts (len(ys), len(xs))), heights line after line
     (y rows, then x), ascending within a line."""
     depsgraph = depsgraph or evaluated_depsgraph()
-    tree = _world_tree(obj, depsgraph)
+    tree = _world_tree(obj, depsgraph, role)
     up = Vector((0.0, 0.0, 1.0))
     eps = 1e-6 * max(z_hi - z_lo, 1e-6)
     counts = np.zeros((len(ys), len(xs)), np.int32)

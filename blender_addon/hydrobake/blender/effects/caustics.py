@@ -183,7 +183,7 @@ class CausticsBlender(BlenderEffect):
                              f"it, or none for flat ground 1 m below")
         if settings.ground_object:
             ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
-                                           "DOWN", depsgraph, angle=grid.angle)
+                                           "DOWN", depsgraph, angle=grid.angle, role="Ground")
             ground[np.isnan(ground)] = level - 1.0 if np.all(np.isnan(ground)) else \
                 np.nanmin(ground)
         elif settings.ground_image is not None:
@@ -213,11 +213,11 @@ class CausticsBlender(BlenderEffect):
             def footprint(_f):
                 dg = evaluated_depsgraph(context)
                 under = meshes.sample_heights(settings.disturber_object, origin, cell, shape,
-                                              "UP", dg, angle=grid.angle)
+                                              "UP", dg, angle=grid.angle, role="Disturber")
                 # Only where the object crosses the surface: wholly under it, it moves no
                 # surface (its top below the level).
                 top = meshes.sample_heights(settings.disturber_object, origin, cell, shape,
-                                            "DOWN", dg, angle=grid.angle)
+                                            "DOWN", dg, angle=grid.angle, role="Disturber")
                 under[~(np.nan_to_num(top, nan=-np.inf) >= level)] = np.nan
                 press = np.clip(level - np.nan_to_num(under, nan=level), 0.0,
                                 settings.disturber_depth).astype(np.float32)
@@ -226,7 +226,7 @@ class CausticsBlender(BlenderEffect):
         sources = None
         if settings.source_object:
             under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
-                                          depsgraph, angle=grid.angle)
+                                          depsgraph, angle=grid.angle, role="Source")
             sources = np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
         w = settings.map_resolution
         inputs = dict(ground=ground.astype(np.float32), level=level, footprints=footprints,

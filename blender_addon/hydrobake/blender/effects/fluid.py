@@ -12,7 +12,7 @@ import numpy as np
 
 from ...core import mantaflow, solid_textures
 from ..bridge import animation, frame_meshes, meshes, tileable, volumes
-from ..bridge.depsgraph import evaluated as evaluated_depsgraph
+from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
 from .base import BakeWarning, BlenderEffect
 from .fluid_paint import FEATURES
@@ -286,7 +286,8 @@ class FluidBlender(BlenderEffect):
             xs = np.linspace(lo[0], hi[0], res[0] + 1)
             ys = np.linspace(lo[1], hi[1], res[1] + 1)
             surfaces = animation.per_frame(context.scene, frames[0], frames[1], lambda f: (
-                meshes.z_crossings(dom, xs, ys, lo[2], hi[2], evaluated_depsgraph(context))))
+                meshes.z_crossings(dom, xs, ys, lo[2], hi[2], evaluated_depsgraph(context),
+                                   role="Liquid Domain")))
         else:
             warnings.warn(f"Liquid Domain: {dom.name} has Mesh off, so there is no liquid "
                           "surface: the textured fluid stays empty and the grids fill the whole "
@@ -298,7 +299,7 @@ class FluidBlender(BlenderEffect):
     @staticmethod
     def _particles(context, pobj, frames, lo, hi):
         def particles(_f):
-            ev = pobj.evaluated_get(evaluated_depsgraph(context))
+            ev = evaluated_object(pobj, evaluated_depsgraph(context), "Particles")
             if not ev.particle_systems:
                 raise ValueError(f"{pobj.name}: has no particle system")
             ps = ev.particle_systems[0].particles

@@ -366,7 +366,7 @@ class SnowBlender(BlenderEffect):
             for o in settings.colliders.all_objects:
                 if o.type != "MESH" or o == obj:
                     continue
-                p, t, _, _ = mesh_data.triangles(o, dg, world=False)
+                p, t, _, _ = mesh_data.triangles(o, dg, world=False, role="Colliders")
                 movers.append(o)
                 parts.append((p, t + n, np.zeros((len(t), 3, 2), np.float32),
                               np.full(len(t), shelter, np.int32)))
