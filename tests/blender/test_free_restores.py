@@ -8,7 +8,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "copy_made_original_deleted", "copy_made_swapped", "copy_original_deleted",
          "shared_two", "copy_rebake", "copy_free_rebake", "shared_nodeless",
          "shared_nodeless_pool", "shared_vanished", "floor_replaced", "pool_over_pool",
-         "ground_copy_baked", "copy_made_original_deleted_removed")
+         "ground_copy_baked", "copy_made_original_deleted_removed",
+         "shared_vanished_other_wired")
 
 
 @pytest.mark.parametrize("case", CASES)

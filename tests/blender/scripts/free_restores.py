@@ -322,6 +322,24 @@ elif case == "shared_vanished":  # 7: the shared material left the file before t
     check(not any(k.startswith("hydrobake_copy") for k in bpy.data.materials["Felt"].keys()),
           "Felt still says it is a copy")
     clean()
+elif case == "shared_vanished_other_wired":  # 19: as 7, the copy also a pool's floor; the
+    # pool freed last, after the glass (monkey 767: the copy stood for nothing, under its name)
+    w = pool()
+    g = glass(mat="GroundMat", loc=(0, 0, -0.3))  # Ground shows GroundMat too: Glass's copy
+    w.hydrobake_caustics.ground_object = g
+    bake("Glass", "rain")
+    bake("Water", "caustics")  # the floor's nodes go into Glass's copy
+    bpy.data.objects["Ground"].material_slots[0].material = in_blender.node_material("Other")
+    bpy.ops.wm.save_mainfile()  # GroundMat, used by nothing, is not saved
+    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
+    check("GroundMat" not in bpy.data.materials, "GroundMat was saved")
+    free("Glass", "rain")  # the copy keeps the pool's floor: still a copy
+    free("Water", "caustics")
+    check(slots()["Glass"] == ["GroundMat"], f"slots {slots()}")
+    check(not any(k.startswith("hydrobake_copy") for k in
+                  getattr(bpy.data.materials.get("GroundMat"), "keys", dict)()),
+          "GroundMat still says it is a copy")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -297,15 +297,8 @@ def restore(obj, prefix):
         if _copy_of_gone_made(mat):
             _take_out_copy(obj, mat)
             continue
-        if mat is not None and COPY_OF in mat and shared is None and COPY_OF_MADE not in mat \
-                and not _has_wiring(mat) and mat.get(LINK_WAS) != "DATA":
-            # The shared one left the file meanwhile (its slots changed, it had no user at a
-            # save): the clean copy becomes it again, and other copies of it go back to it.
-            mat.name = mat[COPY_OF]
-            for key in (COPY_OF, COPY_FOR):
-                del mat[key]
-            continue
-        _put_shared_back(slot, prefix, obj)
+        if not _shared_again(mat):
+            _put_shared_back(slot, prefix, obj)
     _put_back_others(prefix, but=obj)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
     # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
@@ -325,8 +318,21 @@ def _put_back_others(prefix, but=None):
                 mat = slot.material
                 if _copy_of_gone_made(mat) and mat.get(LINK_WAS) != "DATA":
                     _take_out_copy(other, mat)  # its made one went with this Free
-                else:
+                elif not _shared_again(mat):  # (its last wiring gone with this one: 767)
                     _put_shared_back(slot, prefix, other)
+
+
+def _shared_again(mat):
+    """A clean copy own() made, wired by no bake now, whose shared material left the file
+    meanwhile (its slots changed, it had no user at a save) becomes that material again: its
+    name back, no longer a copy (other copies of it then go back to it). Whether it did."""
+    if mat is None or COPY_OF not in mat or COPY_OF_MADE in mat or _has_wiring(mat) or \
+            mat.get(LINK_WAS) == "DATA" or bpy.data.materials.get(mat[COPY_OF]) is not None:
+        return False
+    mat.name = mat[COPY_OF]
+    for key in (COPY_OF, COPY_FOR):
+        del mat[key]
+    return True
 
 
 def _copy_of_gone_made(mat):
