@@ -239,6 +239,9 @@ def mat_state(m):
     return st
 
 
+DROPPED = object()  # Monkey.stands_for: a slot that goes with a deleted object's bake
+
+
 def slot_name(mat):
     """A material's name, an object's own copy of a shared one (own()) named for what it
     stands for: its name follows the object's renames at its re-bakes (seed 533), not at
@@ -250,9 +253,10 @@ def slot_name(mat):
     return mat.name
 
 
-def obj_state(o):
+def obj_state(o, name_of=slot_name):
     return {
-        "slots": [(s.link, slot_name(s.material)) for s in o.material_slots],
+        "slots": [(s.link, name_of(s.material)) for s in o.material_slots
+                  if name_of(s.material) is not DROPPED],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,
@@ -432,6 +436,20 @@ class Monkey:
                   if n.get("hydrobake") and getattr(n, "image", None) is not None]
         return bool(images) and all(self.of_deleted(i) for i in images)
 
+    def stands_for(self, mat):
+        """slot_name(), but a clean copy whose shared material shows a bake of an object
+        deleted while baked is that material: by design the copy stands in the slot until
+        Remove Deleted Objects' Bakes takes the wiring out (seeds 767, 769). A material made
+        for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790)."""
+        if mat is not None and self.of_deleted(mat.get("hydrobake_copy_of", mat.name)):
+            return DROPPED
+        shared = bpy.data.materials.get(mat["hydrobake_copy_of"]) \
+            if mat is not None and "hydrobake_copy_of" in mat else None
+        if shared is not None and self.shows_deleted(shared) and not (mat.node_tree and any(
+                n.get("hydrobake") for n in mat.node_tree.nodes)):
+            return shared.name
+        return slot_name(mat)
+
     def check_clean(self, compare=True):
         """Nothing is baked: nothing of Hydrobake's is left, and everything is as before."""
         for m in bpy.data.materials:
@@ -469,7 +487,7 @@ class Monkey:
             o = bpy.data.objects.get(name)
             if o is None:
                 continue
-            have = obj_state(o)
+            have = obj_state(o, self.stands_for)
             for aspect in want:
                 if (name, aspect) in self.dirty:
                     continue
@@ -492,8 +510,10 @@ class Monkey:
                                 f"before the bakes: (now, before) {diff}")
 
     def take_snapshot(self):
-        self.snap_objs = {o.name: obj_state(o) for o in scene_objects()}
-        self.snap_mats = {m.name: mat_state(m) for m in bpy.data.materials}
+        self.snap_objs = {o.name: obj_state(o, self.stands_for) for o in scene_objects()}
+        # (not one a deleted object's bake is in: not the artist's state, seeds 783, 787)
+        self.snap_mats = {m.name: mat_state(m) for m in bpy.data.materials
+                          if not self.shows_deleted(m) and not self.only_orphans_hold(m)}
         self.dirty = set()
         self.copies = {}
 
@@ -921,10 +941,6 @@ class Monkey:
         if op == "visibility":
             attrs = ["hide_render", "visible_shadow", "hide_set", "hide_viewport"]
             attr = rng.choice(attrs)
-            if attr == "hide_viewport" and self.mask_known:
-                # Known: Free Bake of an object disabled in viewports whose material the bake
-                # made fails in give_back (material_slot_remove: "Cannot edit hidden object").
-                attr = "hide_set"
             return [{"op": "visibility", "name": rng.choice(objs), "attr": attr}]
         if op == "frame":
             return [{"op": "frame", "frame": rng.randint(0, 5)}]
