@@ -4,6 +4,7 @@ while a bake exists)."""
 import bpy
 
 from . import jobs
+from .bridge import depsgraph
 
 
 def draw_effect(layout, context, beffect):
@@ -34,6 +35,8 @@ def draw_effect(layout, context, beffect):
         op = row.operator("hydrobake.bake", text="Bake", icon="RENDER_ANIMATION")
     op.effect, op.object_name = beffect.name, obj.name
     _draw_deleted_bakes(layout, obj, beffect)
+    if not settings.is_baked and job is None:
+        _draw_left_out(layout, context, obj, settings, beffect)
     if settings.is_baked and job is None:
         layout.label(text=f"Baked in {bpy.path.relpath(settings.bake_folder)}", icon="CHECKMARK")
 
@@ -70,6 +73,20 @@ def _draw_deleted_bakes(layout, obj, beffect):
                        f"{', '.join(repr(n) for n in shown)}", icon="ERROR")
         op = row.operator("hydrobake.remove_deleted_bakes", text="Remove")
         op.effect = beffect.name
+
+
+def _draw_left_out(layout, context, obj, settings, beffect):
+    """Objects the bake reads that the view layer leaves out (not evaluated): the Bake would
+    refuse them, so say which before it is pressed."""
+    left = [o.name if role is None else f"{role}: {o.name}"
+            for role, o in beffect.evaluated_inputs(obj, settings)
+            if not depsgraph.enabled(context.view_layer, o)]
+    if left:
+        col = layout.column(align=True)
+        col.alert = True
+        col.label(text=f"Not evaluated in this view layer: {', '.join(left)}", icon="ERROR")
+        col.label(text="Turn on Show In > Viewports and include its collection to bake",
+                  icon="BLANK1")
 
 
 def make_panel(beffect):

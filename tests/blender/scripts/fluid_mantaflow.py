@@ -76,6 +76,8 @@ assert len(domain_said) == 1 and domain_said[0].startswith(
 d.use_mesh = True
 # A domain disabled in viewports is not evaluated: its liquid mesh would be read as its box.
 dom.hide_viewport = True
+said = [k.get("text") for n, a, k in in_blender.panel_calls(dom, "fluid") if n == "label"]
+assert "Not evaluated in this view layer: Liquid Domain: Tank" in said, said
 try:
     jobs.Job(bpy.context, dom, "fluid")
     raise AssertionError("read a domain Blender does not evaluate")

@@ -1,8 +1,9 @@
 """An object a bake reads whose view layer leaves it out (Show in Viewports off, its only
 collection excluded or disabled in viewports) is not evaluated by Blender: its modifiers and
-particles are missing. Such a bake is refused by name and setting, before anything is written;
-an object hidden by its eye is evaluated and bakes. What was measured before the refusal: a
-Subdivision plane read with 2 triangles instead of 32, a hidden emitter's particles missing."""
+particles are missing. Such a bake is refused by name and setting, before anything is
+written, and the panel names the object beforehand; an object hidden by its eye is evaluated
+and bakes. What was measured before the refusal: a Subdivision plane read with 2 triangles
+instead of 32, a hidden emitter's particles missing."""
 import os
 
 import bpy
@@ -31,6 +32,13 @@ def refused(effect, name):
     raise AssertionError(f"{effect} {name}: baked")
 
 
+def panel_says(effect, name):
+    """The panel's line naming what the view layer leaves out, or None."""
+    said = [k.get("text") for n, a, k in in_blender.panel_calls(bpy.data.objects[name], effect)
+            if n == "label" and str(k.get("text", "")).startswith("Not evaluated")]
+    return said[0] if said else None
+
+
 def hidden_collection(name, *objs):
     """A collection of its own in the scene holding ``objs`` (and nothing else of theirs)."""
     coll = bpy.data.collections.new(name)
@@ -50,10 +58,12 @@ r.enabled, r.use_scene_range, r.frame_start, r.frame_end = True, False, 1, 1
 r.rain.cell_size = 0.05
 assert len(mesh_data.triangles(glass)[1]) == 32
 glass.hide_viewport = True
+assert panel_says("rain", "Glass") == "Not evaluated in this view layer: Glass"
 msg = refused("rain", "Glass")
 assert f"Glass rain: Glass {LEFT_OUT}" in msg and HOW in msg, msg
 glass.hide_viewport = False
 glass.hide_set(True)
+assert panel_says("rain", "Glass") is None
 assert len(mesh_data.triangles(glass)[1]) == 32
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
 assert r.is_baked
@@ -68,6 +78,7 @@ posts, posts_layer = hidden_collection("Posts", post)
 s = in_blender.snow(snowy, (1, 1), 10.0, 16)
 s.colliders = posts
 posts_layer.exclude = True
+assert panel_says("snow", "Snowy") == "Not evaluated in this view layer: Colliders: Post"
 msg = refused("snow", "Snowy")
 assert f"Snowy snow: Colliders: 'Post' {LEFT_OUT}" in msg and HOW in msg, msg
 posts_layer.exclude = False
@@ -86,6 +97,7 @@ c.use_scene_range, c.frame_start, c.frame_end = False, 1, 2
 c.water.width, c.map_resolution = 16, 32
 floors, _ = hidden_collection("Floors", floor)
 floors.hide_viewport = True
+assert panel_says("caustics", "Water") == "Not evaluated in this view layer: Ground: Floor"
 msg = refused("caustics", "Water")
 assert f"Water caustics: Ground: 'Floor' {LEFT_OUT}" in msg and HOW in msg, msg
 floors.hide_viewport = False
@@ -108,8 +120,10 @@ f.fluid.source = "PARTICLES"
 f.fluid.resolution, f.fluid.substeps, f.fluid.textures = (16, 8, 8), 4, 2
 f.use_scene_range, f.frame_start, f.frame_end = False, 1, 2
 emitter.hide_viewport = True
+assert panel_says("fluid", "Domain") == "Not evaluated in this view layer: Particles: Emitter"
 msg = refused("fluid", "Domain")
 assert f"Particles: 'Emitter' {LEFT_OUT}" in msg, msg
 emitter.hide_viewport = False
+assert panel_says("fluid", "Domain") is None
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 print("HIDDEN INPUTS OK")

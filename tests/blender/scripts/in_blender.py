@@ -157,7 +157,7 @@ def panel_calls(obj, effect):
     log = []
 
     class Context:
-        object, scene = obj, bpy.context.scene
+        object, scene, view_layer = obj, bpy.context.scene, bpy.context.view_layer
     ui.draw_effect(Layout(log), Context, effects.get(effect))
     return log
 

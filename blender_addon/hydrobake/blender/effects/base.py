@@ -130,6 +130,13 @@ class BlenderEffect:
         return gone
 
     @classmethod
+    def evaluated_inputs(cls, obj, settings):
+        """[(setting, object)] of the objects prepare reads as Blender evaluated them (the
+        setting None for ``obj`` itself): the panel names any its view layer leaves out, which
+        the Bake would refuse (bridge.depsgraph.evaluated_object)."""
+        return []
+
+    @classmethod
     def derived(cls, settings):
         """{"group.name": why} of the parameters that prepare sets itself from other
         settings, as snow's Auto Volume sets the volume and the flake count: drawn inactive,

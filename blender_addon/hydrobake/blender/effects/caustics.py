@@ -172,6 +172,12 @@ class CausticsBlender(BlenderEffect):
         return Grid(origin, angle, cell, (rows, width), float(corners[:, 2].max()))
 
     @classmethod
+    def evaluated_inputs(cls, obj, settings):
+        return [(role, o) for role, o in (("Ground", settings.ground_object),
+                                          ("Disturber", settings.disturber_object),
+                                          ("Source", settings.source_object)) if o is not None]
+
+    @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
         grid = cls.grid(obj, params["water"]["width"])

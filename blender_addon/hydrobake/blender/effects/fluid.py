@@ -163,6 +163,19 @@ class FluidBlender(BlenderEffect):
         )
 
     @classmethod
+    def evaluated_inputs(cls, obj, settings):
+        source = settings.fluid.source
+        if source == "PARTICLES" and settings.particle_object is not None:
+            return [("Particles", settings.particle_object)]
+        if source == "VELOCITY_GRID":  # its liquid mesh, when it has one
+            dom = settings.liquid_domain or obj
+            mod = next((m for m in dom.modifiers
+                        if m.type == "FLUID" and m.fluid_type == "DOMAIN"), None)
+            if mod is not None and mod.domain_settings.use_mesh:
+                return [("Liquid Domain", dom)]
+        return []
+
+    @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         # The object's own box (a liquid domain's bounds would be its liquid's).
         lo, hi = meshes.data_world_bounds(obj) if obj.type == "MESH" else meshes.world_bounds(obj)

@@ -62,6 +62,10 @@ class RainBlender(BlenderEffect):
         )
 
     @classmethod
+    def evaluated_inputs(cls, obj, settings):
+        return [(None, obj)]
+
+    @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
         # The glass's own surface: without the thickness the bake adds (two faces per UV).

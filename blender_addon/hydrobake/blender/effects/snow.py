@@ -342,6 +342,12 @@ class SnowBlender(BlenderEffect):
         )
 
     @classmethod
+    def evaluated_inputs(cls, obj, settings):
+        colliders = settings.colliders.all_objects if settings.colliders else ()
+        return [(None, obj)] + [("Colliders", o) for o in colliders
+                                if o.type == "MESH" and o != obj]
+
+    @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
         dg = evaluated_depsgraph(context)
