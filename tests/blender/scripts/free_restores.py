@@ -340,6 +340,37 @@ elif case == "shared_vanished_other_wired":  # 19: as 7, the copy also a pool's 
                   getattr(bpy.data.materials.get("GroundMat"), "keys", dict)()),
           "GroundMat still says it is a copy")
     clean()
+elif case == "slot_link_object":  # 20: the made material's slot switched to the object's own
+    # material after the bake (Link: Object): the mesh's slot still holds it (monkey 1029)
+    w = pool()
+    bake("Water", "caustics")
+    w.material_slots[0].link = "OBJECT"
+    free("Water", "caustics")
+    check(slots()["Water"] == [] and len(w.data.materials) == 0,
+          f"slots {slots()}, mesh {list(w.data.materials)}")
+    clean()
+elif case == "linked_copies":  # 21: two Alt+D copies (one mesh), each baked and freed in
+    # turns, one's own material set to none between (monkey 1009, 1006)
+    g = glass(mat=None)
+    bake("Glass", "rain")
+    g2 = in_blender.duplicate(g, linked=True)
+    bake(g2.name, "rain")  # the mesh's slot shows Glass's: Glass.001 gets its own copy
+    free("Glass", "rain")
+    bake("Glass", "rain")
+    g2.material_slots[0].material = None
+    bake(g2.name, "rain")
+    free("Glass", "rain")
+    free(g2.name, "rain")
+    check(slots() == {"Glass": [], g2.name: []}, f"slots {slots()}")
+    check(not g.data.keys(), f"the mesh keeps {g.data.keys()}")
+    # The other way round: the copy's made material first, the original's own copy after.
+    bake(g2.name, "rain")
+    bake("Glass", "rain")
+    free("Glass", "rain")
+    free(g2.name, "rain")
+    check(slots() == {"Glass": [], g2.name: []}, f"slots {slots()}")
+    check(not g.data.keys(), f"the mesh keeps {g.data.keys()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -109,14 +109,14 @@ def snow(obj, frames, density, texture=64):
     return s
 
 
-def duplicate(obj):
+def duplicate(obj, linked=False):
     """Shift+D on ``obj`` alone, as the artist does it (the copy keeps every property, a bake
-    record too); returns the copy."""
+    record too), or Alt+D (``linked``: the copy shares the mesh); returns the copy."""
     bpy.context.view_layer.update()  # objects just linked are not the view layer's before
     for o in bpy.context.view_layer.objects:
         o.select_set(o == obj)
     bpy.context.view_layer.objects.active = obj
-    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    assert bpy.ops.object.duplicate(linked=linked) == {"FINISHED"}
     return bpy.context.view_layer.objects.active
 
 

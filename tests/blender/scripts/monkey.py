@@ -18,7 +18,7 @@ invariants checked after every step:
 * at the end the scene renders a frame in Cycles (32 x 32 px, 1 sample, no denoiser).
 
     blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
-        [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked]
+        [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked] [--more]
         [--no-subprocess] [--no-render] [--known] [--trace]
 
 --known goes on past the violations already reported (KNOWN below), to find others; --trace
@@ -239,6 +239,12 @@ def mat_state(m):
     return st
 
 
+def _layer_collection(lc, coll):
+    if lc.collection == coll:
+        return lc
+    return next((f for f in (_layer_collection(c, coll) for c in lc.children) if f), None)
+
+
 DROPPED = object()  # Monkey.stands_for: a slot that goes with a deleted object's bake
 
 
@@ -279,6 +285,7 @@ class Monkey:
         self.deleted_bakes = set()  # ... and the names their bakes were wired under
         self.removed_deleted = False  # Remove Deleted Objects' Bakes ran (at the end)
         self.used_names = set()
+        self.more = False  # --more: Alt+D, slot links, collections
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
         self.counter = 0
@@ -635,14 +642,15 @@ class Monkey:
         r = bpy.ops.hydrobake.apply_preset(effect=effect, object_name=name, preset=preset)
         return str(r)
 
-    def do_copy(self, name):
+    def do_copy(self, name, linked=False):
+        """Shift+D, or Alt+D (``linked``: the copy shares the mesh, its slots among them)."""
         obj = self.obj(name)
         if not obj.visible_get():
             raise Skip("hidden: cannot be selected")
         for o in bpy.context.view_layer.objects:
             o.select_set(o == obj)
         bpy.context.view_layer.objects.active = obj
-        assert bpy.ops.object.duplicate() == {"FINISHED"}
+        assert bpy.ops.object.duplicate(linked=linked) == {"FINISHED"}
         copy = bpy.context.view_layer.objects.active
         self.all_copies.add(copy.name)
         src = self.copies.get(name, name)
@@ -697,6 +705,9 @@ class Monkey:
     def do_material(self, name, kind, slot, material, nodes=True):
         obj = self.obj(name)
         self.touched(name, "slots")
+        for o in bpy.data.objects:  # a mesh's slots show on every object of it (Alt+D)
+            if o.data == obj.data and o != obj:
+                self.touched(o.name, "slots")
         if kind == "add":
             obj.active_material_index = max(0, len(obj.material_slots) - 1)
             with bpy.context.temp_override(object=obj):
@@ -740,6 +751,42 @@ class Monkey:
             return "removed"
         setattr(mod, attr, not getattr(mod, attr))
         return "toggled"
+
+    def do_slot_link(self, name, slot):
+        """A slot switched between the mesh's material and the object's own (Link)."""
+        obj = self.obj(name)
+        if slot >= len(obj.material_slots):
+            raise Skip("no such slot")
+        self.touched(name, "slots")
+        s = obj.material_slots[slot]
+        s.link = "OBJECT" if s.link == "DATA" else "DATA"
+        return s.link
+
+    def do_collection(self, name, kind):
+        """The object moved to a collection of its own (M), or the first collection of it
+        excluded from the view layer or disabled in viewports, or back (its bake is refused
+        while Blender does not evaluate it)."""
+        obj = self.obj(name)
+        scene = bpy.context.scene
+        if kind == "move":
+            self.counter += 1
+            coll = bpy.data.collections.new(f"Coll{self.counter}")
+            scene.collection.children.link(coll)
+            for c in list(obj.users_collection):
+                c.objects.unlink(obj)
+            coll.objects.link(obj)
+            return coll.name
+        coll = next((c for c in obj.users_collection if c != scene.collection), None)
+        if coll is None:
+            raise Skip("in the scene's own collection only")
+        if kind == "exclude":
+            lc = _layer_collection(bpy.context.view_layer.layer_collection, coll)
+            if lc is None:
+                raise Skip("not in the view layer")
+            lc.exclude = not lc.exclude
+            return f"{coll.name} exclude={lc.exclude}"
+        coll.hide_viewport = not coll.hide_viewport
+        return f"{coll.name} hide_viewport={coll.hide_viewport}"
 
     def do_visibility(self, name, attr):
         obj = self.obj(name)
@@ -888,7 +935,20 @@ class Monkey:
                ("copy", 6), ("rename", 6), ("delete", 2), ("material", 6), ("modifier", 5),
                ("visibility", 4), ("save", 2), ("reopen", 3), ("undo", 1), ("cli", 6),
                ("frame", 2), ("preset", 2), ("free_all", 2)]
+        if self.more:  # (an opt-in: the fixed seeds' sequences stay as they were)
+            ops += [("link_copy", 4), ("slot_link", 4), ("collection", 4)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
+        if op == "link_copy":
+            return [{"op": "copy", "name": name, "linked": True},
+                    {"op": rng.choice(("bake", "free")), "name": self._predict_copy_name(name)
+                     if rng.random() < 0.6 else name, "effect": effect}]
+        if op == "slot_link":
+            who = rng.choice(objs)
+            n = len(bpy.data.objects[who].material_slots)
+            return [{"op": "slot_link", "name": who, "slot": rng.randint(0, max(0, n - 1))}]
+        if op == "collection":
+            return [{"op": "collection", "name": rng.choice(objs),
+                     "kind": rng.choice(("move", "exclude", "hide"))}]
         if op == "bake":
             return [{"op": "bake", "name": name, "effect": effect}]
         if op == "free":
@@ -1057,6 +1117,8 @@ def main():
     p.add_argument("--delete-baked", action="store_true")
     p.add_argument("--no-subprocess", action="store_true")
     p.add_argument("--no-render", action="store_true")
+    p.add_argument("--more", action="store_true",
+                   help="also Alt+D copies, slot links and collections (moved, excluded)")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
@@ -1078,7 +1140,9 @@ def main():
                delete_baked=args.delete_baked or bool(replay and replay.get("delete_baked")))
     m.mask_known = args.known
     m.trace = args.trace
+    m.more = args.more or bool(replay and replay.get("more"))
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
+              "more": m.more,
               "actions": m.log}
     status = "OK"
     try:

@@ -136,6 +136,7 @@ def _take_out(obj, mat):
     empty again, or gone if it was appended for it."""
     index = next((i for i, s in enumerate(obj.material_slots) if s.material == mat), None)
     if index is None:
+        _take_out_of_mesh(obj, mat)
         return
     # A mesh other objects share keeps the slot where one of them shows its own material.
     others = [o for o in bpy.data.objects if o != obj and o.data == obj.data]
@@ -149,6 +150,25 @@ def _take_out(obj, mat):
         obj.data[EMPTY_SLOT] = index  # for the last object showing it (restore)
     if mat[MADE] == "appended" and linked and not kept and \
             index == len(obj.data.materials) - 1:
+        _drop_slot(obj, index)
+
+
+def _take_out_of_mesh(obj, mat):
+    """_take_out where the mesh's slot holds ``mat`` behind the object's own material (the
+    slot's Link set to Object since the bake, or an Alt+D copy's own; monkey --more 1010,
+    1029, 1006): the mesh's slot empty again, or gone if it was appended for the bake and no
+    object of the mesh shows its own material there (else once none does)."""
+    mats = getattr(obj.data, "materials", None)
+    index = next((i for i, m in enumerate(mats) if m == mat), None) if mats else None
+    if index is None:
+        return
+    mats[index] = None
+    shown = any(index < len(o.material_slots) and o.material_slots[index].link == "OBJECT"
+                and o.material_slots[index].material is not None
+                for o in bpy.data.objects if o.data == obj.data)
+    if mat[MADE] == "appended" and shown:
+        obj.data[EMPTY_SLOT] = index  # for the last object showing it (_drop_empty_slot)
+    elif mat[MADE] == "appended" and index == len(mats) - 1:
         _drop_slot(obj, index)
 
 
@@ -277,28 +297,14 @@ def restore(obj, prefix):
     this object's wiring (two objects sharing a material, both baked, both freed)."""
     for slot in obj.material_slots:
         mat = slot.material
-        shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
-            else None
-        if mat is not None and COPY_OF in mat and shared is None and not _has_wiring(mat) \
-                and mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
-            # The shared one was a material made for the other object of the mesh, gone
-            # with its bake: the mesh's slot shows again (empty).
-            slot.material = None
-            slot.link = "DATA"
-            if mat.users == 0:
-                bpy.data.materials.remove(mat)
-            index = obj.data.get(EMPTY_SLOT)
-            users = [o for o in bpy.data.objects if o.data == obj.data]
-            if index is not None and index == len(obj.data.materials) - 1 and not any(
-                    o.material_slots[index].material for o in users):
-                del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes
-                _drop_slot(obj, index)
+        if _mesh_slot_again(obj, slot):
             continue
         if _copy_of_gone_made(mat):
             _take_out_copy(obj, mat)
             continue
         if not _shared_again(mat):
             _put_shared_back(slot, prefix, obj)
+    _drop_empty_slot(obj)
     _put_back_others(prefix, but=obj)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
     # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
@@ -306,6 +312,40 @@ def restore(obj, prefix):
     for mat in [m for m in bpy.data.materials if (MADE in m or COPY_OF in m) and
                 m.users == 0 and not _has_wiring(m) and SAVED not in m]:
         bpy.data.materials.remove(mat)
+
+
+def _mesh_slot_again(obj, slot):
+    """A clean copy in the object's own slot of a shared mesh, standing for a material made
+    for another object of the mesh and gone with its bake: the mesh's slot shows again
+    (empty, or gone with nothing shown there). Whether it did."""
+    mat = slot.material
+    if mat is None or COPY_OF not in mat or bpy.data.materials.get(mat[COPY_OF]) is not None \
+            or _has_wiring(mat) or mat.get(LINK_WAS) != "DATA" or slot.link != "OBJECT":
+        return False
+    slot.material = None
+    slot.link = "DATA"
+    if mat.users == 0:
+        bpy.data.materials.remove(mat)
+    _drop_empty_slot(obj)
+    return True
+
+
+def _drop_empty_slot(obj):
+    """The mesh's slot a made material left (EMPTY_SLOT, kept while another object of the
+    mesh showed its own material there) goes once no object of the mesh shows anything there
+    and nothing follows it (monkey --more 1009: the last of two Alt+D copies freed)."""
+    index = obj.data.get(EMPTY_SLOT) if obj.data is not None else None
+    if index is None:
+        return
+    users = [o for o in bpy.data.objects if o.data == obj.data]
+    if index != len(obj.data.materials) - 1 or any(
+            index < len(o.material_slots) and o.material_slots[index].material
+            for o in users):
+        return
+    del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes
+    for o in users:
+        o.material_slots[index].link = "DATA"
+    _drop_slot(obj, index)
 
 
 def _put_back_others(prefix, but=None):
@@ -316,6 +356,8 @@ def _put_back_others(prefix, but=None):
         if other != but:
             for slot in list(other.material_slots):
                 mat = slot.material
+                if _mesh_slot_again(other, slot):
+                    continue  # (its made one went with this Free: monkey --more 1006)
                 if _copy_of_gone_made(mat) and mat.get(LINK_WAS) != "DATA":
                     _take_out_copy(other, mat)  # its made one went with this Free
                 elif not _shared_again(mat):  # (its last wiring gone with this one: 767)
