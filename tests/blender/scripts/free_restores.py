@@ -371,6 +371,14 @@ elif case == "linked_copies":  # 21: two Alt+D copies (one mesh), each baked and
     check(slots() == {"Glass": [], g2.name: []}, f"slots {slots()}")
     check(not g.data.keys(), f"the mesh keeps {g.data.keys()}")
     clean()
+elif case == "linked_pool":  # 22: an Alt+D copy of a pool without a material baked: the
+    # material made for it shows on the mesh's other object at once (monkey 1017)
+    w = pool()
+    w2 = in_blender.duplicate(w, linked=True)
+    bake(w2.name, "caustics")
+    free(w2.name, "caustics")
+    check(slots()["Water"] == [] and slots()[w2.name] == [], f"slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -413,6 +413,12 @@ def _put_shared_back(slot, prefix, obj):
         slot.material = shared
     if mat.users == 0:
         bpy.data.materials.remove(mat)
+    if MADE in shared and not _has_wiring(shared) and SAVED not in shared:
+        # Made for a bake and copied by own() at once (the mesh is shared, an Alt+D copy
+        # showed it; monkey --more 1017), no bake in it now: it goes as give_back's would.
+        _take_out(obj, shared)
+        if _unused(shared):
+            bpy.data.materials.remove(shared)
 
 
 def _shows_others(mat, obj):
