@@ -349,6 +349,19 @@ elif case == "slot_link_object":  # 20: the made material's slot switched to the
     check(slots()["Water"] == [] and len(w.data.materials) == 0,
           f"slots {slots()}, mesh {list(w.data.materials)}")
     clean()
+elif case == "slot_link_data":  # 20b: the ground's slot switched to the object's own (none)
+    # before the bake, the floor made there, then switched back to the mesh's (monkey 1030)
+    w = pool()
+    g = bpy.data.objects["Ground"]
+    g.material_slots[0].link = "OBJECT"
+    bake("Water", "caustics")
+    g.material_slots[0].link = "DATA"
+    free("Water", "caustics")
+    g.material_slots[0].link = "OBJECT"
+    check(g.material_slots[0].material is None, f"own {g.material_slots[0].material}")
+    g.material_slots[0].link = "DATA"
+    check(slots()["Ground"] == ["GroundMat"], f"slots {slots()}")
+    clean()
 elif case == "linked_copies":  # 21: two Alt+D copies (one mesh), each baked and freed in
     # turns, one's own material set to none between (monkey 1009, 1006)
     g = glass(mat=None)

@@ -104,6 +104,15 @@ def give_back(obj, mat, prefix):
             bpy.data.materials.remove(mat)
 
 
+def take_out_made(mats, objs):
+    """The materials ensure_material made among ``mats``, wired by no bake now, taken out of
+    the objects' slots, shown or behind a slot's Link (drop_unused_made then removes them)."""
+    for mat in mats:
+        if MADE in mat and not _has_wiring(mat):
+            for obj in dict.fromkeys(objs):
+                _take_out(obj, mat)
+
+
 def drop_unused_made(mats):
     """The materials ensure_material made among ``mats`` that nothing uses and that hold no
     Hydrobake node leave the file (taken out of their object's slot since the bake)."""
@@ -154,10 +163,17 @@ def _take_out(obj, mat):
 
 
 def _take_out_of_mesh(obj, mat):
-    """_take_out where the mesh's slot holds ``mat`` behind the object's own material (the
-    slot's Link set to Object since the bake, or an Alt+D copy's own; monkey --more 1010,
-    1029, 1006): the mesh's slot empty again, or gone if it was appended for the bake and no
-    object of the mesh shows its own material there (else once none does)."""
+    """_take_out where a slot's Link hides ``mat``: the object's own material behind the
+    mesh's (Link set back to Data since the bake; monkey --more 1030), emptied; or the mesh's
+    behind the object's own (Link set to Object since, or an Alt+D copy's own; 1010, 1029,
+    1006): the mesh's slot empty again, or gone if it was appended for the bake and no object
+    of the mesh shows its own material there (else once none does)."""
+    for slot in obj.material_slots:
+        if slot.link == "DATA":  # the object's own material, behind the mesh's (1030)
+            slot.link = "OBJECT"
+            if slot.material == mat:
+                slot.material = None
+            slot.link = "DATA"
     mats = getattr(obj.data, "materials", None)
     index = next((i for i, m in enumerate(mats) if m == mat), None) if mats else None
     if index is None:

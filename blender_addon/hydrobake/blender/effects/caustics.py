@@ -398,8 +398,11 @@ class CausticsBlender(BlenderEffect):
         for g in dict.fromkeys(grounds):
             for mat in {s.material for s in g.material_slots if s.material} - set(keep):
                 materials.give_back(g, mat, "caustics.")
-        # A floor material made for a ground that was given another one since (monkey 312).
-        materials.drop_unused_made(m for m in unwired if m not in floors)
+        # A floor material made for a ground that was given another one since (monkey 312),
+        # or hidden behind a slot's Link since (--more 1030): out of the grounds, and gone.
+        gone = [m for m in dict.fromkeys(unwired) if m not in floors]
+        materials.take_out_made(gone, grounds)
+        materials.drop_unused_made(gone)
 
     @staticmethod
     def _unwire_multiply(tree, mix):
