@@ -383,6 +383,15 @@ elif case == "linked_copies":  # 21: two Alt+D copies (one mesh), each baked and
     free(g2.name, "rain")
     check(slots() == {"Glass": [], g2.name: []}, f"slots {slots()}")
     check(not g.data.keys(), f"the mesh keeps {g.data.keys()}")
+    # The artist's slot after the made one: that one stays, empty, and nothing marks it
+    # (monkey 1007, 1012).
+    bake("Glass", "rain")
+    bake(g2.name, "rain")
+    g.data.materials.append(in_blender.node_material("Artist"))
+    free("Glass", "rain")
+    free(g2.name, "rain")
+    check(slots() == {"Glass": [None, "Artist"], g2.name: [None, "Artist"]}, f"slots {slots()}")
+    check(not g.data.keys(), f"the mesh keeps {g.data.keys()}")
     clean()
 elif case == "linked_pool":  # 22: an Alt+D copy of a pool without a material baked: the
     # material made for it shows on the mesh's other object at once (monkey 1017)

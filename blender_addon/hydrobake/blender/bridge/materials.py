@@ -349,19 +349,25 @@ def _mesh_slot_again(obj, slot):
 def _drop_empty_slot(obj):
     """The mesh's slot a made material left (EMPTY_SLOT, kept while another object of the
     mesh showed its own material there) goes once no object of the mesh shows anything there
-    and nothing follows it (monkey --more 1009: the last of two Alt+D copies freed)."""
+    (monkey --more 1009: the last of two Alt+D copies freed); it stays, empty and unmarked,
+    where the artist's slots follow it."""
     index = obj.data.get(EMPTY_SLOT) if obj.data is not None else None
     if index is None:
         return
     users = [o for o in bpy.data.objects if o.data == obj.data]
-    if index != len(obj.data.materials) - 1 or any(
-            index < len(o.material_slots) and o.material_slots[index].material
-            for o in users):
+    shown = [o.material_slots[index].material for o in users
+             if index < len(o.material_slots) and o.material_slots[index].material]
+    if shown:
+        if not any(COPY_OF in m or MADE in m for m in shown) and not any(
+                o != obj and getattr(getattr(o, e, None), "is_baked", False)
+                for o in users for e in EFFECT_SETTINGS):
+            del obj.data[EMPTY_SLOT]  # the artist's own material there: no Free will come
         return
-    del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes
-    for o in users:
-        o.material_slots[index].link = "DATA"
-    _drop_slot(obj, index)
+    del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes, unless
+    if index == len(obj.data.materials) - 1:  # the artist's slots follow it (monkey 1007)
+        for o in users:
+            o.material_slots[index].link = "DATA"
+        _drop_slot(obj, index)
 
 
 def _put_back_others(prefix, but=None):
