@@ -51,3 +51,20 @@ DELETE_BAKED = (82, 83, 96, 91, 159, 175, 244)
 @pytest.mark.parametrize("seed", DELETE_BAKED)
 def test_monkey_delete_baked_seed(blender, tmp_path, seed):
     run_seed(blender, tmp_path, seed, 40, "--delete-baked")
+
+
+# --more: Alt+D copies (one mesh), slot links (Data / Object) and collections moved, excluded
+# or disabled. These found a made material left behind an Object link (1010; 1029 deleting
+# baked objects), a clean copy standing for the other Alt+D copy's made material (1006), the
+# mesh's empty slot left marked (1009), and a made material copied at once because the mesh
+# was shared (1017).
+MORE = (1006, 1009, 1010, 1017)
+
+
+@pytest.mark.parametrize("seed", MORE)
+def test_monkey_more_seed(blender, tmp_path, seed):
+    run_seed(blender, tmp_path, seed, 40, "--more")
+
+
+def test_monkey_more_delete_baked_seed(blender, tmp_path):
+    run_seed(blender, tmp_path, 1029, 20, "--more", "--delete-baked")
