@@ -9,7 +9,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "shared_two", "copy_rebake", "copy_free_rebake", "shared_nodeless",
          "shared_nodeless_pool", "shared_vanished", "floor_replaced", "pool_over_pool",
          "ground_copy_baked", "copy_made_original_deleted_removed",
-         "shared_vanished_other_wired", "slot_link_object", "slot_link_data", "linked_copies",
+         "shared_vanished_other_wired", "slot_link_object", "slot_link_data", "slot_link_rebake",
+         "linked_copies",
          "linked_pool")
 
 

@@ -362,6 +362,16 @@ elif case == "slot_link_data":  # 20b: the ground's slot switched to the object'
     g.material_slots[0].link = "DATA"
     check(slots()["Ground"] == ["GroundMat"], f"slots {slots()}")
     clean()
+elif case == "slot_link_rebake":  # 20c: the made material's slot switched to the object's
+    # own (none) and re-baked: the made one in both the mesh's slot and the object's (1011)
+    g = glass(mat=None)
+    bake("Glass", "rain")
+    g.material_slots[0].link = "OBJECT"
+    bake("Glass", "rain")  # in place
+    free("Glass", "rain")
+    check(not any(g.data.materials) and not any(s.material for s in g.material_slots),
+          f"mesh {list(g.data.materials)}, slots {slots()}")
+    clean()
 elif case == "linked_copies":  # 21: two Alt+D copies (one mesh), each baked and freed in
     # turns, one's own material set to none between (monkey 1009, 1006)
     g = glass(mat=None)

@@ -160,6 +160,7 @@ def _take_out(obj, mat):
     if mat[MADE] == "appended" and linked and not kept and \
             index == len(obj.data.materials) - 1:
         _drop_slot(obj, index)
+    _take_out_of_mesh(obj, mat)  # also where a Link hides it (both, monkey --more 1011)
 
 
 def _take_out_of_mesh(obj, mat):
