@@ -411,6 +411,28 @@ elif case == "linked_pool":  # 22: an Alt+D copy of a pool without a material ba
     free(w2.name, "caustics")
     check(slots()["Water"] == [] and slots()[w2.name] == [], f"slots {slots()}")
     clean()
+elif case == "linked_pool_copied":  # 23: as 22, with a Shift+D copy of the mesh's other
+    # object made while baked: it shows the made material in a mesh of its own (1056)
+    w = pool()
+    w2 = in_blender.duplicate(w, linked=True)
+    bake(w2.name, "caustics")
+    w3 = in_blender.duplicate(w)
+    free(w2.name, "caustics")
+    check(all(slots()[o.name] == [] for o in (w, w2, w3)), f"slots {slots()}")
+    clean()
+elif case == "floor_taken_off":  # 24: the ground's node-less material, given the pool's
+    # floor nodes (switched on), taken off the ground before the pool is re-baked (1033)
+    w = pool()
+    floor = bpy.data.materials["GroundMat"]
+    floor.use_nodes = False
+    bake("Water", "caustics")
+    check(floor.use_nodes, "the floor's nodes were not switched on")
+    bpy.data.objects["Ground"].material_slots[0].material = in_blender.node_material("Other")
+    bake("Water", "caustics")  # in place: the floor now Other's
+    free("Water", "caustics")
+    check(not floor.use_nodes and not [k for k in floor.keys() if k.startswith("hydrobake")],
+          f"GroundMat: nodes {floor.use_nodes}, {floor.keys()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -106,19 +106,11 @@ def give_back(obj, mat, prefix):
 
 def take_out_made(mats, objs):
     """The materials ensure_material made among ``mats``, wired by no bake now, taken out of
-    the objects' slots, shown or behind a slot's Link (drop_unused_made then removes them)."""
+    the objects' slots, shown or behind a slot's Link (give_back then removes them)."""
     for mat in mats:
         if MADE in mat and not _has_wiring(mat):
             for obj in dict.fromkeys(objs):
                 _take_out(obj, mat)
-
-
-def drop_unused_made(mats):
-    """The materials ensure_material made among ``mats`` that nothing uses and that hold no
-    Hydrobake node leave the file (taken out of their object's slot since the bake)."""
-    for mat in list(mats):
-        if MADE in mat and not _has_wiring(mat) and _unused(mat):
-            bpy.data.materials.remove(mat)
 
 
 def _unused(mat):
@@ -438,8 +430,12 @@ def _put_shared_back(slot, prefix, obj):
         bpy.data.materials.remove(mat)
     if MADE in shared and not _has_wiring(shared) and SAVED not in shared:
         # Made for a bake and copied by own() at once (the mesh is shared, an Alt+D copy
-        # showed it; monkey --more 1017), no bake in it now: it goes as give_back's would.
+        # showed it; monkey --more 1017), no bake in it now: it goes as give_back's would,
+        # from Shift+D copies of those objects too (1056).
         _take_out(obj, shared)
+        for other in bpy.data.objects:
+            if other != obj and not _holds_bake(other, prefix):
+                _take_out(other, shared)
         if _unused(shared):
             bpy.data.materials.remove(shared)
 

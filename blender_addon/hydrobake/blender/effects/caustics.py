@@ -399,10 +399,12 @@ class CausticsBlender(BlenderEffect):
             for mat in {s.material for s in g.material_slots if s.material} - set(keep):
                 materials.give_back(g, mat, "caustics.")
         # A floor material made for a ground that was given another one since (monkey 312),
-        # or hidden behind a slot's Link since (--more 1030): out of the grounds, and gone.
+        # or hidden behind a slot's Link since (--more 1030): out of the grounds, and gone;
+        # one the artist took off the ground gets its node switch and values back (1033).
         gone = [m for m in dict.fromkeys(unwired) if m not in floors]
         materials.take_out_made(gone, grounds)
-        materials.drop_unused_made(gone)
+        for mat in gone:
+            materials.give_back(None, mat, "caustics.")
 
     @staticmethod
     def _unwire_multiply(tree, mix):
