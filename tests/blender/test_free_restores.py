@@ -11,7 +11,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "ground_copy_baked", "copy_made_original_deleted_removed",
          "shared_vanished_other_wired", "slot_link_object", "slot_link_data", "slot_link_rebake",
          "linked_copies",
-         "linked_pool", "linked_pool_copied", "floor_taken_off")
+         "linked_pool", "linked_pool_copied", "floor_taken_off",
+         "copy_hidden_by_link")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -433,6 +433,23 @@ elif case == "floor_taken_off":  # 24: the ground's node-less material, given th
     check(not floor.use_nodes and not [k for k in floor.keys() if k.startswith("hydrobake")],
           f"GroundMat: nodes {floor.use_nodes}, {floor.keys()}")
     clean()
+elif case == "copy_hidden_by_link":  # 25: an object's own copy of a shared material hidden
+    # by its slot's Link switched after the bake: in the mesh's slot, then in the object's
+    # own (monkey --more 1069)
+    g = glass(mat="GlassMat")
+    glass("Pane", "GlassMat", (5, 0, 1))  # GlassMat shared: Glass gets its own copy
+    bake("Glass", "rain")
+    g.material_slots[0].link = "OBJECT"
+    free("Glass", "rain")
+    g.material_slots[0].link = "DATA"
+    check(slots()["Glass"] == ["GlassMat"], f"slots {slots()}")
+    w = pool()
+    w2 = in_blender.duplicate(w, linked=True)
+    bake("Water", "caustics")  # the mesh is Water.001's too: Water's own copy, Link: Object
+    w.material_slots[0].link = "DATA"
+    free("Water", "caustics")
+    check(slots()["Water"] == [] and slots()[w2.name] == [], f"slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -183,13 +183,29 @@ def _take_out_of_mesh(obj, mat):
 
 def _drop_slot(obj, index):
     """Removes the mesh's slot ``index`` (the objects' slots with it) by the data API: no
-    operator, so that it works on a hidden object, one in no view layer, or not active."""
+    operator, so that it works on a hidden object, one in no view layer, or not active. An
+    object's own material there, hidden by a Link set to Data, goes with it (it kept a user:
+    monkey --more 1069), and leaves the file if it was a copy own() made or made for a bake
+    and nothing else uses it."""
+    hidden = []
+    for o in bpy.data.objects:
+        if o.data == obj.data and index < len(o.material_slots):
+            slot = o.material_slots[index]
+            was = slot.link
+            slot.link = "OBJECT"
+            if slot.material is not None:
+                hidden.append(slot.material)
+                slot.material = None
+            slot.link = was
     if len(obj.data.materials) == 1:
         # Popping the last one leaves the objects' slot (Blender resizes their lists only
         # while some are left); clearing the list resizes them.
         obj.data.materials.clear()
     else:
         obj.data.materials.pop(index=index)
+    for mat in dict.fromkeys(hidden):
+        if (COPY_OF in mat or MADE in mat) and mat.users == 0 and not _has_wiring(mat):
+            bpy.data.materials.remove(mat)
 
 
 def holding(prefix, image_names, owner=ANY):
@@ -313,6 +329,7 @@ def restore(obj, prefix):
             continue
         if not _shared_again(mat):
             _put_shared_back(slot, prefix, obj)
+    _put_back_hidden(obj)
     _drop_empty_slot(obj)
     _put_back_others(prefix, but=obj)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
@@ -321,6 +338,24 @@ def restore(obj, prefix):
     for mat in [m for m in bpy.data.materials if (MADE in m or COPY_OF in m) and
                 m.users == 0 and not _has_wiring(m) and SAVED not in m]:
         bpy.data.materials.remove(mat)
+
+
+def _put_back_hidden(obj):
+    """Clean copies own() made that a slot's Link hides now (switched since the bake; monkey
+    --more 1069), wired by no bake: behind the mesh's material, the object's own goes back to
+    none; behind the object's own, the mesh's slot shows the shared material again (none if
+    it is gone)."""
+    for slot in obj.material_slots:
+        was = slot.link
+        slot.link = "OBJECT" if was == "DATA" else "DATA"
+        mat = slot.material
+        if mat is not None and COPY_OF in mat and not _has_wiring(mat):
+            slot.material = None if was == "DATA" else bpy.data.materials.get(mat[COPY_OF])
+        else:
+            mat = None
+        slot.link = was
+        if mat is not None and mat.users == 0:
+            bpy.data.materials.remove(mat)
 
 
 def _mesh_slot_again(obj, slot):
