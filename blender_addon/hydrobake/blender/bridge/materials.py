@@ -92,16 +92,22 @@ def give_back(obj, mat, prefix):
         mat.use_nodes = False
         del mat[NODES_WERE_OFF]
     if MADE in mat:
-        if obj is not None:
-            _take_out(obj, mat)
-        # A Shift+D copy of the object that holds no bake of the effect now shows it alone:
-        # it goes there too (while a copy holds the bake's record, the mark stays for its
-        # own Free; another effect's Free would never give it back: monkey seed 477).
-        for other in bpy.data.objects:
-            if other != obj and not _holds_bake(other, prefix):
-                _take_out(other, mat)
-        if _unused(mat):
-            bpy.data.materials.remove(mat)
+        _let_go_made(obj, mat, prefix)
+
+
+def _let_go_made(obj, mat, prefix):
+    """A material made for a bake, wired by none now, out of the object's slot (``obj``
+    may be None: deleted) and out of the file if nothing else uses it. A Shift+D copy that
+    holds no bake of the effect and shows it alone: it goes there too (while a copy holds the
+    bake's record, the mark stays for its own Free; another effect's Free would never give
+    it back: monkey seed 477)."""
+    if obj is not None:
+        _take_out(obj, mat)
+    for other in bpy.data.objects:
+        if other != obj and not _holds_bake(other, prefix):
+            _take_out(other, mat)
+    if _unused(mat):
+        bpy.data.materials.remove(mat)
 
 
 def take_out_made(mats, objs):
@@ -467,12 +473,7 @@ def _put_shared_back(slot, prefix, obj):
         # Made for a bake and copied by own() at once (the mesh is shared, an Alt+D copy
         # showed it; monkey --more 1017), no bake in it now: it goes as give_back's would,
         # from Shift+D copies of those objects too (1056).
-        _take_out(obj, shared)
-        for other in bpy.data.objects:
-            if other != obj and not _holds_bake(other, prefix):
-                _take_out(other, shared)
-        if _unused(shared):
-            bpy.data.materials.remove(shared)
+        _let_go_made(obj, shared, prefix)
 
 
 def _shows_others(mat, obj):
