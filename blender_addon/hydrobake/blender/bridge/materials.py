@@ -1,5 +1,6 @@
 """Small helpers for wiring baked maps into node materials non-destructively: every node
 Hydrobake adds is labelled, so it can be found again and removed by Free Bake."""
+import contextlib
 import re
 
 import bpy
@@ -169,10 +170,9 @@ def _take_out_of_mesh(obj, mat):
     of the mesh shows its own material there (else once none does)."""
     for slot in obj.material_slots:
         if slot.link == "DATA":  # the object's own material, behind the mesh's (1030)
-            slot.link = "OBJECT"
-            if slot.material == mat:
-                slot.material = None
-            slot.link = "DATA"
+            with _hidden(slot):
+                if slot.material == mat:
+                    slot.material = None
     mats = getattr(obj.data, "materials", None)
     index = next((i for i, m in enumerate(mats) if m == mat), None) if mats else None
     if index is None:
@@ -187,6 +187,19 @@ def _take_out_of_mesh(obj, mat):
         _drop_slot(obj, index)
 
 
+@contextlib.contextmanager
+def _hidden(slot, link=None):
+    """The slot switched, for the block, to the other Link (or to ``link``): its material is
+    then the one the slot's Link hides (the object's own behind the mesh's, or the other way
+    round); the Link is put back after."""
+    was = slot.link
+    slot.link = link or ("OBJECT" if was == "DATA" else "DATA")
+    try:
+        yield slot
+    finally:
+        slot.link = was
+
+
 def _drop_slot(obj, index):
     """Removes the mesh's slot ``index`` (the objects' slots with it) by the data API: no
     operator, so that it works on a hidden object, one in no view layer, or not active. An
@@ -196,13 +209,10 @@ def _drop_slot(obj, index):
     hidden = []
     for o in bpy.data.objects:
         if o.data == obj.data and index < len(o.material_slots):
-            slot = o.material_slots[index]
-            was = slot.link
-            slot.link = "OBJECT"
-            if slot.material is not None:
-                hidden.append(slot.material)
-                slot.material = None
-            slot.link = was
+            with _hidden(o.material_slots[index], "OBJECT") as slot:
+                if slot.material is not None:
+                    hidden.append(slot.material)
+                    slot.material = None
     if len(obj.data.materials) == 1:
         # Popping the last one leaves the objects' slot (Blender resizes their lists only
         # while some are left); clearing the list resizes them.
@@ -352,14 +362,13 @@ def _put_back_hidden(obj):
     none; behind the object's own, the mesh's slot shows the shared material again (none if
     it is gone)."""
     for slot in obj.material_slots:
-        was = slot.link
-        slot.link = "OBJECT" if was == "DATA" else "DATA"
-        mat = slot.material
-        if mat is not None and COPY_OF in mat and not _has_wiring(mat):
-            slot.material = None if was == "DATA" else bpy.data.materials.get(mat[COPY_OF])
-        else:
-            mat = None
-        slot.link = was
+        behind_mesh = slot.link == "DATA"
+        with _hidden(slot):
+            mat = slot.material
+            if mat is not None and COPY_OF in mat and not _has_wiring(mat):
+                slot.material = None if behind_mesh else bpy.data.materials.get(mat[COPY_OF])
+            else:
+                mat = None
         if mat is not None and mat.users == 0:
             bpy.data.materials.remove(mat)
 
