@@ -450,6 +450,16 @@ elif case == "copy_hidden_by_link":  # 25: an object's own copy of a shared mate
     free("Water", "caustics")
     check(slots()["Water"] == [] and slots()[w2.name] == [], f"slots {slots()}")
     clean()
+elif case == "made_hidden_in_copy":  # 26: a pool's made material hidden by its slot's Link
+    # (set to Object after the bake) in the mesh of a Shift+D copy holding its record (1075)
+    w = pool()
+    bake("Water", "caustics")
+    w.material_slots[0].link = "OBJECT"
+    w2 = in_blender.duplicate(w)
+    bake("Water", "caustics")  # in place: the made one at the object's own, too
+    free("Water", "caustics")
+    free(w2.name, "caustics")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -360,13 +360,15 @@ def _put_back_hidden(obj):
     """Clean copies own() made that a slot's Link hides now (switched since the bake; monkey
     --more 1069), wired by no bake: behind the mesh's material, the object's own goes back to
     none; behind the object's own, the mesh's slot shows the shared material again (none if
-    it is gone)."""
+    it is gone). A material made for a bake and hidden so, wired by none, goes to none."""
     for slot in obj.material_slots:
         behind_mesh = slot.link == "DATA"
         with _hidden(slot):
             mat = slot.material
             if mat is not None and COPY_OF in mat and not _has_wiring(mat):
                 slot.material = None if behind_mesh else bpy.data.materials.get(mat[COPY_OF])
+            elif mat is not None and MADE in mat and not _has_wiring(mat):
+                slot.material = None  # (a Shift+D copy's, its Link switched: --more 1075)
             else:
                 mat = None
         if mat is not None and mat.users == 0:
