@@ -12,7 +12,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "shared_vanished_other_wired", "slot_link_object", "slot_link_data", "slot_link_rebake",
          "linked_copies",
          "linked_pool", "linked_pool_copied", "floor_taken_off",
-         "copy_hidden_by_link", "made_hidden_in_copy")
+         "copy_hidden_by_link", "made_hidden_in_copy",
+         "copy_hidden_in_freed_copy")
 
 
 @pytest.mark.parametrize("case", CASES)

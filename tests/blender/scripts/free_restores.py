@@ -460,6 +460,17 @@ elif case == "made_hidden_in_copy":  # 26: a pool's made material hidden by its 
     free("Water", "caustics")
     free(w2.name, "caustics")
     clean()
+elif case == "copy_hidden_in_freed_copy":  # 27: a Shift+D copy of a pool with its own
+    # copy of the made material (Link: Object, the mesh shared by an Alt+D copy), freed, its
+    # Link switched to Data; the pool freed last (monkey --more 1062)
+    w = pool()
+    in_blender.duplicate(w, linked=True)
+    bake("Water", "caustics")
+    w3 = in_blender.duplicate(w)
+    free(w3.name, "caustics")
+    w3.material_slots[0].link = "DATA"
+    free("Water", "caustics")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -429,6 +429,9 @@ def _put_back_others(prefix, but=None):
                     _take_out_copy(other, mat)  # its made one went with this Free
                 elif not _shared_again(mat):  # (its last wiring gone with this one: 767)
                     _put_shared_back(slot, prefix, other)
+            if not any(getattr(getattr(other, e, None), "is_baked", False)
+                       for e in EFFECT_SETTINGS):
+                _put_back_hidden(other)  # (a freed Shift+D copy's, Link switched: 1062)
 
 
 def _shared_again(mat):
