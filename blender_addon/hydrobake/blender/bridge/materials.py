@@ -134,9 +134,11 @@ EFFECT_SETTINGS = ("hydrobake_caustics", "hydrobake_rain", "hydrobake_snow",
                    "hydrobake_fluid")
 
 
-def _holds_bake(obj, prefix):
-    """Whether the object holds a bake of the effect whose nodes' role is ``prefix``."""
-    return getattr(getattr(obj, "hydrobake_" + prefix.rstrip("."), None), "is_baked", False)
+def _holds_bake(obj, prefix=None):
+    """Whether the object holds a bake of the effect whose nodes' role is ``prefix`` (of any
+    effect, without one)."""
+    names = [f"hydrobake_{prefix.rstrip('.')}"] if prefix else EFFECT_SETTINGS
+    return any(getattr(getattr(obj, n, None), "is_baked", False) for n in names)
 
 
 def _take_out(obj, mat):
@@ -404,8 +406,7 @@ def _drop_empty_slot(obj):
              if index < len(o.material_slots) and o.material_slots[index].material]
     if shown:
         if not any(COPY_OF in m or MADE in m for m in shown) and not any(
-                o != obj and getattr(getattr(o, e, None), "is_baked", False)
-                for o in users for e in EFFECT_SETTINGS):
+                o != obj and _holds_bake(o) for o in users):
             del obj.data[EMPTY_SLOT]  # the artist's own material there: no Free will come
         return
     del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes, unless
@@ -429,8 +430,7 @@ def _put_back_others(prefix, but=None):
                     _take_out_copy(other, mat)  # its made one went with this Free
                 elif not _shared_again(mat):  # (its last wiring gone with this one: 767)
                     _put_shared_back(slot, prefix, other)
-            if not any(getattr(getattr(other, e, None), "is_baked", False)
-                       for e in EFFECT_SETTINGS):
+            if not _holds_bake(other):
                 _put_back_hidden(other)  # (a freed Shift+D copy's, Link switched: 1062)
 
 
