@@ -471,6 +471,19 @@ elif case == "copy_hidden_in_freed_copy":  # 27: a Shift+D copy of a pool with i
     w3.material_slots[0].link = "DATA"
     free("Water", "caustics")
     clean()
+elif case == "linked_copy_of_baked":  # 28: an Alt+D copy of a pool baked with its mesh
+    # shared (the made material in the mesh's slot, the pool's own copy of it at Link: Object),
+    # freed first: the mesh keeps the made one the pool's copy stands for (monkey --more 1106)
+    w = pool()
+    w2 = in_blender.duplicate(w, linked=True)
+    bake("Water", "caustics")
+    bpy.data.objects.remove(w2)
+    w3 = in_blender.duplicate(w, linked=True)
+    free(w3.name, "caustics")
+    check(w.data.materials[0] is not None, f"the mesh's made material went: {slots()}")
+    free("Water", "caustics")
+    check(slots() == {"Ground": ["GroundMat"], "Water": [], w3.name: []}, f"slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -362,19 +362,30 @@ def _put_back_hidden(obj):
     """Clean copies own() made that a slot's Link hides now (switched since the bake; monkey
     --more 1069), wired by no bake: behind the mesh's material, the object's own goes back to
     none; behind the object's own, the mesh's slot shows the shared material again (none if
-    it is gone). A material made for a bake and hidden so, wired by none, goes to none."""
+    it is gone). A material made for a bake and hidden so, wired by none, goes to none,
+    unless a baked object's copy stands for it (that bake's Free gives it back)."""
     for slot in obj.material_slots:
         behind_mesh = slot.link == "DATA"
         with _hidden(slot):
             mat = slot.material
             if mat is not None and COPY_OF in mat and not _has_wiring(mat):
                 slot.material = None if behind_mesh else bpy.data.materials.get(mat[COPY_OF])
-            elif mat is not None and MADE in mat and not _has_wiring(mat):
+            elif mat is not None and MADE in mat and not _has_wiring(mat) and \
+                    not _stood_for(mat, obj):
                 slot.material = None  # (a Shift+D copy's, its Link switched: --more 1075)
             else:
                 mat = None
         if mat is not None and mat.users == 0:
             bpy.data.materials.remove(mat)
+
+
+def _stood_for(mat, obj):
+    """Whether an object other than ``obj`` that holds a bake shows a clean copy own() made of
+    ``mat`` (an Alt+D copy of a pool freed first keeps the mesh's made material its pool's
+    copy stands for: monkey --more 1106)."""
+    return any(o != obj and _holds_bake(o) and any(
+        s.material is not None and s.material.get(COPY_OF) == mat.name
+        for s in o.material_slots) for o in bpy.data.objects)
 
 
 def _mesh_slot_again(obj, slot):
