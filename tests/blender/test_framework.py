@@ -47,6 +47,12 @@ def test_a_project_moved_with_its_bakes_still_finds_them(blender, tmp_path):
     assert "MOVED PROJECT OK" in r.stdout
 
 
+def test_a_file_saved_elsewhere_or_appended_still_finds_its_bakes(blender, tmp_path):
+    assert "SAVED ELSEWHERE BAKED" in blender.run("saved_elsewhere.py", tmp_path, "bake").stdout
+    r = blender.run("saved_elsewhere.py", tmp_path, "check")
+    assert "SAVED ELSEWHERE OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

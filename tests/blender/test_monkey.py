@@ -68,3 +68,15 @@ def test_monkey_more_seed(blender, tmp_path, seed):
 
 def test_monkey_more_delete_baked_seed(blender, tmp_path):
     run_seed(blender, tmp_path, 1029, 20, "--more", "--delete-baked")
+
+
+# --elsewhere: File > Save As, and Save Copy then opening the copy, into other folders. Without
+# the records' bases (paths.resolve) 3004 and 3009 found bakes recorded relative to the folder
+# left behind ("is_baked but its folder ... is missing").
+ELSEWHERE = (3004, 3009)
+
+
+@pytest.mark.parametrize("seed", ELSEWHERE)
+def test_monkey_elsewhere_seed(blender, tmp_path, seed):
+    run_seed(blender, tmp_path, seed, 50, "--elsewhere")
+

@@ -46,6 +46,111 @@ def stored(folder, settings, override=None):
     return bpy.path.relpath(folder) if base.startswith("//") and bpy.data.filepath else folder
 
 
+BAKE_BASE = "bake_base"  # beside an effect's bake_folder: the folder it is relative to
+
+
+def here():
+    """The .blend's folder, which '//' paths are relative to ('' for an unsaved file)."""
+    return os.path.dirname(os.path.abspath(bpy.data.filepath)) if bpy.data.filepath else ""
+
+
+def resolve(raw, base=None):
+    """A folder or file the addon recorded, absolute. A relative ('//') one is taken from the
+    .blend's folder, else from ``base``, the folder the .blend was in when it was recorded,
+    where it exists only there: Blender rebases its own relative paths (images, volumes) when
+    a file is saved into another folder or appended into another file, not an addon's
+    strings, so after a Save As a bake is where ``base`` says until the next save rebases it
+    (before_save). A project moved with its bakes finds them beside the .blend, as before."""
+    full = os.path.normpath(bpy.path.abspath(raw))
+    if base and raw.startswith("//") and not os.path.exists(full):
+        there = os.path.normpath(os.path.join(base, raw[2:]))
+        if os.path.exists(there):
+            return there
+    return full
+
+
+def record(group, key, value, base_key, folder=None):
+    """Sets the record ``group[key]`` of a folder (``folder`` within ``value``, else all of it)
+    and, for a relative one, the folder it is relative to."""
+    group[key] = value
+    if (folder or value).startswith("//") and here():
+        group[base_key] = here()
+    else:
+        group.pop(base_key, None)
+
+
+def _records(obj):
+    """The paths ``obj`` records, as (group, key, base key): the effects' bake folders, a baked
+    mesh sequence's folder (inside "kind|folder|stream") and the fluid's voxel textures."""
+    from .bridge import frame_meshes
+    for key in obj.keys():  # the effects' settings
+        group = obj[key]
+        if not key.startswith("hydrobake_") or not hasattr(group, "get"):
+            continue
+        if isinstance(group.get("bake_folder"), str):
+            yield group, "bake_folder", BAKE_BASE
+        for sample in group.get("samples", ()):
+            if isinstance(sample.get("voxel_file"), str):
+                yield sample, "voxel_file", "voxel_file_base"
+    if isinstance(obj.get(frame_meshes.PROP), str):
+        yield obj, frame_meshes.PROP, frame_meshes.PROP_BASE
+
+
+def _split(group, key):
+    """(path, rebuild) of a record: a sequence's folder is its middle part."""
+    from .bridge import frame_meshes
+    value = group[key]
+    if key != frame_meshes.PROP:
+        return value, lambda f: f
+    kind, folder, stream = value.split("|", 2)
+    return folder, lambda f: f"{kind}|{f}|{stream}"
+
+
+_saving_from = []  # the .blend's folder when the save in progress began
+
+
+def before_save():
+    """save_pre: every relative folder the addon recorded becomes relative to the .blend's
+    folder now, found where resolve finds it, with that folder as its base. Blender tells a
+    save_pre handler nothing of where the file goes: a Save As writes the old folder as the
+    base, and the saved file's bakes are found through it when it is opened."""
+    _saving_from[:] = [here()]
+    _rebase(lambda folder, base: resolve(folder, base))
+
+
+def after_save():
+    """save_post: after a Save As into another folder the session's records follow, from the
+    folder the file was in, as Blender's own relative paths did in the save (a Save Copy
+    leaves the session's file where it was)."""
+    old = _saving_from[0] if _saving_from else ""
+    _saving_from.clear()
+    if old and here() and os.path.normcase(old) != os.path.normcase(here()):
+        _rebase(lambda folder, _base: os.path.normpath(os.path.join(old, folder[2:])))
+
+
+def _rebase(full_of):
+    """Each relative record made relative to the .blend's folder, pointing at ``full_of(folder,
+    base)``, and that folder recorded as its base."""
+    now = here()
+    if not now:
+        return
+    for obj in bpy.data.objects:
+        if obj.library is not None:
+            continue
+        for group, key, base_key in list(_records(obj)):
+            folder, rebuild = _split(group, key)
+            if not folder.startswith("//"):
+                continue
+            full = full_of(folder, group.get(base_key))
+            if full != os.path.normpath(bpy.path.abspath(folder)):
+                try:
+                    group[key] = rebuild(bpy.path.relpath(full))
+                except ValueError:  # another drive (Windows): absolute
+                    group[key] = rebuild(full)
+            if group.get(base_key) != now:
+                group[base_key] = now
+
+
 def relink(folder, recorded):
     """Records the paths a bake's wiring gave its data (absolute, under ``folder``) the way
     ``recorded`` is: relative ones stay relative."""
@@ -58,7 +163,6 @@ def make_relative(root):
     volumes, baked mesh sequences and bake folders (a farm's wiring step; Blender's own
     'Make Paths Relative' would change the artist's other paths too). A path on another
     drive (Windows) stays absolute."""
-    from .bridge import frame_meshes
     top = os.path.normcase(os.path.join(os.path.abspath(bpy.path.abspath(root)), ""))
 
     def rel(path):
@@ -76,12 +180,8 @@ def make_relative(root):
     for obj in bpy.data.objects:
         if obj.library is not None:
             continue
-        if frame_meshes.PROP in obj:
-            kind, where, stream = obj[frame_meshes.PROP].split("|", 2)
-            obj[frame_meshes.PROP] = f"{kind}|{rel(where)}|{stream}"
-        for key in obj.keys():  # the effects' settings: their bake folder as stored
-            group = obj[key]
-            folder = group.get("bake_folder") if key.startswith("hydrobake_") and hasattr(
-                group, "get") else None
-            if isinstance(folder, str):
-                group["bake_folder"] = rel(folder)
+        for group, key, base_key in list(_records(obj)):
+            folder, rebuild = _split(group, key)
+            full = resolve(folder, group.get(base_key)) if folder else ""
+            if rel(full) != full:
+                record(group, key, rebuild(rel(full)), base_key, rel(full))

@@ -2,11 +2,11 @@
 
 Each effect's settings live on the object it applies to (``obj.hydrobake_<effect>``), beside
 the framework's own: enabled, cache folder, frame range and bake state."""
-import os
 
 import bpy
 
 from ..core import params as P
+from . import paths
 
 # Parameters that are not artistic settings: the thread count is chosen per run
 # (scene setting / command line), never stored with the effect.
@@ -102,13 +102,14 @@ def from_params(groups, settings, values):
 
 def _bake_folder_get(self):
     # Scripts read an absolute folder; the file keeps it as it was set, '//' ones relative
-    # (paths.stored), so a project moved with its bakes still finds them.
+    # (paths.stored), so a project moved with its bakes still finds them, and with the
+    # folder they are relative to, so a file saved elsewhere does too (paths.resolve).
     raw = self.get("bake_folder", "")
-    return os.path.normpath(bpy.path.abspath(raw)) if raw else ""
+    return paths.resolve(raw, self.get(paths.BAKE_BASE)) if raw else ""
 
 
 def _bake_folder_set(self, value):
-    self["bake_folder"] = value
+    paths.record(self, "bake_folder", value, paths.BAKE_BASE)
 
 
 def make_settings_classes(effect_name, groups, extra=None):

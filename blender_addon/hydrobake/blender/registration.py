@@ -22,10 +22,19 @@ def _refresh_on_load(*_args):
 
 
 @bpy.app.handlers.persistent
-def _free_superseded_on_save(*_args):
-    """The saved file records renamed objects' new bakes: their old ones can go."""
-    from . import jobs
+def _after_save(*_args):
+    """A file saved into another folder records its bakes from there; the saved file records
+    renamed objects' new bakes: their old ones can go."""
+    from . import jobs, paths
+    paths.after_save()
     jobs.free_superseded()
+
+
+@bpy.app.handlers.persistent
+def _rebase_before_save(*_args):
+    """The file about to be saved records its bakes relative to where it is now."""
+    from . import paths
+    paths.before_save()
 
 
 def register():
@@ -48,7 +57,8 @@ def register():
     bpy.types.TOPBAR_MT_file_cleanup.append(operators.draw_cleanup_menu)
     bpy.app.handlers.load_pre.append(_cancel_on_load)
     bpy.app.handlers.load_post.append(_refresh_on_load)
-    bpy.app.handlers.save_post.append(_free_superseded_on_save)
+    bpy.app.handlers.save_pre.append(_rebase_before_save)
+    bpy.app.handlers.save_post.append(_after_save)
 
 
 def unregister():
@@ -59,8 +69,10 @@ def unregister():
         bpy.app.handlers.load_pre.remove(_cancel_on_load)
     if _refresh_on_load in bpy.app.handlers.load_post:
         bpy.app.handlers.load_post.remove(_refresh_on_load)
-    if _free_superseded_on_save in bpy.app.handlers.save_post:
-        bpy.app.handlers.save_post.remove(_free_superseded_on_save)
+    if _rebase_before_save in bpy.app.handlers.save_pre:
+        bpy.app.handlers.save_pre.remove(_rebase_before_save)
+    if _after_save in bpy.app.handlers.save_post:
+        bpy.app.handlers.save_post.remove(_after_save)
     for attr in _object_props:
         delattr(bpy.types.Object, attr)
         effects.BLENDER_EFFECTS[attr[len("hydrobake_"):]].unregister_extra()

@@ -286,6 +286,8 @@ class Monkey:
         self.removed_deleted = False  # Remove Deleted Objects' Bakes ran (at the end)
         self.used_names = set()
         self.more = False  # --more: Alt+D, slot links, collections
+        self.elsewhere = False  # --elsewhere: Save As / Save Copy into other folders
+        self.left_behind = set()  # bake folders of the files saved elsewhere from
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
         self.counter = 0
@@ -324,6 +326,9 @@ class Monkey:
         # under the farm folder) replaces nothing and is replaced by nothing: the bake it took
         # the record from stays, and so does it once the object bakes elsewhere again.
         allowed |= self.output_orphans
+        # A file saved elsewhere leaves its old self behind, recording the bakes it had: a
+        # re-bake of a renamed object in the new place replaces none of them (not beside it).
+        allowed |= self.left_behind
         farm = os.path.realpath(self.farm) + os.sep
         for o in bpy.data.objects:
             for e in EFFECTS:
@@ -810,6 +815,18 @@ class Monkey:
         bpy.ops.wm.open_mainfile(filepath=self.blend)
         return "reopened"
 
+    def do_save_as(self, folder, copy=False):
+        """File > Save As (or Save Copy, then opening the copy) into ``folder`` of the run's."""
+        self.left_behind |= {os.path.realpath(f) for f in self.bake_folders_on_disk()}
+        where = os.path.join(self.tmp, folder)
+        os.makedirs(where, exist_ok=True)
+        path = os.path.join(where, "monkey.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path, copy=copy)
+        if copy:
+            bpy.ops.wm.open_mainfile(filepath=path)
+        self.blend = path
+        return f"saved {'a copy ' if copy else ''}in {folder or '.'}"
+
     def do_undo(self):
         if self.undo_works is False:
             raise Skip("undo does not work in background")
@@ -937,6 +954,8 @@ class Monkey:
                ("frame", 2), ("preset", 2), ("free_all", 2)]
         if self.more:  # (an opt-in: the fixed seeds' sequences stay as they were)
             ops += [("link_copy", 4), ("slot_link", 4), ("collection", 4)]
+        if self.elsewhere:
+            ops += [("save_as", 4)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -949,6 +968,9 @@ class Monkey:
         if op == "collection":
             return [{"op": "collection", "name": rng.choice(objs),
                      "kind": rng.choice(("move", "exclude", "hide"))}]
+        if op == "save_as":
+            return [{"op": "save_as", "folder": rng.choice(("", "s1", os.path.join("s2", "deep"))),
+                     "copy": rng.random() < 0.4}]
         if op == "bake":
             return [{"op": "bake", "name": name, "effect": effect}]
         if op == "free":
@@ -1119,6 +1141,8 @@ def main():
     p.add_argument("--no-render", action="store_true")
     p.add_argument("--more", action="store_true",
                    help="also Alt+D copies, slot links and collections (moved, excluded)")
+    p.add_argument("--elsewhere", action="store_true",
+                   help="also Save As and Save Copy (opened) into other folders")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
@@ -1141,8 +1165,9 @@ def main():
     m.mask_known = args.known
     m.trace = args.trace
     m.more = args.more or bool(replay and replay.get("more"))
+    m.elsewhere = args.elsewhere or bool(replay and replay.get("elsewhere"))
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
-              "more": m.more,
+              "more": m.more, "elsewhere": m.elsewhere,
               "actions": m.log}
     status = "OK"
     try:

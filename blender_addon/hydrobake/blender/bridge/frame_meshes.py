@@ -5,7 +5,10 @@ import os
 import bpy
 import numpy as np
 
+from .. import paths
+
 PROP = "hydrobake_sequence"  # on the object: "kind|folder|stream"
+PROP_BASE = "hydrobake_sequence_base"  # the folder a relative one is relative to (paths)
 FRAME = "hydrobake_frame"  # on the object: the frame its mesh holds
 
 
@@ -71,8 +74,8 @@ def load(obj, frame):
     edits would be written back over it): the frame it holds stays in FRAME."""
     if obj.mode == "EDIT":
         return
-    kind, folder, stream = obj[PROP].split("|", 2)
-    path = os.path.join(bpy.path.abspath(folder), f"{stream}_{frame:04d}.npz")  # may be '//
+    kind, _folder, stream = obj[PROP].split("|", 2)
+    path = os.path.join(folder_of(obj), f"{stream}_{frame:04d}.npz")
     mesh = obj.data
     mesh.clear_geometry()
     obj[FRAME] = frame
@@ -80,6 +83,12 @@ def load(obj, frame):
         with np.load(path) as data:
             LOADERS[kind](mesh, data)
     mesh.update()
+
+
+def folder_of(obj):
+    """The absolute folder of the sequence ``obj`` shows, or None if it shows none."""
+    parts = str(obj.get(PROP, "")).split("|", 2)
+    return paths.resolve(parts[1], obj.get(PROP_BASE)) if len(parts) == 3 else None
 
 
 def _frame_of(obj, fallback):
@@ -114,7 +123,7 @@ def attach(name, kind, folder, stream, collection=None, material=None):
     if obj is None:
         obj = bpy.data.objects.new(name, bpy.data.meshes.new(name))
         (collection or bpy.context.scene.collection).objects.link(obj)
-    obj[PROP] = f"{kind}|{folder}|{stream}"
+    paths.record(obj, PROP, f"{kind}|{folder}|{stream}", PROP_BASE, folder)
     if material is not None and not obj.data.materials:
         obj.data.materials.append(material)
     load(obj, _frame_of(obj, bpy.context.scene))

@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 
 from ...core import mantaflow, solid_textures
+from .. import paths
 from ..bridge import animation, frame_meshes, meshes, tileable, volumes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
@@ -229,7 +230,7 @@ class FluidBlender(BlenderEffect):
         voxel = {}
         for k, sm in enumerate(settings.samples):
             if sm.voxel_file:
-                path = bpy.path.abspath(sm.voxel_file)
+                path = paths.resolve(sm.voxel_file, sm.get("voxel_file_base"))
                 try:
                     voxel[k] = solid_textures.read_vdb(path)
                 except Exception as exc:
@@ -387,7 +388,7 @@ class FluidBlender(BlenderEffect):
                 o for o in bpy.data.objects if o.type == kind and o.library is None and (
                     shows(o.data.filepath) if kind == "VOLUME" else
                     "hydrobake_domain" in o and
-                    shows(str(o.get(frame_meshes.PROP, "||")).split("|", 2)[1]))), None))
+                    shows(frame_meshes.folder_of(o)))), None))
         return tuple(found)
 
     @staticmethod

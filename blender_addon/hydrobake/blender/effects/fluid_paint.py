@@ -81,8 +81,8 @@ def _on_surface(_cls, context):
 
 def _surface_folder(surf):
     """The bake folder whose surface sequence ``surf`` shows (real path), or None."""
-    parts = str(surf.get(frame_meshes.PROP, "")).split("|", 2)
-    return os.path.realpath(bpy.path.abspath(parts[1])) if len(parts) == 3 else None
+    folder = frame_meshes.folder_of(surf)
+    return os.path.realpath(folder) if folder else None
 
 
 def domain_of(surf):
