@@ -484,6 +484,21 @@ elif case == "linked_copy_of_baked":  # 28: an Alt+D copy of a pool baked with i
     free("Water", "caustics")
     check(slots() == {"Ground": ["GroundMat"], "Water": [], w3.name: []}, f"slots {slots()}")
     clean()
+elif case == "linked_copy_then_copy":  # 29: a pool without a material, baked with an Alt+D
+    # copy (the made material in the mesh's slot, the pool's own copy of it at Link: Object),
+    # Shift+D copied (its own mesh, showing the same copy), the Alt+D copy baked too; freed
+    # pool first: the mesh's slot made for the bake goes too (monkey --more 3020)
+    w = pool()
+    w2 = in_blender.duplicate(w, linked=True)
+    bake("Water", "caustics")
+    w3 = in_blender.duplicate(w)
+    bake(w2.name, "caustics")
+    for name in ("Water", w2.name, w3.name):
+        free(name, "caustics")
+    check(slots() == {"Ground": ["GroundMat"], "Water": [], w2.name: [], w3.name: []},
+          f"slots {slots()}")
+    check("hydrobake_empty_slot" not in w.data, "the mesh keeps its empty-slot mark")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

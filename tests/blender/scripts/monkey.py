@@ -259,10 +259,20 @@ def slot_name(mat):
     return mat.name
 
 
+def slots_of(o):
+    """(link, material) of the object's slots, as the file shows them once saved and opened.
+    A slot added to or removed from a mesh through one of its objects (Alt+D copies) shows on
+    the others only then: Blender 3.4 resizes the mesh and that object, not the others."""
+    have = [(s.link, s.material) for s in o.material_slots]
+    if o.type == "MESH":
+        have = have[:len(o.data.materials)]
+        have += [("DATA", m) for m in o.data.materials[len(have):]]
+    return have
+
+
 def obj_state(o, name_of=slot_name):
     return {
-        "slots": [(s.link, name_of(s.material)) for s in o.material_slots
-                  if name_of(s.material) is not DROPPED],
+        "slots": [(link, name_of(m)) for link, m in slots_of(o) if name_of(m) is not DROPPED],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,

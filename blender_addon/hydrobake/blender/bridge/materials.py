@@ -443,6 +443,9 @@ def _put_back_others(prefix, but=None):
                     _put_shared_back(slot, prefix, other)
             if not _holds_bake(other):
                 _put_back_hidden(other)  # (a freed Shift+D copy's, Link switched: 1062)
+            # Its slot back to the mesh's, the mesh's empty one may go (an Alt+D pool whose
+            # copy of the mesh's made material a Shift+D copy shares: monkey --more 3020).
+            _drop_empty_slot(other)
 
 
 def _shared_again(mat):
