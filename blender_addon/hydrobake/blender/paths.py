@@ -54,14 +54,15 @@ def here():
     return os.path.dirname(os.path.abspath(bpy.data.filepath)) if bpy.data.filepath else ""
 
 
-def resolve(raw, base=None):
+def resolve(raw, base=None, library=None):
     """A folder or file the addon recorded, absolute. A relative ('//') one is taken from the
     .blend's folder, else from ``base``, the folder the .blend was in when it was recorded,
     where it exists only there: Blender rebases its own relative paths (images, volumes) when
     a file is saved into another folder or appended into another file, not an addon's
     strings, so after a Save As a bake is where ``base`` says until the next save rebases it
-    (before_save). A project moved with its bakes finds them beside the .blend, as before."""
-    full = os.path.normpath(bpy.path.abspath(raw))
+    (before_save). A project moved with its bakes finds them beside the .blend, as before.
+    A record of a linked object (``library``) is relative to its library's file."""
+    full = os.path.normpath(bpy.path.abspath(raw, library=library))
     if base and raw.startswith("//") and not os.path.exists(full):
         there = os.path.normpath(os.path.join(base, raw[2:]))
         if os.path.exists(there):

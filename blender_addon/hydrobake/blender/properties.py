@@ -105,7 +105,7 @@ def _bake_folder_get(self):
     # (paths.stored), so a project moved with its bakes still finds them, and with the
     # folder they are relative to, so a file saved elsewhere does too (paths.resolve).
     raw = self.get("bake_folder", "")
-    return paths.resolve(raw, self.get(paths.BAKE_BASE)) if raw else ""
+    return paths.resolve(raw, self.get(paths.BAKE_BASE), self.id_data.library) if raw else ""
 
 
 def _bake_folder_set(self, value):

@@ -3,8 +3,8 @@ appended into a file elsewhere still finds its bakes: Blender rebases its own re
 (images, volumes) there, and the addon's recorded folders follow. Phase "bake" bakes a fluid
 (a mesh sequence, a Volume) and the fixture effect (an image sequence) in ``<tmp>/a`` into the
 default relative cache, then saves as ``<tmp>/b/shot.blend`` and a copy as
-``<tmp>/c/x/copy.blend``; phase "check" opens each of those, and a file in ``<tmp>/d`` that
-appends the objects."""
+``<tmp>/c/x/copy.blend``; phase "check" opens each of those, a file in ``<tmp>/d`` that
+appends the objects, and one in ``<tmp>/e`` that links them from the project moved whole."""
 import os
 
 import bpy
@@ -29,7 +29,7 @@ def assert_found(where, cache):
     assert len(bpy.data.objects["HBK_Domain_surface"].data.vertices) > 0, where
     for block in (*bpy.data.volumes, *bpy.data.images):
         if block.filepath:
-            path = os.path.normpath(bpy.path.abspath(block.filepath))
+            path = os.path.normpath(bpy.path.abspath(block.filepath, library=block.library))
             assert path.startswith(cache) and os.path.isfile(path), (where, block.name, path)
 
 
@@ -101,4 +101,17 @@ else:
     assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
     assert bpy.data.objects["Domain"].hydrobake_fluid.bake_folder.startswith(
         os.path.join(tmp, "d", "hydrobake_cache", "")), "re-baked"
+    # Linked from the project moved whole (its records' base gone): relative to the library.
+    os.rename(os.path.join(tmp, "a"), os.path.join(tmp, "moved"))
+    bpy.ops.wm.read_homefile(use_empty=True)
+    os.makedirs(os.path.join(tmp, "e"))
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "e", "shot.blend"))
+    with bpy.data.libraries.load(os.path.join(tmp, "moved", "project.blend"), link=True) as (
+            src, dst):
+        dst.objects = [n for n in src.objects if n.startswith(("Domain", "Glass", "HBK_"))]
+    for obj in dst.objects:
+        bpy.context.scene.collection.objects.link(obj)
+    assert all(o.library is not None for o in dst.objects)
+    assert_found("linked from the moved project", os.path.join(tmp, "moved", "hydrobake_cache",
+                                                               ""))
     print("SAVED ELSEWHERE OK")

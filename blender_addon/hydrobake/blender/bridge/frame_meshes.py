@@ -88,7 +88,8 @@ def load(obj, frame):
 def folder_of(obj):
     """The absolute folder of the sequence ``obj`` shows, or None if it shows none."""
     parts = str(obj.get(PROP, "")).split("|", 2)
-    return paths.resolve(parts[1], obj.get(PROP_BASE)) if len(parts) == 3 else None
+    return paths.resolve(parts[1], obj.get(PROP_BASE), obj.library) if len(parts) == 3 \
+        else None
 
 
 def _frame_of(obj, fallback):

@@ -230,7 +230,8 @@ class FluidBlender(BlenderEffect):
         voxel = {}
         for k, sm in enumerate(settings.samples):
             if sm.voxel_file:
-                path = paths.resolve(sm.voxel_file, sm.get("voxel_file_base"))
+                path = paths.resolve(sm.voxel_file, sm.get("voxel_file_base"),
+                                     sm.id_data.library)
                 try:
                     voxel[k] = solid_textures.read_vdb(path)
                 except Exception as exc:
