@@ -116,7 +116,11 @@ def before_save():
     save_pre handler nothing of where the file goes: a Save As writes the old folder as the
     base, and the saved file's bakes are found through it when it is opened."""
     _saving_from[:] = [here()]
-    _rebase(lambda folder, base: resolve(folder, base))
+
+    def found(folder, base):  # a path missing for now (a drive not mounted) keeps its base
+        full = resolve(folder, base)
+        return full if os.path.exists(full) else None
+    _rebase(found)
 
 
 def after_save():
@@ -131,7 +135,7 @@ def after_save():
 
 def _rebase(full_of):
     """Each relative record made relative to the .blend's folder, pointing at ``full_of(folder,
-    base)``, and that folder recorded as its base."""
+    base)`` (left as it is where that is None), and that folder recorded as its base."""
     now = here()
     if not now:
         return
@@ -143,6 +147,8 @@ def _rebase(full_of):
             if not folder.startswith("//"):
                 continue
             full = full_of(folder, group.get(base_key))
+            if full is None:
+                continue
             if full != os.path.normpath(bpy.path.abspath(folder)):
                 try:
                     group[key] = rebuild(bpy.path.relpath(full))

@@ -80,6 +80,14 @@ else:
     for blend in ("b/shot.blend", "c/x/copy.blend"):
         bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, blend))
         assert_found(blend, cache)
+    # Saved while the bakes are out of reach (a drive not mounted), b keeps where they are.
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, "b", "shot.blend"))
+    os.rename(os.path.join(tmp, "a"), os.path.join(tmp, "unmounted"))
+    bpy.ops.wm.save_mainfile()
+    os.rename(os.path.join(tmp, "unmounted"), os.path.join(tmp, "a"))
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, "b", "shot.blend"))
+    assert_found("b saved with a out of reach", cache)
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, "c", "x", "copy.blend"))
     # Saved again where it is now, the file records the bakes relative to it, as Blender
     # records the images: found by that record alone.
     bpy.ops.wm.save_mainfile()
