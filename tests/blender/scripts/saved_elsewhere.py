@@ -120,6 +120,9 @@ else:
     for obj in dst.objects:
         bpy.context.scene.collection.objects.link(obj)
     assert all(o.library is not None for o in dst.objects)
+    surface = bpy.data.objects["HBK_Domain_surface"]
+    held = len(surface.data.vertices)  # the frame the library saved: not rebuilt (crashed)
     assert_found("linked from the moved project", os.path.join(tmp, "moved", "hydrobake_cache",
                                                                ""))
+    assert len(surface.data.vertices) == held and "hydrobake_frame" in surface
     print("SAVED ELSEWHERE OK")

@@ -71,8 +71,10 @@ LOADERS = {"points": _points, "surface": _surface}
 def load(obj, frame):
     """Rebuilds the object's mesh from the file baked for ``frame`` (empty if there is none).
     In Edit Mode the mesh is left as it is (Blender allows no new geometry there, and the
-    edits would be written back over it): the frame it holds stays in FRAME."""
-    if obj.mode == "EDIT":
+    edits would be written back over it): the frame it holds stays in FRAME. So is a mesh
+    linked from a library, as the library saved it: Blender 3.4 lets Python rebuild linked
+    data unchecked, and crashed at times doing so (saved_elsewhere.py)."""
+    if obj.mode == "EDIT" or obj.data.library is not None:
         return
     kind, _folder, stream = obj[PROP].split("|", 2)
     path = os.path.join(folder_of(obj), f"{stream}_{frame:04d}.npz")
