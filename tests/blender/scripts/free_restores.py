@@ -178,11 +178,11 @@ elif case == "copy_original_deleted":  # 9: a Shift+D copy baked, the original d
 elif case == "copy_made_original_deleted_removed":  # 13: a Shift+D copy of a glass given a
     g = glass(mat=None)                                # made material, baked; the original
     bake("Glass", "rain")                              # deleted while baked, the copy freed
-    c = in_blender.duplicate(g)                        # (its clean copy stays, the made one
-    bake(c.name, "rain")                               # wired), then the deleted one's bake
-    bpy.data.objects.remove(g)                         # removed (monkey seed 650)
-    free(c.name, "rain")
-    check(slots() == {c.name: ["HBK_Glass_glass (Glass.001)"]}, f"slots {slots()}")
+    c = in_blender.duplicate(g)                        # (its clean copy goes: the made one,
+    bake(c.name, "rain")                               # wired, is only the deleted one's, as
+    bpy.data.objects.remove(g)                         # after a save: 3184), then the deleted
+    free(c.name, "rain")                               # one's bake removed (monkey seed 650)
+    check(slots() == {c.name: []}, f"slots {slots()}")
     assert bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}
     check(slots() == {c.name: []}, f"slots after the removal {slots()}")
     clean()
@@ -498,6 +498,21 @@ elif case == "linked_copy_then_copy":  # 29: a pool without a material, baked wi
     check(slots() == {"Ground": ["GroundMat"], "Water": [], w2.name: [], w3.name: []},
           f"slots {slots()}")
     check("hydrobake_empty_slot" not in w.data, "the mesh keeps its empty-slot mark")
+    clean()
+elif case == "made_copy_deleted_baked":  # 30: a glass without a material baked (a made
+    # material appended), Shift+D copied, baked again (its own copy of the made one, which
+    # the copy shows), the copy baked and deleted while baked (its mesh, used by nothing,
+    # keeps the made one with its wiring): the glass's Free leaves no slot (monkey
+    # --delete-baked 3184)
+    g = glass(mat=None)
+    bake("Glass", "rain")
+    c = in_blender.duplicate(g)
+    bake("Glass", "rain")
+    bake(c.name, "rain")
+    bpy.data.objects.remove(c)
+    free("Glass", "rain")
+    check(slots() == {"Glass": []}, f"slots {slots()}")
+    assert bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}
     clean()
 else:
     raise SystemExit(f"no case {case}")

@@ -463,9 +463,12 @@ def _shared_again(mat):
 
 def _copy_of_gone_made(mat):
     """Whether ``mat`` is a clean copy own() made of a material made for another object,
-    which has gone with that object's bake."""
-    return mat is not None and COPY_OF_MADE in mat and COPY_OF in mat and \
-        bpy.data.materials.get(mat[COPY_OF]) is None and not _has_wiring(mat)
+    which has gone with that object's bake, or is held only by meshes of deleted objects (a
+    save drops it with them: monkey --delete-baked 3184)."""
+    if mat is None or COPY_OF_MADE not in mat or COPY_OF not in mat or _has_wiring(mat):
+        return False
+    made = bpy.data.materials.get(mat[COPY_OF])
+    return made is None or _unused(made)
 
 
 def _take_out_copy(obj, mat):
