@@ -81,30 +81,26 @@ def record(group, key, value, base_key, folder=None):
 
 
 def _records(obj):
-    """The paths ``obj`` records, as (group, key, base key): the effects' bake folders, a baked
-    mesh sequence's folder (inside "kind|folder|stream") and the fluid's voxel textures."""
+    """The paths ``obj`` records, as (group, key, base key, path, rebuild): the effects' bake
+    folders, the fluid's voxel textures and a baked mesh sequence's folder (the middle of
+    "kind|folder|stream"); rebuild(path) is the record's value for another path."""
     from .bridge import frame_meshes
+
+    def same(path):
+        return path
     for key in obj.keys():  # the effects' settings
         group = obj[key]
         if not key.startswith("hydrobake_") or not hasattr(group, "get"):
             continue
         if isinstance(group.get("bake_folder"), str):
-            yield group, "bake_folder", BAKE_BASE
+            yield group, "bake_folder", BAKE_BASE, group["bake_folder"], same
         for sample in group.get("samples", ()):
             if isinstance(sample.get("voxel_file"), str):
-                yield sample, "voxel_file", "voxel_file_base"
+                yield sample, "voxel_file", "voxel_file_base", sample["voxel_file"], same
     if isinstance(obj.get(frame_meshes.PROP), str):
-        yield obj, frame_meshes.PROP, frame_meshes.PROP_BASE
-
-
-def _split(group, key):
-    """(path, rebuild) of a record: a sequence's folder is its middle part."""
-    from .bridge import frame_meshes
-    value = group[key]
-    if key != frame_meshes.PROP:
-        return value, lambda f: f
-    kind, folder, stream = value.split("|", 2)
-    return folder, lambda f: f"{kind}|{f}|{stream}"
+        kind, folder, stream = obj[frame_meshes.PROP].split("|", 2)
+        yield obj, frame_meshes.PROP, frame_meshes.PROP_BASE, folder, \
+            lambda p: f"{kind}|{p}|{stream}"
 
 
 _saving_from = []  # the .blend's folder when the save in progress began
@@ -142,8 +138,7 @@ def _rebase(full_of):
     for obj in bpy.data.objects:
         if obj.library is not None:
             continue
-        for group, key, base_key in list(_records(obj)):
-            folder, rebuild = _split(group, key)
+        for group, key, base_key, folder, rebuild in list(_records(obj)):
             if not folder.startswith("//"):
                 continue
             full = full_of(folder, group.get(base_key))
@@ -187,8 +182,7 @@ def make_relative(root):
     for obj in bpy.data.objects:
         if obj.library is not None:
             continue
-        for group, key, base_key in list(_records(obj)):
-            folder, rebuild = _split(group, key)
+        for group, key, base_key, folder, rebuild in list(_records(obj)):
             full = resolve(folder, group.get(base_key)) if folder else ""
             if rel(full) != full:
                 record(group, key, rebuild(rel(full)), base_key, rel(full))
