@@ -123,6 +123,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(snow, wind_windward)               \
     X(snow, moving_mesh)                 \
     X(snow, determinism_threads)         \
+    X(snow, slots_by_place)              \
     X(snow, state_roundtrip)             \
     X(snow, cancel)                      \
     X(snow, mesh_rejects)                \

@@ -657,6 +657,14 @@ static int same_output(hbk_snow_t *a, hbk_snow_t *b)
     return same;
 }
 
+/* Whether the handle's slots hold the flakes by id (see snow_flakes_step's sort by place). */
+static int slots_by_id(const hbk_snow_t *h)
+{
+    for (int32_t j = 0; j < h->p.flake_count; ++j)
+        if (h->ids[j] != (uint32_t)j) return 0;
+    return 1;
+}
+
 void test_snow_determinism_threads(void)
 {
     hbk_snow_t *a = scene(1, 30000), *b = scene(2, 30000), *c = scene(2, 30000);
@@ -664,6 +672,7 @@ void test_snow_determinism_threads(void)
     CHECK_OK(hbk_snow_step(a, 60, NULL));
     CHECK_OK(hbk_snow_step(b, 60, NULL));
     for (int i = 0; i < 60; ++i) CHECK_OK(hbk_snow_step(c, 1, NULL));
+    CHECK(!slots_by_id(a) && !slots_by_id(c)); /* sorted by place, at other times */
     CHECK(same_output(a, b)); /* any thread count */
     CHECK(same_output(a, c)); /* any split of the substeps */
     hbk_snow_destroy(a);
@@ -676,6 +685,9 @@ void test_snow_state_roundtrip(void)
     hbk_snow_t *a = scene(2, 5000), *b = scene(1, 5000), *c = scene(1, 4000);
     CHECK(a && b && c);
     CHECK_OK(hbk_snow_step(a, 40, NULL));
+    CHECK_OK(hbk_snow_step(b, 10, NULL));
+    /* Both in slots by place: b takes the state back in slots by id. */
+    CHECK(!slots_by_id(a) && !slots_by_id(b));
     const size_t n = hbk_snow_state_size(a);
     unsigned char *buf = malloc(n + 1);
     CHECK(buf);
@@ -696,6 +708,66 @@ void test_snow_state_roundtrip(void)
     hbk_snow_destroy(a);
     hbk_snow_destroy(b);
     hbk_snow_destroy(c);
+}
+
+/* Where flakes meet the mesh often (a hit in 32 flake-steps or more), a step leaves them in
+ * slots by place, so that the BVH walks of flakes stepped one after another share their nodes:
+ * every id in one slot, neighbouring slots much nearer each other than neighbouring ids, and
+ * the positions given by id. Nothing else may depend on the slots: the tests above step such
+ * scenes split differently, on other thread counts, and from a state loaded by id. Where
+ * flakes seldom meet anything the slots stay by id (a sort would cost more than it saves). */
+void test_snow_slots_by_place(void)
+{
+    enum { N = 30000 };
+    hbk_snow_t *h = scene(1, N);
+    CHECK(h);
+    CHECK_OK(hbk_snow_step(h, 60, NULL));
+    hbk_snow_stats_t s;
+    hbk_snow_stats(h, &s);
+    CHECK(s.hits * 32 >= s.flake_steps);
+    char *seen = calloc(N, 1);
+    float *xyz = malloc(sizeof(float) * 3 * N);
+    int32_t n = 0, once = 1, moved = 0, where = 1;
+    CHECK(seen && xyz);
+    CHECK_OK(hbk_snow_flakes(h, xyz, N, &n));
+    double by_slot = 0.0, by_id = 0.0;
+    for (int32_t j = 0; j < N; ++j) {
+        const uint32_t id = h->ids[j];
+        once &= id < N && !seen[id];
+        if (id >= N) break;
+        seen[id] = 1;
+        moved += id != (uint32_t)j;
+        where &= !memcmp(xyz + 3 * (size_t)id, h->flakes[j].p, sizeof(float) * 3);
+        if (j == 0) continue;
+        double a = 0.0, b = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            const double ds = h->flakes[j].p[k] - h->flakes[j - 1].p[k];
+            const double di = xyz[3 * j + k] - xyz[3 * (j - 1) + k];
+            a += ds * ds;
+            b += di * di;
+        }
+        by_slot += sqrt(a);
+        by_id += sqrt(b);
+    }
+    CHECK(n == N && once && where);
+    CHECK(moved > N / 2);
+    CHECK(by_slot < 0.25 * by_id);
+    hbk_snow_destroy(h);
+    /* A small roof in a large volume: few flakes meet it. */
+    hbk_snow_params_t p = small_params();
+    p.flake_count = N;
+    static mesh_t m;
+    memset(&m, 0, sizeof m);
+    add_quad(&m, -0.1f, -0.1f, 0.1f, 0.1f, 1.0f, 0, 0, 1, 1, 0);
+    CHECK_OK(hbk_snow_create(&h, &p, NULL));
+    CHECK_OK(set_mesh(h, &m));
+    CHECK_OK(hbk_snow_step(h, 60, NULL));
+    hbk_snow_stats(h, &s);
+    CHECK(s.hits > 0 && s.hits * 32 < s.flake_steps);
+    CHECK(slots_by_id(h));
+    hbk_snow_destroy(h);
+    free(seen);
+    free(xyz);
 }
 
 void test_snow_cancel(void)

@@ -118,6 +118,67 @@ void snow_flakes_init(hbk_snow_t *h)
     const int nt = hbk_threads(h->p.threads);
 #pragma omp parallel for schedule(static) num_threads(nt)
     for (int32_t i = 0; i < n; ++i) spawn(&c, (uint32_t)i, 0, SPAWN_INIT, &h->flakes[i]);
+    snow_flakes_by_id(h);
+}
+
+void snow_flakes_by_id(hbk_snow_t *h)
+{
+    for (int32_t i = 0; i < h->p.flake_count; ++i) h->ids[i] = (uint32_t)i;
+}
+
+#define PLACE_AXIS 32 /* cells a side of the grid that orders the slots */
+
+/* Bits 0-4 of v to every third bit. */
+static uint32_t spread3(uint32_t v)
+{
+    v &= 31;
+    v = (v | v << 8) & 0x0300f00f;
+    v = (v | v << 4) & 0x030c30c3;
+    v = (v | v << 2) & 0x09249249;
+    return v;
+}
+
+/* Puts the flakes in slots by place: cell by cell of a 32^3 grid over the volume, the cells in
+ * Morton order, in their slots' order within a cell (a counting sort). Flakes stepped one
+ * after another then walk the same BVH nodes to the same triangles, which stay in cache; in
+ * slots by id each step's walk went to a part of the tree at random. Nothing else depends on
+ * the slots: each flake steps alone under its id, the events are sorted, and the state and
+ * the flakes' positions are given by id. Left as they are if out of memory. */
+static void sort_by_place(hbk_snow_t *h, const ctx_t *c)
+{
+    enum { CELLS = PLACE_AXIS * PLACE_AXIS * PLACE_AXIS };
+    const int32_t n = h->p.flake_count;
+    uint32_t *at = calloc(CELLS + 1, sizeof *at);
+    uint16_t *key = malloc(sizeof *key * (size_t)n);
+    if (!at || !key) {
+        free(at); free(key);
+        return;
+    }
+    float scale[3];
+    for (int k = 0; k < 3; ++k) scale[k] = (float)PLACE_AXIS / c->len[k];
+    for (int32_t j = 0; j < n; ++j) {
+        uint32_t code = 0;
+        for (int k = 0; k < 3; ++k) {
+            const float q = snow_min(snow_max((h->flakes[j].p[k] - c->lo[k]) * scale[k], 0.0f),
+                                     (float)(PLACE_AXIS - 1));
+            code |= spread3((uint32_t)q) << k;
+        }
+        key[j] = (uint16_t)code;
+        at[code + 1]++;
+    }
+    for (int b = 0; b < CELLS; ++b) at[b + 1] += at[b];
+    for (int32_t j = 0; j < n; ++j) {
+        const uint32_t to = at[key[j]]++;
+        h->scratch[to] = h->flakes[j];
+        h->ids_spare[to] = h->ids[j];
+    }
+    snow_flake_t *f = h->flakes;
+    h->flakes = h->scratch;
+    h->scratch = f;
+    uint32_t *i = h->ids;
+    h->ids = h->ids_spare;
+    h->ids_spare = i;
+    free(at); free(key);
 }
 
 /* Whether geometry lies on the way the flake would have come from the top with the mean air
@@ -359,13 +420,13 @@ hbk_result_t snow_flakes_step(hbk_snow_t *h, int32_t substeps, hbk_progress_t *p
             for (int32_t b = 0; b < blocks; ++b) {
                 if (__atomic_load_n(&stop, __ATOMIC_RELAXED)) continue;
                 const int32_t end = b * BLOCK + BLOCK < n ? b * BLOCK + BLOCK : n;
-                for (int32_t i = b * BLOCK; i < end; ++i) {
+                for (int32_t i = b * BLOCK; i < end; ++i) { /* slot i */
                     if ((i % CANCEL_EVERY) == 0 && hbk_cancelled(progress)) {
                         __atomic_store_n(&stop, 1, __ATOMIC_RELAXED);
                         break;
                     }
                     snow_flake_t f = src[i];
-                    if (!advance(&c, (uint32_t)i, step0, count, place && rd == 0, &f, ev, &cnt)) {
+                    if (!advance(&c, h->ids[i], step0, count, place && rd == 0, &f, ev, &cnt)) {
                         __atomic_store_n(&stop, 2, __ATOMIC_RELAXED);
                         break;
                     }
@@ -405,6 +466,9 @@ hbk_result_t snow_flakes_step(hbk_snow_t *h, int32_t substeps, hbk_progress_t *p
     snow_flake_t *t = h->flakes;
     h->flakes = h->scratch;
     h->scratch = t;
+    /* Where flakes meet the mesh often, the next call finds them in slots by place. */
+    const int64_t hits = total.stuck + total.bounced + total.melted + total.shed;
+    if (hits * 32 >= (int64_t)substeps * n) sort_by_place(h, &c);
     h->step += (uint64_t)substeps;
     h->shelter_check = 0;
     hbk_snow_stats_t *st = &h->stats;

@@ -147,6 +147,7 @@ struct hbk_snow {
     hbk_snow_params_t p;
     hbk_message_t msg;
     snow_flake_t *flakes, *scratch; /* scratch: the next state, swapped in on success */
+    uint32_t *ids, *ids_spare;      /* the id of the flake in each slot (see snow_flakes_sort) */
     snow_mesh_t mesh;
     hbk_snow_material_t *materials;
     float *chance;         /* per slot: hbk_snow_hit_chance at the params' temperature */
@@ -174,6 +175,8 @@ hbk_result_t snow_params_check(const hbk_snow_params_t *p, hbk_message_t *msg);
 
 /* flakes.c */
 void snow_flakes_init(hbk_snow_t *h);
+/* The flakes back in slots by id (after a load). */
+void snow_flakes_by_id(hbk_snow_t *h);
 hbk_result_t snow_flakes_step(hbk_snow_t *h, int32_t substeps, hbk_progress_t *progress);
 
 /* box.c */

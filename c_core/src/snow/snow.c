@@ -39,6 +39,8 @@ void hbk_snow_destroy(hbk_snow_t *h)
     if (!h) return;
     free(h->flakes);
     free(h->scratch);
+    free(h->ids);
+    free(h->ids_spare);
     mesh_free(&h->mesh);
     free(h->materials);
     free(h->chance);
@@ -92,8 +94,11 @@ hbk_result_t hbk_snow_create(hbk_snow_t **out, const hbk_snow_params_t *p, hbk_m
     const size_t n = (size_t)p->flake_count;
     h->flakes = malloc(sizeof *h->flakes * n);
     h->scratch = malloc(sizeof *h->scratch * n);
+    h->ids = malloc(sizeof *h->ids * n);
+    h->ids_spare = malloc(sizeof *h->ids_spare * n);
     const hbk_snow_material_t def = {0.0f, 0, 0};
-    if (!h->flakes || !h->scratch || store_materials(h, &def, 1) || snow_textures_alloc(h, 1)) {
+    if (!h->flakes || !h->scratch || !h->ids || !h->ids_spare || store_materials(h, &def, 1) ||
+        snow_textures_alloc(h, 1)) {
         hbk_snow_destroy(h);
         return hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "out of memory for %zu flakes and %d x %d "
                         "texels", n, p->texture_width, p->texture_height);
@@ -377,7 +382,9 @@ hbk_result_t hbk_snow_flakes(hbk_snow_t *h, float *xyz, int32_t capacity, int32_
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "xyz: must not be NULL when capacity = %d", capacity);
     const int32_t n = capacity < h->p.flake_count ? capacity : h->p.flake_count;
-    for (int32_t i = 0; i < n; ++i) memcpy(xyz + 3 * (size_t)i, h->flakes[i].p, 3 * sizeof(float));
+    for (int32_t j = 0; j < h->p.flake_count; ++j) /* from its slot to its id's place */
+        if (h->ids[j] < (uint32_t)n)
+            memcpy(xyz + 3 * (size_t)h->ids[j], h->flakes[j].p, 3 * sizeof(float));
     *count = h->p.flake_count;
     return HBK_OK;
 }

@@ -43,16 +43,6 @@ static uint64_t hash_bytes(uint64_t x, const unsigned char *p, size_t n)
     return x;
 }
 
-static uint64_t payload_hash(const hbk_snow_t *h, const snow_flake_t *flakes, const float *cov,
-                             const float *dep)
-{
-    const size_t texels = (size_t)h->tex_w * (size_t)h->tex_h * (size_t)h->blocks;
-    uint64_t x = 0xcbf29ce484222325ULL;
-    x = hash_bytes(x, (const unsigned char *)flakes, sizeof *flakes * (size_t)h->p.flake_count);
-    x = hash_bytes(x, (const unsigned char *)cov, sizeof *cov * texels);
-    return hash_bytes(x, (const unsigned char *)dep, sizeof *dep * texels);
-}
-
 hbk_result_t hbk_snow_save_state(hbk_snow_t *h, void *buffer, size_t size)
 {
     if (!h) return HBK_ERR_INVALID_ARGUMENT;
@@ -77,16 +67,18 @@ hbk_result_t hbk_snow_save_state(hbk_snow_t *h, void *buffer, size_t size)
     hd.shelter_check = h->shelter_check;
     hd.stats = h->stats;
     hd.payload_bytes = payload_bytes(h);
-    hd.checksum = payload_hash(h, h->flakes, h->coverage, h->depth);
-    unsigned char *o = buffer;
+    unsigned char *o = (unsigned char *)buffer + sizeof hd;
     const size_t texels = (size_t)h->tex_w * (size_t)h->tex_h * (size_t)h->blocks;
-    memcpy(o, &hd, sizeof hd);
-    o += sizeof hd;
-    memcpy(o, h->flakes, sizeof(snow_flake_t) * (size_t)h->p.flake_count);
-    o += sizeof(snow_flake_t) * (size_t)h->p.flake_count;
-    memcpy(o, h->coverage, sizeof(float) * texels);
-    o += sizeof(float) * texels;
-    memcpy(o, h->depth, sizeof(float) * texels);
+    const size_t fb = sizeof(snow_flake_t) * (size_t)h->p.flake_count, tb = sizeof(float) * texels;
+    for (int32_t j = 0; j < h->p.flake_count; ++j) /* by id, whatever slot each is in */
+        memcpy(o + sizeof(snow_flake_t) * h->ids[j], &h->flakes[j], sizeof(snow_flake_t));
+    memcpy(o + fb, h->coverage, tb);
+    memcpy(o + fb + tb, h->depth, tb);
+    uint64_t x = 0xcbf29ce484222325ULL; /* in the three parts hbk_snow_load_state hashes */
+    x = hash_bytes(x, o, fb);
+    x = hash_bytes(x, o + fb, tb);
+    hd.checksum = hash_bytes(x, o + fb + tb, tb);
+    memcpy(buffer, &hd, sizeof hd);
     return HBK_OK;
 }
 
@@ -144,6 +136,7 @@ hbk_result_t hbk_snow_load_state(hbk_snow_t *h, const void *buffer, size_t size)
     snow_flake_t *t = h->flakes;
     h->flakes = h->scratch;
     h->scratch = t;
+    snow_flakes_by_id(h);
     memcpy(h->coverage, in + fb, tb);
     memcpy(h->depth, in + fb + tb, tb);
     h->step = hd.step;
