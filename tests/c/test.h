@@ -74,6 +74,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(image, uv_overlap_rejects)         \
     X(exr, roundtrip_float_half)         \
     X(exr, partly_compressible_chunks)   \
+    X(exr, same_bytes_any_threads)       \
     X(exr, orientation_and_strides)      \
     X(exr, atomic_failure_keeps_old)     \
     X(exr, rejects_bad_input)            \

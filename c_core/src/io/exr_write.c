@@ -7,6 +7,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <omp.h>
 #include <unistd.h>
 
 #define MAX_SIZE 65536
@@ -174,6 +175,157 @@ static void gather_rows(float *dst, const hbk_exr_channel_t *c, int32_t width, i
     }
 }
 
+/* One chunk compressed by a worker, held until the writer's turn comes. */
+typedef struct {
+    exr_chunk_info_t ci;
+    void *data;
+    size_t bytes;
+    exr_result_t rv;          /* the worker's error, if any */
+    hbk_exr_detail_t detail;  /* and OpenEXRCore's message for it */
+} chunk_slot_t;
+
+/* A worker thread's encode pipeline and its block of gathered rows. */
+typedef struct {
+    zip_guard_t guard; /* first: compress_never_ambiguous reads the pipeline's user data as it */
+    exr_encode_pipeline_t enc;
+    int ready;
+    float *rows;
+    chunk_slot_t *slot; /* the chunk being encoded */
+} worker_t;
+
+/* The pipeline's last stage: keeps the compressed chunk for the writer instead of writing it.
+ * Chunks of a file in increasing-y order must reach it one after another. */
+static exr_result_t keep_chunk(exr_encode_pipeline_t *enc)
+{
+    worker_t *w = enc->encoding_user_data;
+    w->slot->data = malloc(enc->compressed_bytes ? enc->compressed_bytes : 1);
+    if (!w->slot->data) return EXR_ERR_OUT_OF_MEMORY;
+    memcpy(w->slot->data, enc->compressed_buffer, enc->compressed_bytes);
+    w->slot->bytes = enc->compressed_bytes;
+    return EXR_ERR_SUCCESS;
+}
+
+typedef struct {
+    exr_context_t ctx;
+    int part;
+    int32_t width, height, count, lines;
+    int compressed; /* else each chunk's packing (under OpenEXRCore's lock) is all the work */
+    const hbk_exr_channel_t *channels;
+    const int32_t *source; /* file channel order -> channels[] index */
+} file_t;
+
+/* Packs and compresses one chunk on this thread's pipeline into its slot. */
+static exr_result_t encode_chunk(const file_t *f, worker_t *w, chunk_slot_t *slot)
+{
+    const size_t plane = (size_t)f->lines * (size_t)f->width;
+    exr_result_t rv;
+    w->slot = slot;
+    for (int32_t k = 0; k < f->count; ++k)
+        gather_rows(w->rows + (size_t)k * plane, &f->channels[f->source[k]], f->width, f->height,
+                    slot->ci.start_y, slot->ci.height);
+    if (!w->ready) {
+        rv = exr_encoding_initialize(f->ctx, f->part, &slot->ci, &w->enc);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+        w->ready = 1;
+        if (w->enc.channel_count != f->count) return EXR_ERR_INVALID_ARGUMENT;
+        for (int32_t k = 0; k < f->count; ++k) {
+            exr_coding_channel_info_t *cc = &w->enc.channels[k];
+            cc->user_data_type = EXR_PIXEL_FLOAT;
+            cc->user_bytes_per_element = (int16_t)sizeof(float);
+            cc->user_pixel_stride = (int32_t)sizeof(float);
+            cc->user_line_stride = f->width * (int32_t)sizeof(float);
+            cc->encode_from_ptr = (const uint8_t *)(w->rows + (size_t)k * plane);
+        }
+        rv = exr_encoding_choose_default_routines(f->ctx, f->part, &w->enc);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+        if (w->enc.compress_fn) {
+            w->guard.compress = w->enc.compress_fn;
+            w->enc.compress_fn = compress_never_ambiguous;
+        }
+        w->enc.encoding_user_data = w;
+        w->enc.yield_until_ready_fn = NULL; /* the writer below keeps the order */
+        w->enc.write_fn = keep_chunk;
+    } else {
+        rv = exr_encoding_update(f->ctx, f->part, &slot->ci, &w->enc);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+    }
+    return exr_encoding_run(f->ctx, f->part, &w->enc);
+}
+
+/* Every chunk, compressed on all cores a batch at a time (compression is nearly all of a
+ * write: 1.5 s of a 2048^2 two-channel ZIP file, against 0.07 s stored raw) and written in
+ * order on this thread, so the file's bytes are those of one thread. Returns the chunks
+ * written; on failure sets *r. */
+static int32_t encode_chunks(const file_t *f, const char *path, hbk_exr_detail_t *detail,
+                             hbk_message_t *msg, hbk_result_t *r)
+{
+    const int nt = f->compressed ? hbk_threads(0) : 1;
+    const int32_t batch = 4 * nt;
+    worker_t *workers = calloc((size_t)nt, sizeof *workers);
+    chunk_slot_t *slots = calloc((size_t)batch, sizeof *slots);
+    const size_t block = (size_t)f->count * (size_t)f->lines * (size_t)f->width;
+    int32_t written = 0;
+    int ok = workers && slots;
+    for (int i = 0; ok && i < nt; ++i) ok = (workers[i].rows = malloc(block * sizeof(float))) != 0;
+    if (!ok) {
+        *r = hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "\"%s\": cannot allocate %zu bytes for %d "
+                      "chunks", path, block * sizeof(float), nt);
+        goto done;
+    }
+    for (int32_t y0 = 0; y0 < f->height && *r == HBK_OK; y0 += batch * f->lines) {
+        int32_t n = 0;
+        for (int32_t y = y0; y < f->height && n < batch; y += f->lines, ++n) {
+            chunk_slot_t *sl = &slots[n];
+            exr_chunk_info_t *ci = &sl->ci;
+            detail->text[0] = '\0';
+            exr_result_t rv = exr_write_scanline_chunk_info(f->ctx, f->part, y, ci);
+            if (rv != EXR_ERR_SUCCESS) {
+                *r = fail_exr(msg, detail, rv, path, "exr_write_scanline_chunk_info");
+                goto done;
+            }
+            if (ci->start_y != y || ci->height < 1 || ci->height > f->lines ||
+                ci->width != f->width) {
+                *r = hbk_fail(msg, HBK_ERR_INTERNAL, "\"%s\": unexpected chunk %d (y %d, %dx%d)",
+                              path, ci->idx, ci->start_y, ci->width, ci->height);
+                goto done;
+            }
+        }
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt) if (n > 1)
+        for (int32_t i = 0; i < n; ++i) {
+            hbk_exr_detail_t *outer = t_detail; /* this thread's messages go to the slot */
+            t_detail = &slots[i].detail;
+            slots[i].rv = encode_chunk(f, &workers[omp_get_thread_num()], &slots[i]);
+            t_detail = outer;
+        }
+        for (int32_t i = 0; i < n && *r == HBK_OK; ++i) {
+            chunk_slot_t *sl = &slots[i];
+            if (sl->rv != EXR_ERR_SUCCESS) {
+                *r = fail_exr(msg, &sl->detail, sl->rv, path, "exr_encoding_run");
+                break;
+            }
+            detail->text[0] = '\0';
+            exr_result_t rv = exr_write_scanline_chunk(f->ctx, f->part, sl->ci.start_y, sl->data,
+                                                       sl->bytes);
+            if (rv != EXR_ERR_SUCCESS)
+                *r = fail_exr(msg, detail, rv, path, "exr_write_scanline_chunk");
+            else
+                ++written;
+        }
+        for (int32_t i = 0; i < n; ++i) {
+            free(slots[i].data);
+            slots[i] = (chunk_slot_t){0};
+        }
+    }
+done:
+    for (int i = 0; workers && i < nt; ++i) {
+        if (workers[i].ready) exr_encoding_destroy(f->ctx, &workers[i].enc);
+        free(workers[i].rows);
+    }
+    free(workers);
+    free(slots);
+    return written;
+}
+
 /* Everything between exr_start_write and exr_finish. On failure the caller removes `tmp`. */
 static hbk_result_t encode_file(const char *path, const char *tmp, int32_t width, int32_t height,
                                 const hbk_exr_channel_t *channels, int32_t count,
@@ -194,12 +346,8 @@ static hbk_result_t encode_file(const char *path, const char *tmp, int32_t width
     }
 
     hbk_result_t r = HBK_OK;
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    zip_guard_t guard = {NULL};
-    int have_enc = 0, part = 0, long_names = 0;
+    int part = 0, long_names = 0;
     int32_t lines = 0, chunk_count = 0, written = 0;
-    size_t plane = 0; /* floats in one chunk of one channel */
-    float *scratch = NULL;
     int32_t source[MAX_CHANNELS]; /* file channel order (sorted by name) -> channels[] index */
     const exr_attr_chlist_t *chlist = NULL;
 
@@ -227,6 +375,7 @@ static hbk_result_t encode_file(const char *path, const char *tmp, int32_t width
     TRY(exr_get_scanlines_per_chunk(ctx, part, &lines), "exr_get_scanlines_per_chunk");
     TRY(exr_get_chunk_count(ctx, part, &chunk_count), "exr_get_chunk_count");
     TRY(exr_get_channels(ctx, part, &chlist), "exr_get_channels");
+#undef TRY
     if (lines < 1 || !chlist || chlist->num_channels != count) {
         r = hbk_fail(msg, HBK_ERR_INTERNAL, "\"%s\": unexpected part layout from OpenEXRCore",
                      path);
@@ -242,61 +391,11 @@ static hbk_result_t encode_file(const char *path, const char *tmp, int32_t width
             goto done;
         }
     }
-
-    /* One chunk of every channel as float, in file order; OpenEXRCore converts to half. */
-    plane = (size_t)lines * (size_t)width;
-    scratch = malloc((size_t)count * plane * sizeof(float));
-    if (!scratch) {
-        r = hbk_fail(msg, HBK_ERR_OUT_OF_MEMORY, "\"%s\": cannot allocate %zu bytes for one chunk",
-                     path, (size_t)count * plane * sizeof(float));
-        goto done;
-    }
-
-    for (int32_t y = 0; y < height; y += lines) {
-        exr_chunk_info_t ci;
-        TRY(exr_write_scanline_chunk_info(ctx, part, y, &ci), "exr_write_scanline_chunk_info");
-        if (ci.start_y != y || ci.height < 1 || ci.height > lines || ci.width != width) {
-            r = hbk_fail(msg, HBK_ERR_INTERNAL, "\"%s\": unexpected chunk %d (y %d, %dx%d)",
-                         path, ci.idx, ci.start_y, ci.width, ci.height);
-            goto done;
-        }
-        for (int32_t k = 0; k < count; ++k)
-            gather_rows(scratch + (size_t)k * plane, &channels[source[k]], width, height, y,
-                        ci.height);
-        if (!have_enc) {
-            TRY(exr_encoding_initialize(ctx, part, &ci, &enc), "exr_encoding_initialize");
-            have_enc = 1;
-            if (enc.channel_count != count) {
-                r = hbk_fail(msg, HBK_ERR_INTERNAL, "\"%s\": encoder has %d channels, not %d",
-                             path, enc.channel_count, count);
-                goto done;
-            }
-            for (int32_t k = 0; k < count; ++k) {
-                exr_coding_channel_info_t *cc = &enc.channels[k];
-                cc->user_data_type = EXR_PIXEL_FLOAT;
-                cc->user_bytes_per_element = (int16_t)sizeof(float);
-                cc->user_pixel_stride = (int32_t)sizeof(float);
-                cc->user_line_stride = width * (int32_t)sizeof(float);
-                cc->encode_from_ptr = (const uint8_t *)(scratch + (size_t)k * plane);
-            }
-            TRY(exr_encoding_choose_default_routines(ctx, part, &enc),
-                "exr_encoding_choose_default_routines");
-            if (enc.compress_fn) {
-                guard.compress = enc.compress_fn;
-                enc.encoding_user_data = &guard;
-                enc.compress_fn = compress_never_ambiguous;
-            }
-        } else {
-            TRY(exr_encoding_update(ctx, part, &ci, &enc), "exr_encoding_update");
-        }
-        TRY(exr_encoding_run(ctx, part, &enc), "exr_encoding_run");
-        ++written;
-    }
-#undef TRY
+    const file_t f = {ctx, part, width, height, count, lines, ctype != EXR_COMPRESSION_NONE,
+                      channels, source};
+    written = encode_chunks(&f, path, detail, msg, &r);
 
 done:
-    if (have_enc) exr_encoding_destroy(ctx, &enc);
-    free(scratch);
     /* exr_finish writes the chunk offset table and closes the file. */
     detail->text[0] = '\0';
     rv = exr_finish(&ctx);
