@@ -31,8 +31,11 @@ typedef struct hbk_exr_channel {
  * Returns HBK_ERR_INVALID_ARGUMENT (bad size, name, stride, compression), HBK_ERR_IO
  * (cannot create, write or rename; also when OpenEXRCore dropped chunks, which its
  * exr_finish does not report), HBK_ERR_OUT_OF_MEMORY, HBK_ERR_INTERNAL (OpenEXRCore reported
- * something unexpected; the message has its words). Memory: one 16-row block of all channels
- * as float, e.g. 1 MB for 4096-wide RGBA. POSIX rename semantics. */
+ * something unexpected; the message has its words). A compressed file's chunks are
+ * compressed on every core OpenMP allows (OMP_NUM_THREADS) and written in order: the bytes do
+ * not depend on the thread count. Memory: per thread one 16-row block of all channels as
+ * float (1 MB for 4096-wide RGBA), and the compressed chunks of one batch (4 per thread).
+ * POSIX rename semantics. */
 HBK_EXPORT hbk_result_t hbk_exr_write(const char *path, int32_t width, int32_t height,
                                       const hbk_exr_channel_t *channels, int32_t count,
                                       int32_t compression, hbk_message_t *msg);
