@@ -99,8 +99,8 @@ int main(int argc, char **argv)
             hbk_snow_stats(h, &b);
             const double fs = (double)(b.flake_steps - a.flake_steps);
             printf("| %s | %d | %d | %.0f | %.4f | %.3f | %.1f M | %.1f M |\n", scenes[s].name,
-                   threads, per_call, build * 1e3, (double)(b.hits - a.hits) / fs, dt, fs / dt * 1e-6,
-                   fs / dt * 1e-6 / threads);
+                   threads, per_call, build * 1e3, (double)(b.hits - a.hits) / fs, dt,
+                   fs / dt * 1e-6, fs / dt * 1e-6 / threads);
             hbk_snow_destroy(h);
         }
     free(pos);

@@ -147,7 +147,7 @@ struct hbk_snow {
     hbk_snow_params_t p;
     hbk_message_t msg;
     snow_flake_t *flakes, *scratch; /* scratch: the next state, swapped in on success */
-    uint32_t *ids, *ids_spare;      /* the id of the flake in each slot (see snow_flakes_sort) */
+    uint32_t *ids, *ids_spare;      /* the id of the flake in each slot (sort_by_place) */
     snow_mesh_t mesh;
     hbk_snow_material_t *materials;
     float *chance;         /* per slot: hbk_snow_hit_chance at the params' temperature */
