@@ -6,6 +6,8 @@
 #include "snow/bvh.c"
 /* The paper's box contact (§3.2.1), likewise. */
 #include "snow/box.c"
+/* And the HBK_PATHS switch the BVH reads. */
+#include "base/paths.c"
 
 /* ---- helpers ---- */
 
@@ -673,11 +675,18 @@ void test_snow_determinism_threads(void)
     CHECK_OK(hbk_snow_step(b, 60, NULL));
     for (int i = 0; i < 60; ++i) CHECK_OK(hbk_snow_step(c, 1, NULL));
     CHECK(!slots_by_id(a) && !slots_by_id(c)); /* sorted by place, at other times */
+    setenv("HBK_PATHS", "scalar", 1); /* read when the mesh is set */
+    hbk_snow_t *d = scene(1, 30000);
+    unsetenv("HBK_PATHS");
+    CHECK(d && d->mesh.bvh.plain);
+    CHECK_OK(hbk_snow_step(d, 60, NULL));
     CHECK(same_output(a, b)); /* any thread count */
     CHECK(same_output(a, c)); /* any split of the substeps */
+    CHECK(same_output(a, d)); /* the BVH's walk with or without vector lanes */
     hbk_snow_destroy(a);
     hbk_snow_destroy(b);
     hbk_snow_destroy(c);
+    hbk_snow_destroy(d);
 }
 
 void test_snow_state_roundtrip(void)
@@ -936,18 +945,29 @@ void test_snow_box_mode(void)
 
 /* ---- BVH against brute force ---- */
 
-static int brute_hit(const bvh_t *b, const float o[3], const float d[3], float *tbest)
+/* The nearest hit over every triangle (no tree to get wrong); of equally near ones the first
+ * in leaf order. */
+static int brute_hit(const bvh_t *b, const float o[3], const float d[3], float *tbest,
+                     int32_t *which)
 {
     int found = 0;
     float tmax = 1.0f;
-    for (int32_t i = 0; i < b->tri_count; ++i) { /* every triangle: no tree to get wrong */
+    for (int32_t i = 0; i < b->tri_count; ++i) {
         float tt, u, v;
-        if (snow_ray_tri(&b->tris[i], o, d, &tt, &u, &v) && tt <= tmax) { tmax = tt; found = 1; }
+        if (snow_ray_tri(&b->tris[i], o, d, &tt, &u, &v) && (tt < tmax || (tt == tmax && !found))) {
+            tmax = tt;
+            *which = i;
+            found = 1;
+        }
     }
     *tbest = tmax;
     return found;
 }
 
+/* Random triangles, every fifth one twice (the copies fall in leaves of their own, and a
+ * segment through them meets both at the same parameter): the walk of the four-wide tree
+ * finds what brute force finds, the same triangle of two equally near ones too, for short
+ * steps and long rays; and with HBK_PATHS=scalar (no vector lanes) the same bits. */
 void test_snow_bvh_brute_force(void)
 {
     enum { NT = 3000, NS = 20000 };
@@ -955,16 +975,20 @@ void test_snow_bvh_brute_force(void)
     int32_t *tri = malloc(sizeof(int32_t) * 3 * NT);
     float u[12];
     for (int i = 0; i < NT; ++i) {
-        hbk_rng_fill_uniform(5, 1, (uint64_t)i * 3, u, 12);
+        hbk_rng_fill_uniform(5, 1, (uint64_t)(i % 5 == 4 ? i - 1 : i) * 3, u, 12);
         for (int c = 0; c < 3; ++c)
             for (int k = 0; k < 3; ++k)
                 pos[9 * i + 3 * c + k] = u[k] * 4.0f - 2.0f + (u[3 + 3 * c + k] - 0.5f) * 0.3f;
         for (int c = 0; c < 3; ++c) tri[3 * i + c] = 3 * i + c;
     }
-    bvh_t b;
+    bvh_t b, plain;
     CHECK(snow_bvh_build(&b, pos, tri, NT) == HBK_OK);
-    CHECK(b.tri_count == NT && b.node_count < 2 * NT);
-    int hits = 0, mismatch = 0;
+    CHECK(b.tri_count == NT && b.node_count < 2 * NT && b.wide_count < b.node_count / 2);
+    setenv("HBK_PATHS", "scalar", 1);
+    CHECK(snow_bvh_build(&plain, pos, tri, NT) == HBK_OK);
+    unsetenv("HBK_PATHS");
+    CHECK(plain.plain && !b.plain);
+    int hits = 0, mismatch = 0, ties = 0;
     for (int s = 0; s < NS; ++s) {
         hbk_rng_fill_uniform(6, 2, (uint64_t)s * 2, u, 8);
         const float o[3] = {u[0] * 5 - 2.5f, u[1] * 5 - 2.5f, u[2] * 5 - 2.5f};
@@ -972,13 +996,19 @@ void test_snow_bvh_brute_force(void)
         const float d[3] = {(u[3] - 0.5f) * len, (u[4] - 0.5f) * len, (u[5] - 0.5f) * len};
         bvh_hit_t h;
         float tb;
-        const int a = snow_bvh_hit(&b, o, d, &h), c = brute_hit(&b, o, d, &tb);
+        int32_t which = -1;
+        const int a = snow_bvh_hit(&b, o, d, &h), c = brute_hit(&b, o, d, &tb, &which);
+        bvh_hit_t hp;
+        const int ap = snow_bvh_hit(&plain, o, d, &hp); /* without vector lanes: the same bits */
+        if (ap != a || (a && memcmp(&hp, &h, sizeof h))) ++mismatch;
         hits += c;
-        if (a != c || (a && h.t != tb)) ++mismatch;
+        if (c) ties += b.tris[which].id % 5 >= 3; /* one of a pair: the other as near */
+        if (a != c || (a && (h.t != tb || h.tri != which))) ++mismatch;
     }
-    CHECK(hits > 1000);
+    CHECK(hits > 1000 && ties > 100);
     CHECK(mismatch == 0);
     snow_bvh_free(&b);
+    snow_bvh_free(&plain);
     free(pos);
     free(tri);
 }

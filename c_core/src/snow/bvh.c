@@ -1,14 +1,18 @@
-/* Triangle BVH: binned SAH build, first-hit query for a segment. */
+/* Triangle BVH: binned SAH build, collapsed to four children a node; first-hit query for a
+ * segment. */
 #include "internal_snow.h"
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #define BINS 12
 #define LEAF_MAX 4      /* leaves a split cannot improve may still hold up to this many */
 #define FORCE_MEDIAN 64 /* past this depth split by count, so the stack below always fits */
-#define STACK 128
+#define STACK 384 /* the walk's stack: three children of each of <= 128 levels */
 
 typedef struct {
     float lo[3], hi[3];
@@ -40,8 +44,80 @@ void snow_bvh_free(bvh_t *b)
 {
     if (!b) return;
     free(b->nodes);
+    free(b->wide);
     free(b->tris);
     memset(b, 0, sizeof *b);
+}
+
+static void wide_child(bvh_wide_t *w, int c, const bvh_node_t *nd, int32_t first, int32_t count)
+{
+    for (int k = 0; k < 3; ++k) {
+        w->lo[k][c] = nd->lo[k];
+        w->hi[k][c] = nd->hi[k];
+    }
+    w->first[c] = first;
+    w->count[c] = count;
+}
+
+/* The binary tree as one of up to four children a node: each wide node takes the children of
+ * a binary node and, while it has room, opens the inner one with the largest box. The walk
+ * then tests four boxes at once and takes about half the steps down. */
+static hbk_result_t collapse(bvh_t *b)
+{
+    const int32_t cap = b->node_count / 2 + 1; /* one wide node per binary inner node at most */
+    b->wide = aligned_alloc(64, sizeof *b->wide * (size_t)cap);
+    int32_t *pending = malloc(sizeof *pending * 2 * (size_t)cap);
+    if (!b->wide || !pending) {
+        free(pending);
+        return HBK_ERR_OUT_OF_MEMORY;
+    }
+    memset(b->wide, 0, sizeof *b->wide * (size_t)cap);
+    int32_t wide_count = 1, np = 0;
+    const bvh_node_t *nodes = b->nodes;
+    for (int c = 0; c < 4; ++c) b->wide[0].count[c] = -1;
+    if (nodes[0].count > 0) /* one leaf: the root node holds it */
+        wide_child(&b->wide[0], 0, &nodes[0], nodes[0].first, nodes[0].count);
+    else
+        pending[np++] = 0, pending[np++] = 0;
+    while (np > 0) {
+        const int32_t wi = pending[--np], bn = pending[--np];
+        int32_t cand[4] = {nodes[bn].first, nodes[bn].first + 1}, nc = 2;
+        while (nc < 4) {
+            int best = -1;
+            float area = -1.0f;
+            for (int c = 0; c < nc; ++c) {
+                const bvh_node_t *nd = &nodes[cand[c]];
+                const aabb_t box = {{nd->lo[0], nd->lo[1], nd->lo[2]},
+                                    {nd->hi[0], nd->hi[1], nd->hi[2]}};
+                if (nd->count == 0 && box_area(&box) > area) {
+                    area = box_area(&box);
+                    best = c;
+                }
+            }
+            if (best < 0) break;
+            const int32_t inner = cand[best];
+            cand[best] = nodes[inner].first;
+            cand[nc++] = nodes[inner].first + 1;
+        }
+        bvh_wide_t *w = &b->wide[wi];
+        for (int c = 0; c < 4; ++c) {
+            if (c >= nc) {
+                w->count[c] = -1;
+                continue;
+            }
+            const bvh_node_t *nd = &nodes[cand[c]];
+            if (nd->count > 0) {
+                wide_child(w, c, nd, nd->first, nd->count);
+            } else {
+                wide_child(w, c, nd, wide_count, 0);
+                pending[np++] = cand[c];
+                pending[np++] = wide_count++;
+            }
+        }
+    }
+    b->wide_count = wide_count;
+    free(pending);
+    return HBK_OK;
 }
 
 hbk_result_t snow_bvh_build(bvh_t *out, const float *pos, const int32_t *tri, int32_t n)
@@ -174,6 +250,11 @@ hbk_result_t snow_bvh_build(bvh_t *out, const float *pos, const int32_t *tri, in
     b.node_count = node_count;
     b.tri_count = n;
     free(tb); free(cen); free(idx); free(stack);
+    b.plain = hbk_paths() == HBK_PATHS_SCALAR;
+    if (collapse(&b)) {
+        snow_bvh_free(&b);
+        return HBK_ERR_OUT_OF_MEMORY;
+    }
     *out = b;
     return HBK_OK;
 }
@@ -192,6 +273,57 @@ static inline float slab(const bvh_node_t *n, const float o[3], const float inv[
     return tn <= tf ? tn : INFINITY;
 }
 
+#if defined(__SSE2__)
+/* The four children at once: per axis (lo - o) * inv and (hi - o) * inv, as slab() has them. */
+static inline void wide_slab4(const bvh_wide_t *w, const float o[3], const float inv[3],
+                              float tmax, float t[4])
+{
+    __m128 tn = _mm_setzero_ps(), tf = _mm_setzero_ps();
+    for (int k = 0; k < 3; ++k) {
+        const __m128 ok = _mm_set1_ps(o[k]), ik = _mm_set1_ps(inv[k]);
+        const __m128 t0 = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(w->lo[k]), ok), ik);
+        const __m128 t1 = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(w->hi[k]), ok), ik);
+        const __m128 near = _mm_min_ps(t0, t1), far = _mm_max_ps(t0, t1);
+        tn = k ? _mm_max_ps(tn, near) : near;
+        tf = k ? _mm_min_ps(tf, far) : far;
+    }
+    tn = _mm_max_ps(tn, _mm_setzero_ps());
+    tf = _mm_min_ps(tf, _mm_set1_ps(tmax));
+    const __m128 in = _mm_cmple_ps(tn, tf);
+    _mm_storeu_ps(t, _mm_or_ps(_mm_and_ps(in, tn), _mm_andnot_ps(in, _mm_set1_ps(INFINITY))));
+}
+#endif
+
+/* slab() for the four children of a wide node, lane by lane the same operations in the same
+ * order (so the same bits either way): t[c], child c's entry parameter, or +inf if the
+ * segment misses its box. */
+static inline void wide_slab(const bvh_wide_t *w, const float o[3], const float inv[3],
+                             float tmax, int plain, float t[4])
+{
+#if defined(__SSE2__)
+    if (!plain) {
+        wide_slab4(w, o, inv, tmax, t);
+        return;
+    }
+#endif
+    for (int c = 0; c < 4; ++c) {
+        float tn = 0.0f, tf = 0.0f;
+        for (int k = 0; k < 3; ++k) {
+            const float t0 = (w->lo[k][c] - o[k]) * inv[k], t1 = (w->hi[k][c] - o[k]) * inv[k];
+            tn = k ? snow_max(tn, snow_min(t0, t1)) : snow_min(t0, t1);
+            tf = k ? snow_min(tf, snow_max(t0, t1)) : snow_max(t0, t1);
+        }
+        tn = snow_max(tn, 0.0f);
+        tf = snow_min(tf, tmax);
+        t[c] = tn <= tf ? tn : INFINITY;
+    }
+}
+
+typedef struct {
+    int32_t first, count; /* as in bvh_wide_t */
+    float t;              /* where the segment enters its box */
+} stacked_t;
+
 int snow_bvh_hit(const bvh_t *b, const float o[3], const float d[3], bvh_hit_t *hit)
 {
     if (b->tri_count <= 0) return 0;
@@ -201,35 +333,48 @@ int snow_bvh_hit(const bvh_t *b, const float o[3], const float d[3], bvh_hit_t *
     float tmax = 1.0f;
     int found = 0;
     if (slab(&b->nodes[0], o, inv, tmax) == INFINITY) return 0;
-    int32_t stack[STACK], sp = 0, ni = 0;
+    stacked_t stack[STACK];
+    int32_t sp = 0, first = 0, count = 0;
     for (;;) {
-        const bvh_node_t *n = &b->nodes[ni];
-        if (n->count > 0) {
-            for (int32_t i = n->first; i < n->first + n->count; ++i) {
+        if (count > 0) {
+            /* The nearest hit; of equally near ones the first in leaf order, so the answer
+             * does not depend on the order the walk meets them. */
+            for (int32_t i = first; i < first + count; ++i) {
                 float tt, u, v;
-                if (snow_ray_tri(&b->tris[i], o, d, &tt, &u, &v) && tt <= tmax) {
+                if (snow_ray_tri(&b->tris[i], o, d, &tt, &u, &v) &&
+                    (tt < tmax || (tt == tmax && (!found || i < hit->tri)))) {
                     tmax = tt;
                     hit->t = tt; hit->b1 = u; hit->b2 = v; hit->tri = i;
                     found = 1;
                 }
             }
         } else {
-            const int32_t l = n->first, r = n->first + 1;
-            const float tl = slab(&b->nodes[l], o, inv, tmax), tr = slab(&b->nodes[r], o, inv, tmax);
-            if (tl != INFINITY && tr != INFINITY) {
-                /* Nearer child first: its hit shortens the segment for the other. */
-                if (tl <= tr) { stack[sp++] = r; ni = l; }
-                else { stack[sp++] = l; ni = r; }
+            const bvh_wide_t *w = &b->wide[first];
+            float t[4];
+            wide_slab(w, o, inv, tmax, b->plain, t);
+            int near[4], nh = 0;
+            for (int c = 0; c < 4; ++c) { /* the children entered, nearest first */
+                if (w->count[c] < 0 || t[c] == INFINITY) continue;
+                int j = nh++;
+                for (; j > 0 && t[near[j - 1]] > t[c]; --j) near[j] = near[j - 1];
+                near[j] = c;
+            }
+            if (nh > 0) {
+                /* The nearest now: its hit shortens the segment for the others. */
+                for (int j = nh - 1; j > 0; --j)
+                    stack[sp++] = (stacked_t){w->first[near[j]], w->count[near[j]], t[near[j]]};
+                first = w->first[near[0]];
+                count = w->count[near[0]];
                 continue;
             }
-            if (tl != INFINITY) { ni = l; continue; }
-            if (tr != INFINITY) { ni = r; continue; }
         }
-        /* Pop, skipping nodes that now lie beyond the nearest hit. */
+        /* Pop, skipping children that now lie beyond the nearest hit. */
         for (;;) {
             if (sp == 0) return found;
-            ni = stack[--sp];
-            if (slab(&b->nodes[ni], o, inv, tmax) != INFINITY) break;
+            --sp;
+            if (stack[sp].t <= tmax) break;
         }
+        first = stack[sp].first;
+        count = stack[sp].count;
     }
 }

@@ -51,10 +51,20 @@ typedef struct bvh_tri {
     int32_t id; /* index in the caller's triangle list */
 } bvh_tri_t;
 
+/* The tree the queries walk: the binary one collapsed to up to four children a node, their
+ * boxes lane by lane, so that one set of four-lane operations tests all of them. */
+typedef struct bvh_wide {
+    float lo[3][4], hi[3][4];
+    int32_t first[4]; /* leaf: first triangle; inner: index in bvh.wide */
+    int32_t count[4]; /* leaf: triangle count (> 0); inner: 0; no child: -1 */
+} bvh_wide_t;
+
 typedef struct bvh {
-    bvh_node_t *nodes;
+    bvh_node_t *nodes; /* the binary tree as built (nodes[0]: the root's box) */
+    bvh_wide_t *wide;
     bvh_tri_t *tris;
-    int32_t node_count, tri_count;
+    int32_t node_count, wide_count, tri_count;
+    int32_t plain; /* the walk tests the four boxes without vector lanes (HBK_PATHS=scalar) */
 } bvh_t;
 
 typedef struct bvh_hit {
@@ -67,7 +77,8 @@ typedef struct bvh_hit {
 hbk_result_t snow_bvh_build(bvh_t *out, const float *positions, const int32_t *triangles,
                             int32_t tri_count);
 void snow_bvh_free(bvh_t *b);
-/* First hit of the segment o + t d, t in [0, 1]. Returns 1 and fills *hit, else 0. */
+/* First hit of the segment o + t d, t in [0, 1] (of equally near triangles the first in leaf
+ * order). Returns 1 and fills *hit, else 0. */
 int snow_bvh_hit(const bvh_t *b, const float o[3], const float d[3], bvh_hit_t *hit);
 
 /* Möller-Trumbore, both sides: where the segment o + t d (t in [0, 1]) meets triangle tr, as t
