@@ -719,12 +719,13 @@ void test_snow_state_roundtrip(void)
     hbk_snow_destroy(c);
 }
 
-/* Where flakes meet the mesh often (a hit in 32 flake-steps or more), a step leaves them in
- * slots by place, so that the BVH walks of flakes stepped one after another share their nodes:
+/* Where flakes meet the mesh (a hit in SNOW_SORT_HITS flake-steps or more), a step leaves them
+ * in slots by place, so that the BVH walks of flakes stepped one after another share their nodes:
  * every id in one slot, neighbouring slots much nearer each other than neighbouring ids, and
  * the positions given by id. Nothing else may depend on the slots: the tests above step such
  * scenes split differently, on other thread counts, and from a state loaded by id. Where
- * flakes seldom meet anything the slots stay by id (a sort would cost more than it saves). */
+ * flakes almost never meet anything the slots stay by id (a sort would cost more than it
+ * saves). */
 void test_snow_slots_by_place(void)
 {
     enum { N = 30000 };
@@ -733,7 +734,7 @@ void test_snow_slots_by_place(void)
     CHECK_OK(hbk_snow_step(h, 60, NULL));
     hbk_snow_stats_t s;
     hbk_snow_stats(h, &s);
-    CHECK(s.hits * 32 >= s.flake_steps);
+    CHECK(s.hits * SNOW_SORT_HITS >= s.flake_steps);
     char *seen = calloc(N, 1);
     float *xyz = malloc(sizeof(float) * 3 * N);
     int32_t n = 0, once = 1, moved = 0, where = 1;
@@ -772,7 +773,7 @@ void test_snow_slots_by_place(void)
     CHECK_OK(set_mesh(h, &m));
     CHECK_OK(hbk_snow_step(h, 60, NULL));
     hbk_snow_stats(h, &s);
-    CHECK(s.hits > 0 && s.hits * 32 < s.flake_steps);
+    CHECK(s.hits > 0 && s.hits * SNOW_SORT_HITS < s.flake_steps);
     CHECK(slots_by_id(h));
     hbk_snow_destroy(h);
     free(seen);

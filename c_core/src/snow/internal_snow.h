@@ -24,6 +24,11 @@ static inline uint64_t snow_rng_counter(uint64_t substep, uint32_t purpose)
 static inline float snow_min(float a, float b) { return a < b ? a : b; }
 static inline float snow_max(float a, float b) { return a > b ? a : b; }
 
+/* A step whose flakes hit the mesh at least once in this many flake-steps leaves them in
+ * slots by place (sort_by_place in flakes.c); one whose flakes hit it more seldom keeps its
+ * slots. */
+#define SNOW_SORT_HITS 512
+
 /* Restitution of a bounce: how much of the normal speed a flake keeps. */
 #define SNOW_RESTITUTION 0.3f
 /* Flutter frequency classes: a flake's own frequency is f * (0.7 + 0.6 k / (N - 1)),
