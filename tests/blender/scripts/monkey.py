@@ -271,8 +271,13 @@ def slots_of(o):
 
 
 def obj_state(o, name_of=slot_name):
+    # A DROPPED slot goes only where no other slot follows it; before one it stays, empty:
+    # the artist's slots keep their indices, which the faces use (monkey --more 1357).
+    slots = [(link, name_of(m)) for link, m in slots_of(o)]
+    while slots and slots[-1][1] is DROPPED:
+        slots.pop()
     return {
-        "slots": [(link, name_of(m)) for link, m in slots_of(o) if name_of(m) is not DROPPED],
+        "slots": [(link, None if name is DROPPED else name) for link, name in slots],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,
@@ -462,7 +467,8 @@ class Monkey:
         """slot_name(), but a clean copy whose shared material shows a bake of an object
         deleted while baked is that material: by design the copy stands in the slot until
         Remove Deleted Objects' Bakes takes the wiring out (seeds 767, 769). A material made
-        for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790)."""
+        for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790),
+        unless another slot follows it (obj_state)."""
         if mat is not None and self.of_deleted(mat.get("hydrobake_copy_of", mat.name)):
             return DROPPED
         shared = bpy.data.materials.get(mat["hydrobake_copy_of"]) \
