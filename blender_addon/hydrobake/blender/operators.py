@@ -109,7 +109,9 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
             return {"CANCELLED"}
         self._job = job
         jobs.ACTIVE[job.key] = job
-        job.runner.start()
+        # The thread starts at the first timer tick, not here: after invoke returns, Blender
+        # 3.4 still reads a caller's context override (a script's temp_override) without the
+        # GIL, and the bake's thread holding it then crashed Blender (UI test, seldom).
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 1000)
@@ -125,6 +127,9 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         if event.type == "ESC" and event.value == "PRESS":
             job.runner.cancel()
         if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        if not job.runner.started:
+            job.runner.start()  # (a cancel before it leaves the folder as it was)
             return {"PASS_THROUGH"}
         wm = context.window_manager
         wm.progress_update(int(job.runner.poll_fraction() * 1000))

@@ -139,6 +139,10 @@ class BakeRunner:
             self._thread.join(timeout)
         return not (self._thread and self._thread.is_alive())
 
+    @property
+    def started(self):
+        return self._thread is not None
+
     def is_alive(self):
         return bool(self._thread and self._thread.is_alive())
 
