@@ -213,17 +213,46 @@ def test_overrides_are_checked_against_keys_shapes_types_and_ranges(blender, tmp
         ({"Water": {}}, "key 'Water': must be \"Object/effect\" or \"*/effect\""),
         ({"Camera/caustics": {"map_resolution": 32}},
          "key 'Camera/caustics': Camera cannot have the caustics effect"),
+        # The bake's own record is not a parameter: put back after the run, an override of
+        # it left a bake without its folder, or on disk but not marked baked (found by a
+        # fuzzer of --overrides).
+        ({"Water/caustics": {"bake_folder": "abc"}}, "Water/caustics: bake_folder cannot be "
+         "set: it is the bake's record (use --output for where bakes go)"),
+        ({"*/caustics": {"is_baked": True}}, "*/caustics: is_baked cannot be set: it is the "
+         "bake's record"),
+        ({"Water/caustics": {"enabled": False}}, "enabled cannot be set: choose what is baked "
+         "with --objects and --effects"),
+        ({"Water/caustics": {"name": "x"}}, "name cannot be set: it is not a parameter"),
+        # A data-block setting by name, checked as the panel checks it (Python's setattr
+        # would put a camera in as the pool's ground, and the bake fail with a traceback).
+        ({"Water/caustics": {"ground_object": "Camera"}}, 'Water/caustics: ground_object = '
+         '"Camera": Camera cannot be the Ground, which takes a mesh other than the water itself'),
+        ({"Water/caustics": {"ground_object": "Water"}}, "Water cannot be the Ground"),
+        ({"Water/caustics": {"sun_object": "Ground"}}, "Ground cannot be the Sun, which takes "
+         "a sun lamp"),
+        ({"Water/caustics": {"ground_object": "Nope"}}, 'ground_object = "Nope": no Object of '
+         "that name in"),
+        ({"Water/caustics": {"ground_image": "Nope"}}, "no Image of that name"),
+        ({"Water/caustics": {"ground_object": 3}}, "expected a Object type, not int"),
         # What is right goes through: the bounds themselves (float32 in Blender), wildcards,
         # other effects' keys, objects not baked this run.
         ({"Water/caustics": {"map_resolution": 16, "water": {"gravity": 0.01,
                                                              "substeps": 1000}}}, None),
         ({"*/caustics": {"water": {"gravity": 100.0}}, "*/snow": {"snow": {}},
           "Tank/fluid": {"fluid": {"substeps": 2}}}, None),
+        ({"Water/caustics": {"ground_object": "Ground", "sun_object": "Sun",
+                             "disturber_object": None}}, None),
     ]
     lines = override_cases(blender, blend, water, cases, tmp_path)
     valid = "valid keys: Car/snow, Ground/snow, Person/snow, Tank/fluid, Water/caustics, " \
         "Windshield/rain, */caustics, */fluid, */rain, */snow"
     assert all(valid in l for l in lines[9:13]), lines[9:13]
+    shown = tmp_path / "shown.json"  # a by-name value is the data-block while the run lasts
+    shown.write_text(json.dumps([dict(water, table={"Water/caustics": {
+        "ground_object": "Ground"}}, show="ground_object")]))
+    r = blender.run("cli_overrides.py", shown, blend=blend)
+    assert "SHOW Water/caustics ground_object Ground" in r.stdout, r.stdout[-2000:]
+    assert "AFTER Water/caustics ground_object Pool Floor" in r.stdout, r.stdout[-2000:]
     # Through the command line: one error line naming the key, no traceback, nothing baked.
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"Water/caustics": {"water": 5}}))

@@ -236,6 +236,43 @@ def _check_value(target, attr, value, where):
             raise ValueError(f"--overrides {where} = {json.dumps(value)}: must be in {span}")
 
 
+# What a bake records about itself, not parameters: an override of these would be put back
+# over the new bake's own record when the run ends (a bake without its folder, or on disk but
+# not marked baked). Targets are chosen by --objects and --effects, not by "enabled".
+_NOT_PARAMETERS = {
+    "is_baked": "it is the bake's record, set by the bake",
+    "bake_folder": "it is the bake's record (use --output for where bakes go)",
+    "name": "it is not a parameter",
+    "enabled": "choose what is baked with --objects and --effects",
+}
+_ID_TYPES = {"Object": "objects", "Image": "images", "Collection": "collections",
+             "NodeTree": "node_groups", "Material": "materials"}
+
+
+def _pointer_value(target, attr, value, where):
+    """A data-block setting (Ground, Car, Obstacles ...) given by name: the data-block of
+    that name, checked with the setting's own poll (Python's setattr skips it: a camera
+    would go in as a pool's ground). null clears it; other values are Blender's to refuse."""
+    if not isinstance(value, str):
+        return value
+    prop = target.bl_rna.properties[attr]
+    kind = prop.fixed_type.identifier
+    blocks = getattr(bpy.data, _ID_TYPES.get(kind, ""), None)
+    if blocks is None:
+        return value
+    block = blocks.get(value)
+    if block is None:
+        raise ValueError(f"--overrides {where} = {json.dumps(value)}: no {kind} of that name in "
+                         f"{bpy.data.filepath or 'the file'}")
+    deferred = getattr(type(target), "__annotations__", {}).get(attr)
+    poll = getattr(deferred, "keywords", {}).get("poll")
+    if poll is not None and not poll(target, block):
+        takes = getattr(poll, "takes", "what the panel offers")
+        raise ValueError(f"--overrides {where} = {json.dumps(value)}: {value} cannot be the "
+                         f"{prop.name}, which takes {takes}")
+    return block
+
+
 def apply_overrides(pairs, path):
     """Sets parameters from a JSON file {"Object/effect" or "*/effect": {...}} (in memory);
     returns what they were, [(target, name, value)] in the order set (restore_overrides).
@@ -249,6 +286,8 @@ def apply_overrides(pairs, path):
 
     def put(target, attr, value, where):
         _check_value(target, attr, value, where)
+        if target.bl_rna.properties[attr].type == "POINTER":
+            value = _pointer_value(target, attr, value, where)
         was = getattr(target, attr)  # an array is a live view: copied before it is set
         was = tuple(was) if hasattr(was, "__len__") and not isinstance(was, str) else was
         try:
@@ -276,6 +315,9 @@ def apply_overrides(pairs, path):
                                  "give its value, not an object")
             elif prop.type == "COLLECTION" or prop.is_readonly:
                 raise ValueError(f"--overrides {key}: {name} cannot be set")
+            elif not prefix and attr in _NOT_PARAMETERS:
+                raise ValueError(f"--overrides {key}: {name} cannot be set: "
+                                 f"{_NOT_PARAMETERS[attr]}")
             else:
                 put(target, attr, value, f"{key}: {name}")
                 named.append((key, name))

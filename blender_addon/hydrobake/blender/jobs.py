@@ -13,7 +13,7 @@ import bpy
 
 from ..core.bake import BakeRunner, BakeCache
 from . import effects, paths, properties
-from .effects.base import BakeWarning
+from .effects.base import BakeWarning, unoffered
 
 ACTIVE = {}  # (object name, effect name) -> Job, while running or waiting to be finalized
 
@@ -160,6 +160,9 @@ class Job:
         if resume and self.copy_of is not None:
             raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
                              f"record is a copy of {self.copy_of.name}'s); bake it anew")
+        wrong = unoffered(settings)  # a script's setattr skips the panel's choice
+        if wrong:
+            raise ValueError(wrong)
         groups = self.beffect.core_class().groups()
         params = properties.to_params(groups, settings)
         for g, spec in groups.items():

@@ -247,7 +247,23 @@ b.preview_camera = b.ground_texture = None
 # into the material its water copy was made of (monkey seed 419).
 b.ground_object = bare
 msg = refused(bare)
-assert "Bare caustics: Ground: Bare is the water itself" in msg, msg
+assert "Bare caustics: Ground: Bare cannot be the Ground, which takes a mesh other than the " \
+    "water itself" in msg, msg
+# Whatever else a script sets that the panel would not offer is refused by name, not baked
+# into a traceback (a camera as the ground failed in to_mesh).
+for attr, value, label, takes in (("ground_object", low, "Ground",
+                                   "a mesh other than the water itself"),
+                                  ("source_object", low, "Source", "a mesh"),
+                                  ("disturber_object", low, "Disturber", "a mesh"),
+                                  ("sun_object", floor, "Sun", "a sun lamp"),
+                                  ("preview_camera", floor, "Preview Camera", "a camera")):
+    b.ground_object = None
+    setattr(b, attr, value)
+    msg = refused(bare)
+    assert f"Bare caustics: {label}: {value.name} cannot be the {label}, which takes " \
+        f"{takes}" in msg, msg
+    setattr(b, attr, None)
+b.ground_object = bare
 # Deleted so, the pointer to itself keeps it in the file, in no collection: baked, it would
 # leave at the next save with nothing recording its folder (monkey seed 460).
 homes = list(bare.users_collection)

@@ -76,6 +76,13 @@ msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
 assert "Feature rule 1: Low = 5 is above High = 1" in msg, msg
 s.rules.remove(0)
 
+# What a script sets that the panel would not offer is refused by name.
+s.liquid_domain = emitter
+msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
+assert "Liquid Domain: Emitter cannot be the Liquid Domain, which takes a Mantaflow liquid " \
+    "domain" in msg, msg
+s.liquid_domain = None
+
 # A Fill box outside the domain would simulate nothing.
 fill = in_blender.new_box("Column", (0.25, 0.45, 0.4), (5.0, 5.0, 5.0))
 s.fluid.source, s.fill_object = "SIMULATE", fill

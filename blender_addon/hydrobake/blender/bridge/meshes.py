@@ -14,7 +14,11 @@ def world_bounds(obj):
 
 def _world_tree(obj, depsgraph, role):
     ev = evaluated_object(obj, depsgraph, role)
-    mesh = ev.to_mesh()
+    try:
+        mesh = ev.to_mesh()
+    except RuntimeError:  # a camera, lamp or empty: nothing to cast rays at
+        who = f"{role}: {obj.name!r}" if role else obj.name
+        raise ValueError(f"{who} has no surface (a {obj.type.lower()}); give a mesh") from None
     try:
         mesh.transform(obj.matrix_world)
         verts = [tuple(v.co) for v in mesh.vertices]

@@ -24,6 +24,36 @@ def warn_uv_overlap(obj, uvs, consequence, limit=0.01):
     return share
 
 
+def offers(takes):
+    """Marks a PointerProperty's poll with what it takes ("a sun lamp"), for the error
+    ``unoffered`` gives: Python's setattr skips a poll, so a script, an override or a file made
+    elsewhere can set what the panel would never offer."""
+    def mark(poll):
+        poll.takes = takes
+        return poll
+    return mark
+
+
+def unoffered(group):
+    """The error for the first data-block setting of ``group`` (or of its groups) that holds
+    what its poll refuses, else None. Items of a collection (a fluid's sample textures) are
+    the effect's to check, with the item's number in the message."""
+    for attr, deferred in getattr(type(group), "__annotations__", {}).items():
+        value = getattr(group, attr, None)
+        if isinstance(value, bpy.types.PropertyGroup):
+            found = unoffered(value)
+        else:
+            poll = getattr(deferred, "keywords", {}).get("poll")
+            found = None
+            if value is not None and poll is not None and not poll(group, value):
+                label = group.bl_rna.properties[attr].name
+                found = (f"{label}: {value.name} cannot be the {label}, which takes "
+                         f"{getattr(poll, 'takes', 'what the panel offers')}")
+        if found:
+            return found
+    return None
+
+
 class BlenderEffect:
     name = ""           # the core effect's name
     label = ""          # shown in the UI

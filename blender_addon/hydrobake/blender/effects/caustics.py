@@ -12,7 +12,7 @@ from mathutils import Vector
 from ..bridge import animation, images, materials, meshes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
-from .base import BlenderEffect
+from .base import BlenderEffect, offers
 
 
 class Grid(namedtuple("Grid", "origin angle cell shape level")):
@@ -45,6 +45,26 @@ OWN_MODIFIERS = ("HBK Subdivision", "HBK Displace")
 STREAM_IMAGES = ("view", "caustics", "surface", "height")  # HBK_<pool>_<stream>
 
 
+@offers("a mesh other than the water itself")
+def _ground_poll(self, obj):
+    return obj.type == "MESH" and obj != self.id_data
+
+
+@offers("a mesh")
+def _mesh_poll(_self, obj):
+    return obj.type == "MESH"
+
+
+@offers("a sun lamp")
+def _sun_poll(_self, obj):
+    return obj.type == "LIGHT" and obj.data.type == "SUN"
+
+
+@offers("a camera")
+def _camera_poll(_self, obj):
+    return obj.type == "CAMERA"
+
+
 @register_effect
 class CausticsBlender(BlenderEffect):
     name = "caustics"
@@ -63,11 +83,10 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def extra_properties(cls):
-        mesh_only = lambda self, o: o.type == "MESH"  # noqa: E731
         return dict(
             ground_object=bpy.props.PointerProperty(
                 name="Ground", type=bpy.types.Object,
-                poll=lambda self, o: o.type == "MESH" and o != self.id_data,
+                poll=_ground_poll,
                 description="Mesh under the water (pool floor, beach); its material gets the "
                             "caustics. Empty: flat ground 1 m below the water"),
             ground_image=bpy.props.PointerProperty(
@@ -79,7 +98,7 @@ class CausticsBlender(BlenderEffect):
                 name="Ground Image Scale", default=1.0, min=0.0, max=100.0, subtype="DISTANCE",
                 unit="LENGTH", description="Depth in metres of a pixel value of 1"),
             source_object=bpy.props.PointerProperty(
-                name="Source", type=bpy.types.Object, poll=mesh_only,
+                name="Source", type=bpy.types.Object, poll=_mesh_poll,
                 description="Where water is poured in (or drained): the cells under this "
                             "object's footprint"),
             source_rate=bpy.props.FloatProperty(
@@ -87,7 +106,7 @@ class CausticsBlender(BlenderEffect):
                 unit="VELOCITY", description="Water added per second under the source, in "
                                              "metres of depth (negative drains)"),
             disturber_object=bpy.props.PointerProperty(
-                name="Disturber", type=bpy.types.Object, poll=mesh_only,
+                name="Disturber", type=bpy.types.Object, poll=_mesh_poll,
                 description="Object moving through the surface; its footprint pushes the water "
                             "every frame"),
             disturber_depth=bpy.props.FloatProperty(
@@ -95,7 +114,7 @@ class CausticsBlender(BlenderEffect):
                 unit="LENGTH", description="Deepest the disturber presses the surface down"),
             sun_object=bpy.props.PointerProperty(
                 name="Sun", type=bpy.types.Object,
-                poll=lambda self, o: o.type == "LIGHT" and o.data.type == "SUN",
+                poll=_sun_poll,
                 description="Sun lamp giving the light direction (else the Light parameters)"),
             map_resolution=bpy.props.IntProperty(
                 name="Map Resolution", default=1024, min=16, max=8192,
@@ -109,7 +128,7 @@ class CausticsBlender(BlenderEffect):
                 description="Frames at the end of the loop that cross-fade into its start"),
             preview_camera=bpy.props.PointerProperty(
                 name="Preview Camera", type=bpy.types.Object,
-                poll=lambda self, o: o.type == "CAMERA",
+                poll=_camera_poll,
                 description="Also bake the paper's own rendering of the water seen from this "
                             "camera (view refraction onto the lit ground, sky reflection) as "
                             "a preview sequence"),
@@ -184,9 +203,6 @@ class CausticsBlender(BlenderEffect):
         origin, cell, shape, level = grid.origin, grid.cell, grid.shape, grid.level
         params["water"].update(height=shape[0], cell_size=cell)
         depsgraph = evaluated_depsgraph(context)
-        if settings.ground_object == obj:  # (a script may set what the panel would not offer)
-            raise ValueError(f"Ground: {obj.name} is the water itself; choose the mesh under "
-                             f"it, or none for flat ground 1 m below")
         if settings.ground_object:
             ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
                                            "DOWN", depsgraph, angle=grid.angle, role="Ground")

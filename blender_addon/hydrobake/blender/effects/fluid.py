@@ -15,7 +15,7 @@ from .. import paths
 from ..bridge import animation, frame_meshes, meshes, tileable, volumes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
-from .base import BakeWarning, BlenderEffect
+from .base import BakeWarning, BlenderEffect, offers
 from .fluid_paint import FEATURES
 
 
@@ -36,6 +36,7 @@ class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
     high: bpy.props.FloatProperty(name="High", default=1.0, description="Upper bound")
 
 
+@offers("a Mantaflow liquid domain")
 def _is_liquid_domain(_self, obj):
     """Offer only Mantaflow liquid domains."""
     return any(m.type == "FLUID" and m.fluid_type == "DOMAIN" and
