@@ -104,3 +104,8 @@ def test_a_deleted_pools_caustics_leave_the_floor(blender, tmp_path):
 def test_deleted_objects_bakes_are_shown_and_removed_on_request(blender, tmp_path):
     r = blender.run("deleted_baked.py", tmp_path)
     assert "DELETED BAKED OK" in r.stdout
+
+
+def test_operator_arguments_that_name_nothing_are_refused_by_name(blender, tmp_path):
+    r = blender.run("operator_arguments.py", tmp_path)
+    assert "OPERATOR ARGUMENTS OK" in r.stdout

@@ -10,6 +10,13 @@ from . import effects, jobs, paths, properties
 
 
 def _target(context, op):
+    """The object named by the operator (else the active one), or None after reporting why;
+    the operator's effect must be one the addon has (a script may name any)."""
+    known = effects.load_all()
+    if op.effect not in known:
+        op.report({"ERROR"}, f"effect = {op.effect!r}: must be one of "
+                             f"{', '.join(sorted(known))}")
+        return None
     obj = bpy.data.objects.get(op.object_name) if op.object_name else context.object
     if obj is None:
         op.report({"ERROR"}, f"No object named '{op.object_name}'" if op.object_name
@@ -42,8 +49,11 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         obj = _target(context, self)
         if obj is None:
             return None
+        if not effects.get(self.effect).poll(obj):
+            self.report({"ERROR"}, f"{obj.name} cannot have the {self.effect} effect (a "
+                                   f"{obj.type.lower()})")
+            return None
         try:
-            effects.get(self.effect)
             if jobs.running(obj, self.effect) is not None:
                 self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake is already running")
                 return None
@@ -219,12 +229,11 @@ class HYDROBAKE_OT_apply_preset(_EffectTarget, bpy.types.Operator):
         obj = _target(context, self)
         if obj is None:
             return {"CANCELLED"}
-        try:
-            beffect = effects.get(self.effect)
-            values = beffect.presets[self.preset]
-        except KeyError as exc:
-            self.report({"ERROR"}, f"preset = {self.preset!r}: not a preset of {self.effect}"
-                        if "preset" not in str(exc) else str(exc))
+        beffect = effects.get(self.effect)
+        values = beffect.presets.get(self.preset)
+        if values is None:
+            self.report({"ERROR"}, f"preset = {self.preset!r}: not a preset of {self.effect} ("
+                                   f"{', '.join(sorted(beffect.presets)) or 'it has none'})")
             return {"CANCELLED"}
         settings = jobs.settings_of(obj, self.effect)
         if settings.is_baked:
