@@ -49,3 +49,17 @@ def test_a_selection_is_compared_with_its_part_of_the_golden_set(blender, tmp_pa
     rep = json.loads((report / "report.json").read_text())
     assert rep["passed"] and {f["bake"] for f in rep["files"]} == {"Water_caustics"}
     assert len(rep["files"]) == 2 * 4 and not rep["problems"], rep["problems"]
+
+
+def test_a_bad_tolerances_file_is_refused_before_baking(blender, tmp_path):
+    blend = tmp_path / "examples.blend"
+    shutil.copy(os.path.join(ROOT, "examples.blend"), blend)
+    bad = tmp_path / "tol.json"
+    bad.write_text(json.dumps({"*": {"*": {"max_abs": 1e-4, "mean_ab": 1e-5}}}))
+    r = blender.run("cli.py", "regress", "--golden", os.path.join(GOLDEN, "examples"),
+                    "--tolerances", bad, "--output", tmp_path / "bake", blend=str(blend),
+                    check=False)
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr[-2000:]
+    assert f"hydrobake: error: --tolerances {bad}: */*: 'mean_ab' is not a tolerance" in \
+        r.stderr, r.stderr[-2000:]
+    assert not (tmp_path / "bake").exists()  # refused before the bake, not after it

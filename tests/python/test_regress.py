@@ -75,6 +75,59 @@ def test_tolerances_per_effect_and_stream(golden, tmp_path):
     assert not regress.compare(new, golden, strict)["passed"]
 
 
+@pytest.mark.parametrize("table, want", [
+    # A misspelt key checked nothing: every regression passed.
+    ({"*": {"*": {"maxabs": 1e-4}}}, "tolerances: */*: 'maxabs' is not a tolerance "
+     "(tolerances: max_abs, mean_abs, min_psnr, max_voxel_delta)"),
+    # NaN passes every comparison.
+    ({"testwave": {"wave": {"max_abs": float("nan")}}}, "testwave/wave: max_abs = NaN: must be "
+     "a finite number >= 0"),
+    ({"testwave": {"wave": {"min_psnr": -1}}}, "min_psnr = -1: must be a finite number >= 0"),
+    ({"testwave": {"wave": {"max_abs": True}}}, "max_abs = true: must be a finite number"),
+    ({"testwave": {"wave": {"max_abs": "0.1"}}}, 'max_abs = "0.1": must be a finite number'),
+    ({"testwave": {"wave": 0.1}}, "testwave/wave: must be an object of tolerances"),
+    ({"testwave": 0.1}, "testwave: must be an object of streams"),
+    ([1], "tolerances: must be a JSON object"),
+])
+def test_tolerances_that_would_check_less_are_refused(golden, table, want):
+    with pytest.raises(ValueError) as exc:
+        regress.compare(golden, golden, table)
+    assert want in str(exc.value)
+
+
+def test_a_stream_without_tolerances_is_a_regression_not_a_pass(golden, tmp_path):
+    """A table naming other effects only left the bake's streams unchecked: it passed
+    whatever the files held."""
+    new = tmp_path / "new"
+    shutil.copytree(golden, new)
+    p = new / "shot" / "Plane_testwave" / "wave_0001.exr"
+    ch = exr.read(p)
+    ch["height"] = ch["height"] + 1.0
+    exr.write(p, ch, half=("R", "G", "B"))
+    rep = regress.compare(new, golden, {"snow": {"*": {"max_abs": 1.0}}})
+    assert not rep["passed"]
+    assert "no tolerance for testwave/wave: name it, testwave/*, or */* in the tolerances" in \
+        rep["files"][0]["problems"], rep["files"][0]["problems"]
+    assert regress.compare(new, golden, {"*": {"*": {"max_abs": 2.0}}})["passed"]
+
+
+def test_a_tolerances_file_is_checked_and_named(golden, tmp_path, capsys):
+    bad = tmp_path / "tol.json"
+    bad.write_text('{"*": {"*": {"max_abs": 1e-4,}}}')
+    with pytest.raises(SystemExit) as exc:
+        regress.main([str(golden), str(golden), "--tolerances", str(bad)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f"--tolerances {bad}: not valid JSON" in err and "Traceback" not in err, err
+    bad.write_text(json.dumps({"*": {"*": {"psnr": 40}}}))
+    with pytest.raises(ValueError, match=f"--tolerances {bad}: \\*/\\*: 'psnr' is not a "):
+        regress.load_tolerances(str(bad))
+    with pytest.raises(ValueError, match="--tolerances /nonexistent.json: No such file"):
+        regress.load_tolerances("/nonexistent.json")
+    assert regress.load_tolerances(os.path.join(os.path.dirname(__file__), "..", "golden",
+                                                "tolerances.json")) == regress.DEFAULT_TOLERANCES
+
+
 def test_vdb_grids_compare_voxels_and_values(tmp_path):
     for name, shift in (("golden", 0.0), ("new", 0.5)):
         folder = tmp_path / name / "b"

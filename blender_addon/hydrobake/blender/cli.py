@@ -483,6 +483,7 @@ def _bake(args, resume, stop):
 
 def regress(args):
     from ..core import regress as rg
+    tolerances = rg.load_tolerances(args.tolerances)  # checked before a long bake, not after
     if args.existing:
         new = args.existing
     else:
@@ -499,7 +500,7 @@ def regress(args):
     only = None if not (args.objects or args.effects) else {
         f"{paths.folder_name(obj.name)}_{name}" for obj, name in
         targets(args.objects, args.effects)}
-    report = rg.compare(new, args.golden, rg.load_tolerances(args.tolerances), only=only)
+    report = rg.compare(new, args.golden, tolerances, only=only)
     print(rg.summary(report), flush=True)
     if args.report:
         rg.write_report(report, args.report)

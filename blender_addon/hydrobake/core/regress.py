@@ -33,6 +33,35 @@ DEFAULT_TOLERANCES = {
 }
 
 
+TOLERANCE_KEYS = ("max_abs", "mean_abs", "min_psnr", "max_voxel_delta")
+
+
+def check_tolerances(table, where="tolerances"):
+    """Refuses, naming the place, what would check less than it seems to: a misspelt key
+    (nothing would be checked), a value that is not a finite number >= 0 (NaN passes every
+    comparison), or a table of another shape."""
+    shape = "{effect or '*': {stream or '*': {tolerance: number}}}"
+    if not isinstance(table, dict):
+        raise ValueError(f"{where}: must be a JSON object {shape}")
+    for effect, streams in table.items():
+        if not isinstance(streams, dict):
+            raise ValueError(f"{where}: {effect}: must be an object of streams, {shape}")
+        for stream, tol in streams.items():
+            at = f"{where}: {effect}/{stream}"
+            if not isinstance(tol, dict):
+                raise ValueError(f"{at}: must be an object of tolerances "
+                                 f"({', '.join(TOLERANCE_KEYS)})")
+            for key, value in tol.items():
+                if key not in TOLERANCE_KEYS:
+                    raise ValueError(f"{at}: {key!r} is not a tolerance (tolerances: "
+                                     f"{', '.join(TOLERANCE_KEYS)})")
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+                        not math.isfinite(value) or value < 0:
+                    raise ValueError(f"{at}: {key} = {json.dumps(value)}: must be a finite "
+                                     "number >= 0")
+    return table
+
+
 def tolerance(tolerances, effect, stream):
     by_effect = tolerances.get(effect, tolerances.get("*", {}))
     t = dict(tolerances.get("*", {}).get("*", {}))
@@ -146,7 +175,7 @@ def bake_folders(root):
 def compare(new_root, golden_root, tolerances=None, only=None):
     """The report: a dict with one entry per file and the overall verdict. only: the bake
     folders (relative to the roots, '<object>_<effect>') to compare; None = every golden one."""
-    tolerances = tolerances or DEFAULT_TOLERANCES
+    tolerances = check_tolerances(tolerances or DEFAULT_TOLERANCES)
     report = {"new": os.path.abspath(new_root), "golden": os.path.abspath(golden_root),
               "files": [], "problems": []}
     golden_bakes = bake_folders(golden_root)
@@ -174,6 +203,10 @@ def compare(new_root, golden_root, tolerances=None, only=None):
                         golden_root, rel, name))
                     tol = tolerance(tolerances, g["effect"], entry["stream"])
                     entry["tolerance"] = tol
+                    if not tol:  # a table naming other effects only: nothing would be checked
+                        entry["problems"].append(
+                            f"no tolerance for {g['effect']}/{entry['stream']}: name it, "
+                            f"{g['effect']}/*, or */* in the tolerances")
                     for ch, m in entry["channels"].items():
                         if "error" in m:
                             entry["problems"].append(f"{ch}: {m['error']}")
@@ -260,10 +293,18 @@ padding:4px}} img{{image-rendering:pixelated}}</style>
 
 
 def load_tolerances(path):
+    """The tolerances in the JSON file ``path`` (the built-in ones for none), checked; a
+    ValueError names the file."""
     if not path:
         return DEFAULT_TOLERANCES
-    with open(path) as f:
-        return json.load(f)
+    try:
+        with open(path) as f:
+            table = json.load(f)
+    except OSError as exc:
+        raise ValueError(f"--tolerances {path}: {exc.strerror or exc}") from None
+    except ValueError as exc:  # json.JSONDecodeError, UnicodeDecodeError
+        raise ValueError(f"--tolerances {path}: not valid JSON ({exc})") from None
+    return check_tolerances(table, f"--tolerances {path}")
 
 
 def main(argv=None):
@@ -273,7 +314,11 @@ def main(argv=None):
     ap.add_argument("--tolerances", help="JSON file of tolerances per effect and stream")
     ap.add_argument("--report", help="folder for report.json and report.html")
     args = ap.parse_args(argv)
-    report = compare(args.new, args.golden, load_tolerances(args.tolerances))
+    try:
+        tolerances = load_tolerances(args.tolerances)
+    except ValueError as exc:
+        ap.error(str(exc))
+    report = compare(args.new, args.golden, tolerances)
     print(summary(report))
     if args.report:
         write_report(report, args.report)
