@@ -128,6 +128,25 @@ def test_a_tolerances_file_is_checked_and_named(golden, tmp_path, capsys):
                                                 "tolerances.json")) == regress.DEFAULT_TOLERANCES
 
 
+def test_a_damaged_file_is_a_regression_and_the_rest_is_compared(golden, tmp_path, capsys):
+    """A truncated EXR in the new bake (or garbage in the golden set) stopped the whole
+    comparison with a traceback, and no report was written."""
+    new = tmp_path / "new"
+    shutil.copytree(golden, new)
+    with open(new / "shot" / "Plane_testwave" / "wave_0001.exr", "r+b") as f:
+        f.truncate(100)
+    (golden / "shot" / "Plane_testwave" / "wave_0002.exr").write_bytes(b"garbage")
+    rep_dir = tmp_path / "rep"
+    assert regress.main([str(new), str(golden), "--report", str(rep_dir)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL shot/Plane_testwave/wave_0001.exr" in out and "unreadable:" in out, out
+    assert "FAIL shot/Plane_testwave/wave_0002.exr" in out, out
+    assert "ok   shot/Plane_testwave/wave_0003.exr" in out, out
+    rep = json.loads((rep_dir / "report.json").read_text())
+    assert [bool(e["problems"]) for e in rep["files"]] == [True, True, False]
+    assert "wave_0001.exr" in rep["files"][0]["problems"][0]  # names the damaged file
+
+
 def test_vdb_grids_compare_voxels_and_values(tmp_path):
     for name, shift in (("golden", 0.0), ("new", 0.5)):
         folder = tmp_path / name / "b"

@@ -15,9 +15,11 @@ import json
 import math
 import os
 import sys
+import zipfile
 
 import numpy as np
 
+from . import errors
 from .bake.cache import MANIFEST, BakeCache, write_bytes_atomic
 
 # Per stream: max_abs (largest allowed |new - golden|), mean_abs, min_psnr (dB), and for VDB
@@ -199,8 +201,19 @@ def compare(new_root, golden_root, tolerances=None, only=None):
                     entry["problems"].append("missing in the new bake")
                 else:
                     ext = os.path.splitext(name)[1]
-                    entry["channels"] = COMPARERS[ext](new_path, os.path.join(
-                        golden_root, rel, name))
+                    if ext not in COMPARERS:
+                        entry["problems"].append(f"no comparison for {ext or 'extensionless'} "
+                                                 "files")
+                        report["files"].append(entry)
+                        continue
+                    try:
+                        entry["channels"] = COMPARERS[ext](new_path, os.path.join(
+                            golden_root, rel, name))
+                    except (errors.HydrobakeError, OSError, ValueError, EOFError,
+                            zipfile.BadZipFile) as exc:  # a damaged file, new or golden
+                        entry["problems"].append(f"unreadable: {exc}")
+                        report["files"].append(entry)
+                        continue
                     tol = tolerance(tolerances, g["effect"], entry["stream"])
                     entry["tolerance"] = tol
                     if not tol:  # a table naming other effects only: nothing would be checked
