@@ -69,6 +69,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(image, normal_map_sphere)          \
     X(image, normal_map_rejects)         \
     X(image, normal_map_tiny_texel)      \
+    X(image, normal_map_non_finite_height) \
     X(image, uv_overlap_known_layouts)   \
     X(image, uv_overlap_fan_shares_edges_once) \
     X(image, uv_overlap_rejects)         \

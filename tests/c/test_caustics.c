@@ -562,6 +562,15 @@ void test_caustics_lit_ground(void)
     for (int i = 0; i < 8 * 6; ++i)
         if (out.v[4 * i] > best) { best = out.v[4 * i]; at = i; }
     CHECK(at / 8 >= 2 && at / 8 <= 3 && at % 8 >= 4 && at % 8 <= 5);
+    /* A NaN texel, or an infinite one in the map, came out as such: refused by pixel. */
+    hbk_message_t m;
+    tex.v[4 * (2 * 8 + 3) + 1] = NAN;
+    CHECK(hbk_caustics_lit_ground(&tex.img, &map.img, 0, &out.img, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(m.text, "texture at pixel (3, 2) = nan: must be a finite number", 54));
+    tex.v[4 * (2 * 8 + 3) + 1] = 0.25f;
+    map.v[3 * (2 * 4 + 1) + 2] = INFINITY;
+    CHECK(hbk_caustics_lit_ground(&tex.img, &map.img, 0, &out.img, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(m.text, "caustics at pixel (1, 2) = inf", 30));
     free(tex.v); free(map.v); free(out.v);
 }
 

@@ -87,6 +87,24 @@ void test_image_normal_map_tiny_texel(void)
     for (int i = 0; i < 48; ++i) CHECK(isfinite(o[i]));
 }
 
+void test_image_normal_map_non_finite_height(void)
+{
+    /* An infinite height gave NaN normals around it: refused, naming the pixel. */
+    float h[16] = {0}, o[48];
+    hbk_image_t hi = {h, 4, 4, 1, 4}, oi = {o, 4, 4, 3, 12};
+    hbk_message_t m;
+    const float bad[] = {INFINITY, NAN, 2e6f};
+    for (int k = 0; k < 3; ++k) {
+        h[3 * 4 + 2] = bad[k];
+        CHECK(hbk_normal_map(&hi, 1.0f, 1.0f, 1.0f, 0, 0, &oi, &m) == HBK_ERR_INVALID_ARGUMENT);
+        CHECK(!strncmp(m.text, "height at pixel (2, 3) = ", 25));
+        CHECK(strstr(m.text, "must be a finite number in [-1e+06, 1e+06]"));
+    }
+    h[3 * 4 + 2] = 1e6f;
+    CHECK_OK(hbk_normal_map(&hi, 1.0f, 1.0f, 1.0f, 0, 0, &oi, &m));
+    for (int i = 0; i < 48; ++i) CHECK(isfinite(o[i]));
+}
+
 void test_image_normal_map_rejects(void)
 {
     float h[4] = {0}, o[12];

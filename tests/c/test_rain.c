@@ -1162,6 +1162,11 @@ void test_rain_refraction_rejects_bad_normals(void)
     }
     nrm.v[3 * (2 * W + 5) + 1] = 1.0f;
     CHECK_OK(hbk_rain_refraction(&nrm.img, &bg.img, 0.05f, &out.img, &m));
+    /* An infinite background texel spread to every pixel that looked it up: refused. */
+    bg.v[3 * (4 * W + 1)] = INFINITY;
+    CHECK(hbk_rain_refraction(&nrm.img, &bg.img, 0.05f, &out.img, &m) == HBK_ERR_INVALID_ARGUMENT);
+    CHECK(!strncmp(m.text, "background at pixel (1, 4) = inf: must be a finite number", 57));
+    bg.v[3 * (4 * W + 1)] = 0.0f;
     /* hbk_image_sample itself is defined for any coordinate. */
     CHECK(hbk_image_sample(&bg.img, 3e9f, -3e9f, 0, HBK_EDGE_MIRROR) == 0.0f);
     CHECK(isnan(hbk_image_sample(&bg.img, NAN, 1.0f, 0, HBK_EDGE_WRAP)));

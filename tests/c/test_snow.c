@@ -710,6 +710,11 @@ void test_snow_state_roundtrip(void)
     CHECK(hbk_snow_load_state(b, buf + 1, n) == HBK_ERR_FORMAT);
     CHECK(strstr(hbk_snow_message(b), "checksum") != NULL);
     buf[1 + n / 2] ^= 0x10;
+    /* A damaged header size is named as such, not as the version it still holds. */
+    buf[1 + 12] ^= 0xff;
+    CHECK(hbk_snow_load_state(b, buf + 1, n) == HBK_ERR_FORMAT);
+    CHECK(strstr(hbk_snow_message(b), "snow state header size") != NULL);
+    buf[1 + 12] ^= 0xff;
     CHECK_OK(hbk_snow_load_state(b, buf + 1, n));
     CHECK_OK(hbk_snow_step(b, 40, NULL));
     CHECK(same_output(a, b));

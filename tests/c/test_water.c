@@ -479,6 +479,23 @@ void test_water_state_roundtrip(void)
     CHECK(hbk_water_load_state(b, mid, n) == HBK_ERR_FORMAT);
     CHECK(strstr(hbk_water_message(b), "state cell 0"));
     memcpy(depth0, &keep, sizeof keep);
+    /* Finite but past what a run holds: a velocity beyond float range (read out as inf), a
+     * source past the setter's range (the next step's velocities overflow). */
+    double huge = 1e300;
+    unsigned char *vx0 = depth0 + 40 * 32 * sizeof(double);
+    memcpy(&keep, vx0, sizeof keep);
+    memcpy(vx0, &huge, sizeof huge);
+    CHECK(hbk_water_load_state(b, mid, n) == HBK_ERR_FORMAT);
+    CHECK(strstr(hbk_water_message(b), "velocity (in [-1e9, 1e9] m/s)"));
+    memcpy(vx0, &keep, sizeof keep);
+    float big = 3e38f, keepf;
+    unsigned char *src27 = depth0 + 3 * 40 * 32 * sizeof(double) + 27 * sizeof(float);
+    memcpy(&keepf, src27, sizeof keepf);
+    memcpy(src27, &big, sizeof big);
+    CHECK(hbk_water_load_state(b, mid, n) == HBK_ERR_FORMAT);
+    CHECK(strstr(hbk_water_message(b), "state sources 27 = 3e+38: must be a finite number in "
+                                       "[-1000, 1000]"));
+    memcpy(src27, &keepf, sizeof keepf);
     hbk_water_t *c = NULL;
     hbk_water_params_t q = params(41, 32, 0.1f);
     CHECK_OK(hbk_water_create(&c, &q, NULL));

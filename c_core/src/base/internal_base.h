@@ -11,6 +11,12 @@ hbk_result_t hbk_fail(hbk_message_t *msg, hbk_result_t code, const char *fmt, ..
     __attribute__((format(printf, 3, 4)));
 void hbk_message_clear(hbk_message_t *msg);
 
+/* Every value of a checked image (hbk_image_check) in [lo, hi], NaN refused: else an error
+ * naming the first bad pixel, the range and `unit` (image.c). */
+struct hbk_image;
+hbk_result_t hbk_image_check_values(const struct hbk_image *img, const char *name, double lo,
+                                    double hi, const char *unit, hbk_message_t *msg);
+
 /* The widest hand-dispatched code the CPU and HBK_PATHS allow (paths.c); read it once per
  * call of a kernel, not per item (it reads the environment). */
 enum { HBK_PATHS_SCALAR, HBK_PATHS_SSE, HBK_PATHS_AVX2, HBK_PATHS_AVX512 };

@@ -29,19 +29,8 @@ hbk_result_t hbk_caustics_check_inputs(const hbk_caustics_params_t *p, const hbk
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "cell_size = %g: must be a finite number in [1e-05, 10000] m",
                         (double)cell_size);
-    for (int k = 0; k < 2; ++k) {
-        const hbk_image_t *img = k ? ground : water;
-        for (int32_t y = 0; y < img->height; ++y)
-            for (int32_t x = 0; x < img->width; ++x) {
-                const float v = img->data[(size_t)y * img->row_stride + (size_t)x];
-                if (!(v >= -1e6f && v <= 1e6f))
-                    return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
-                                    "%s at pixel (%d, %d) = %g: must be a finite number in "
-                                    "[-1e6, 1e6] m", k ? "ground_height" : "water_height", x, y,
-                                    (double)v);
-            }
-    }
-    return HBK_OK;
+    r = hbk_image_check_values(water, "water_height", -1e6, 1e6, "m", msg);
+    return r ? r : hbk_image_check_values(ground, "ground_height", -1e6, 1e6, "m", msg);
 }
 
 void hbk_caustics_init(hbk_caustics_ctx_t *c, hbk_caustics_workspace_t *ws,

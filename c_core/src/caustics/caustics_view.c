@@ -108,6 +108,10 @@ hbk_result_t hbk_caustics_lit_ground(const hbk_image_t *texture, const hbk_image
     if (edge < HBK_EDGE_CLAMP || edge > HBK_EDGE_MIRROR)
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "edge = %d: must be 0 (clamp), 1 (wrap) or 2 (mirror)", edge);
+    /* A NaN or infinite texel would come out as such in the lit ground. */
+    if ((r = hbk_image_check_values(texture, "texture", -1e6, 1e6, "", msg)) ||
+        (r = hbk_image_check_values(caustics, "caustics", -1e6, 1e6, "", msg)))
+        return r;
     const double fx = (double)caustics->width / texture->width;
     const double fy = (double)caustics->height / texture->height;
 #pragma omp parallel for schedule(static)

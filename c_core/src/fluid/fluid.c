@@ -289,7 +289,8 @@ int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
     for (int a = 0; a < 3; ++a) {
         if (!(fabsf(o->center[a]) <= 1e6f)) {
             if (what)
-                snprintf(what, 96, "center[%d] = %g: must be finite", a, (double)o->center[a]);
+                snprintf(what, 96, "center[%d] = %g: must be a finite number in [-1e6, 1e6] m",
+                         a, (double)o->center[a]);
             return 1;
         }
         if (!(o->extent[a] >= 0.0f && o->extent[a] <= 1e6f) && (o->type == 1 || a == 0)) {
@@ -330,7 +331,8 @@ hbk_result_t hbk_fluid_set_velocity_grid(hbk_fluid_t *h, const float *velocity, 
         for (size_t i = 0; i < nv; ++i)
             if (!(fabsf(surface[i]) <= 1e9f))
                 return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                                "surface[%zu] = %g: must be finite", i, (double)surface[i]);
+                                "surface[%zu] = %g: must be a finite number in [-1e9, 1e9]",
+                                i, (double)surface[i]);
     if (!h->in_vel && !(h->in_vel = malloc(3 * nv * sizeof(float))))
         return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "velocity: out of memory");
     if (surface && !h->in_surface && !(h->in_surface = malloc(nv * sizeof(float))))

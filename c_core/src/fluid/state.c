@@ -15,35 +15,46 @@ typedef struct header {
 } header_t;
 _Static_assert(sizeof(header_t) <= STATE_HEADER, "header fits");
 
-/* What a section's bytes must be for the state to load (see check_section). */
+/* What a section's bytes must be for the state to load (see check_section): FINITE values
+ * also lie within lim, the setter's range for an input, else room beyond what a run reaches
+ * (DERIVED: far from overflowing the arithmetic that reads them). */
 enum { ANY, FINITE, NOT_NAN, OBSTACLES };
-typedef struct section { void *p; size_t bytes; int check; const char *name; } section_t;
+#define DERIVED 1e18f
+typedef struct section {
+    void *p;
+    size_t bytes;
+    int check;
+    const char *name;
+    float lim;
+} section_t;
 
 /* The sections of a handle, given its particle count and input flags. */
 static int sections(hbk_fluid_t *h, int32_t count, int has_vel, int has_surf, section_t *s)
 {
     const size_t nv = h->n_vert, nvox = h->n_vox, K = (size_t)h->K, F = HBK_FLUID_FEATURE_COUNT;
     int n = 0;
-    s[n++] = (section_t){h->pos, 3 * (size_t)count * sizeof(float), FINITE, "particles"};
-    s[n++] = (section_t){h->vel, 3 * (size_t)count * sizeof(float), FINITE, "particles"};
-    s[n++] = (section_t){h->obs, sizeof h->obs, OBSTACLES, "obstacles"};
-    s[n++] = (section_t){h->in_vel, has_vel ? 3 * nv * sizeof(float) : 0, FINITE, "input velocity"};
-    s[n++] = (section_t){h->in_surface, has_surf ? nv * sizeof(float) : 0, FINITE, "input surface"};
-    s[n++] = (section_t){h->v.uvw[0], 3 * nv * sizeof(float), FINITE, "uvw"};
-    s[n++] = (section_t){h->v.uvw[1], 3 * nv * sizeof(float), FINITE, "uvw"};
-    s[n++] = (section_t){h->v.wrap[0], nvox, ANY, "wrap flags"};
-    s[n++] = (section_t){h->v.wrap[1], nvox, ANY, "wrap flags"};
-    s[n++] = (section_t){h->v.base, K * nv * sizeof(float), FINITE, "blend"};
-    s[n++] = (section_t){h->v.paint, K * nv * sizeof(float), FINITE, "paint"};
-    s[n++] = (section_t){h->v.life, nv * sizeof(float), FINITE, "paint life"};
-    s[n++] = (section_t){h->motion, 3 * nv * sizeof(float), FINITE, "motion"};
-    s[n++] = (section_t){h->density, nv * sizeof(float), FINITE, "density"};
-    s[n++] = (section_t){h->surface, nv * sizeof(float), FINITE, "surface"};
-    s[n++] = (section_t){h->features, F * nv * sizeof(float), FINITE, "features"};
-    s[n++] = (section_t){h->rule_on, sizeof h->rule_on, ANY, "rules"};
+    s[n++] = (section_t){h->pos, 3 * (size_t)count * sizeof(float), FINITE, "particles", 1e5f};
+    s[n++] = (section_t){h->vel, 3 * (size_t)count * sizeof(float), FINITE, "particles", 1e6f};
+    s[n++] = (section_t){h->obs, sizeof h->obs, OBSTACLES, "obstacles", 0};
+    s[n++] = (section_t){h->in_vel, has_vel ? 3 * nv * sizeof(float) : 0, FINITE,
+                         "input velocity", 1e4f};
+    s[n++] = (section_t){h->in_surface, has_surf ? nv * sizeof(float) : 0, FINITE,
+                         "input surface", 1e9f};
+    s[n++] = (section_t){h->v.uvw[0], 3 * nv * sizeof(float), FINITE, "uvw", DERIVED};
+    s[n++] = (section_t){h->v.uvw[1], 3 * nv * sizeof(float), FINITE, "uvw", DERIVED};
+    s[n++] = (section_t){h->v.wrap[0], nvox, ANY, "wrap flags", 0};
+    s[n++] = (section_t){h->v.wrap[1], nvox, ANY, "wrap flags", 0};
+    s[n++] = (section_t){h->v.base, K * nv * sizeof(float), FINITE, "blend", DERIVED};
+    s[n++] = (section_t){h->v.paint, K * nv * sizeof(float), FINITE, "paint", DERIVED};
+    s[n++] = (section_t){h->v.life, nv * sizeof(float), FINITE, "paint life", DERIVED};
+    s[n++] = (section_t){h->motion, 3 * nv * sizeof(float), FINITE, "motion", DERIVED};
+    s[n++] = (section_t){h->density, nv * sizeof(float), FINITE, "density", DERIVED};
+    s[n++] = (section_t){h->surface, nv * sizeof(float), FINITE, "surface", DERIVED};
+    s[n++] = (section_t){h->features, F * nv * sizeof(float), FINITE, "features", DERIVED};
+    s[n++] = (section_t){h->rule_on, sizeof h->rule_on, ANY, "rules", 0};
     /* A bound may be infinite: -FLT_MAX .. FLT_MAX, or beyond, for "any". */
-    s[n++] = (section_t){h->rule_lo, sizeof h->rule_lo, NOT_NAN, "rules"};
-    s[n++] = (section_t){h->rule_hi, sizeof h->rule_hi, NOT_NAN, "rules"};
+    s[n++] = (section_t){h->rule_lo, sizeof h->rule_lo, NOT_NAN, "rules", 0};
+    s[n++] = (section_t){h->rule_hi, sizeof h->rule_hi, NOT_NAN, "rules", 0};
     return n;
 }
 #define MAX_SECTIONS 24
@@ -114,7 +125,7 @@ static int check_section(const section_t *s, const unsigned char *p, int32_t n_o
     for (size_t i = 0; s->check != ANY && i < s->bytes / 4; ++i) {
         float f;
         memcpy(&f, p + 4 * i, 4);
-        if (s->check == FINITE ? !isfinite(f) : isnan(f)) return 0;
+        if (s->check == FINITE ? !(fabsf(f) <= s->lim) : isnan(f)) return 0;
     }
     return 1;
 }
@@ -156,8 +167,11 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     const unsigned char *body = (const unsigned char *)buffer + STATE_HEADER, *q = body;
     for (int i = 0; i < n; q += s[i].bytes, ++i)
         if (!check_section(&s[i], q, hd.n_obs))
-            return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state %s: not all valid numbers",
-                            s[i].name);
+            return hbk_fail(&h->msg, HBK_ERR_FORMAT,
+                            s[i].check == FINITE ? "state %s: not all valid numbers (finite, "
+                                                   "within +-%g)"
+                                                 : "state %s: not all valid numbers",
+                            s[i].name, (double)s[i].lim);
     float *nv_in = NULL, *ns_in = NULL;
     if (hd.has_in_vel && !h->in_vel && !(nv_in = malloc(s[3].bytes)))
         return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "state: out of memory");

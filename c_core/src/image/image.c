@@ -23,6 +23,22 @@ hbk_result_t hbk_image_check(const hbk_image_t *img, const char *name, hbk_messa
     return HBK_OK;
 }
 
+hbk_result_t hbk_image_check_values(const hbk_image_t *img, const char *name, double lo,
+                                    double hi, const char *unit, hbk_message_t *msg)
+{
+    const size_t w = (size_t)img->width * (size_t)img->channels;
+    for (int32_t y = 0; y < img->height; ++y) {
+        const float *row = img->data + (size_t)y * img->row_stride;
+        for (size_t x = 0; x < w; ++x)
+            if (!(row[x] >= lo && row[x] <= hi))
+                return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
+                                "%s at pixel (%zu, %d) = %g: must be a finite number in "
+                                "[%g, %g]%s%s", name, x / (size_t)img->channels, y,
+                                (double)row[x], lo, hi, *unit ? " " : "", unit);
+    }
+    return HBK_OK;
+}
+
 static inline int32_t edge_index(int32_t i, int32_t n, int32_t edge)
 {
     if (i >= 0 && i < n) return i;
@@ -123,6 +139,8 @@ hbk_result_t hbk_normal_map(const hbk_image_t *height, float texel_size_x, float
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,
                         "out size = %dx%d: must equal height size %dx%d", out->width,
                         out->height, height->width, height->height);
+    /* An infinite height makes NaN normals around it; past 1e6 m the slopes overflow too. */
+    if ((r = hbk_image_check_values(height, "height", -1e6, 1e6, "", msg))) return r;
     if (!(texel_size_x > 0.0f) || !(texel_size_y > 0.0f) || !isfinite(texel_size_x) ||
         !isfinite(texel_size_y))
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT,

@@ -25,6 +25,8 @@ hbk_result_t hbk_rain_refraction(const hbk_image_t *normals, const hbk_image_t *
     if (!(strength >= 0.0f && strength <= 10.0f))
         return hbk_fail(msg, HBK_ERR_INVALID_ARGUMENT, "strength = %g: must be in [0, 10]",
                         (double)strength);
+    /* A NaN or infinite texel would spread to every pixel that looks it up. */
+    if ((r = hbk_image_check_values(background, "background", -1e6, 1e6, "", msg))) return r;
     const int32_t W = out->width, H = out->height, nc = out->channels;
     const int32_t nn = normals->channels;
     /* Unit normals (a little rounding allowed): anything else would shift the lookup by

@@ -93,10 +93,14 @@ hbk_result_t hbk_snow_load_state(hbk_snow_t *h, const void *buffer, size_t size)
     memcpy(&hd, buffer, sizeof hd);
     if (memcmp(hd.magic, k_magic, sizeof hd.magic))
         return hbk_fail(&h->msg, HBK_ERR_FORMAT, "not a snow state (bad magic)");
-    if (hd.version != STATE_VERSION || hd.header_size != sizeof hd ||
-        hd.flake_size != (int32_t)sizeof(snow_flake_t))
+    if (hd.version != STATE_VERSION)
         return hbk_fail(&h->msg, HBK_ERR_FORMAT, "snow state version %u: this library reads %d",
                         hd.version, STATE_VERSION);
+    if (hd.header_size != sizeof hd || hd.flake_size != (int32_t)sizeof(snow_flake_t))
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT,
+                        "snow state header size %u, flake size %d: this library's are %zu, %zu "
+                        "(corrupt, or from another build)", (unsigned)hd.header_size,
+                        (int)hd.flake_size, sizeof hd, sizeof(snow_flake_t));
     if (hd.flake_count != h->p.flake_count || hd.tex_w != h->tex_w || hd.tex_h != h->tex_h ||
         hd.blocks != h->blocks || hd.contact_mode != h->p.contact_mode)
         return hbk_fail(&h->msg, HBK_ERR_STATE,

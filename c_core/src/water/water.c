@@ -66,17 +66,7 @@ static hbk_result_t check_view(hbk_water_t *h, const hbk_image_t *img, const cha
 static hbk_result_t check_values(hbk_water_t *h, const hbk_image_t *img, const char *name,
                                  double lo, double hi, const char *unit)
 {
-    const size_t w = (size_t)img->width * (size_t)img->channels;
-    for (int32_t y = 0; y < img->height; ++y) {
-        const float *row = img->data + (size_t)y * img->row_stride;
-        for (size_t x = 0; x < w; ++x)
-            if (!(row[x] >= lo && row[x] <= hi))
-                return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                                "%s at pixel (%zu, %d) = %g: must be a finite number in "
-                                "[%g, %g] %s", name, x / (size_t)img->channels, y,
-                                (double)row[x], lo, hi, unit);
-    }
-    return HBK_OK;
+    return hbk_image_check_values(img, name, lo, hi, unit, &h->msg);
 }
 
 /* Copies an optional per-cell field into *dst (allocated on first use, freed for NULL). */
@@ -338,22 +328,29 @@ hbk_result_t hbk_water_load_state(hbk_water_t *h, const void *buffer, size_t siz
         memcpy(&d, vals + n * sizeof(float) + i * sizeof d, sizeof d);
         memcpy(&u, vals + n * (sizeof(float) + sizeof(double)) + i * sizeof u, sizeof u);
         memcpy(&v, vals + n * (sizeof(float) + 2 * sizeof(double)) + i * sizeof v, sizeof v);
-        if (!isfinite(b) || !(d >= 0.0 && d < 1e9) || !isfinite(u) || !isfinite(v))
+        /* The setters' ranges (ground), or what a run can reach with room to spare (depth,
+         * velocity): a finite double past them still overflows the floats read out. */
+        if (!(fabs(b) <= 1e6f) || !(d >= 0.0 && d < 1e9) || !(fabs(u) <= 1e9) ||
+            !(fabs(v) <= 1e9))
             return hbk_fail(&h->msg, HBK_ERR_FORMAT,
-                            "state cell %zu: ground, depth or velocity is not a valid number", i);
+                            "state cell %zu: ground (in [-1e6, 1e6] m), depth (in [0, 1e9) m) "
+                            "or velocity (in [-1e9, 1e9] m/s) is not a valid number", i);
     }
     const int present[3] = {!!(flags & HAS_SOURCES), !!(flags & HAS_ACCEL),
                             !!(flags & HAS_FOOTPRINT)};
     /* The inputs too, where present: sources, accel (two per cell), footprint. */
     const unsigned char *in = vals + n * (sizeof(float) + 3 * sizeof(double));
+    static const char *const names[3] = {"sources", "accel", "footprint"};
+    static const float lo[3] = {-1e3f, -1e3f, 0.0f}, hi[3] = {1e3f, 1e3f, 1e3f}; /* the setters' */
     for (int k = 0; k < 3; ++k) {
         const size_t m = n * (k == 1 ? 2 : 1);
         for (size_t i = 0; present[k] && i < m; ++i) {
             float f;
             memcpy(&f, in + i * sizeof f, sizeof f);
-            if (!isfinite(f))
-                return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state %s %zu: not a valid number",
-                                k == 0 ? "sources" : k == 1 ? "accel" : "footprint", i);
+            if (!(f >= lo[k] && f <= hi[k]))
+                return hbk_fail(&h->msg, HBK_ERR_FORMAT,
+                                "state %s %zu = %g: must be a finite number in [%g, %g]", names[k],
+                                i, (double)f, (double)lo[k], (double)hi[k]);
         }
         in += m * sizeof(float);
     }
