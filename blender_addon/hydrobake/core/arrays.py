@@ -4,13 +4,15 @@ import ctypes
 
 import numpy as np
 
-from . import _lib, errors
+from . import _lib, args, errors
 from ._lib import Image
 
 FLOAT_PTR = ctypes.POINTER(ctypes.c_float)
 # argtypes for float* / int32_t* parameters: a wrong dtype or layout fails before the call.
 float_array = np.ctypeslib.ndpointer(np.float32, flags="C_CONTIGUOUS")
 int_array = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
+# hbk_image_check's limit on an image's width and height.
+MAX_IMAGE_SIDE = 65536
 
 
 def as_image(arr, name, channels=None, writable=False):
@@ -53,5 +55,6 @@ def grid_to_xyz(arr, threads=2):
     comps = src.shape[3] if src.ndim == 4 else 1
     out = np.empty((nx, ny, nz) + src.shape[3:], np.float32)
     _lib.lib.hbk_grid_to_xyz(src.ctypes.data_as(FLOAT_PTR), out.ctypes.data_as(FLOAT_PTR),
-                             nx, ny, nz, comps, int(threads), _lib.Message())
+                             nx, ny, nz, comps, args.integer(threads, "threads"),
+                             _lib.Message())
     return out

@@ -5,7 +5,7 @@ import ctypes
 
 import numpy as np
 
-from . import _lib, arrays
+from . import _lib, args, arrays, errors
 from ._lib import Image, Message, P, Progress, check_message, hbk_result_t
 from .handle import Owner
 from .params import ParamSpec
@@ -73,18 +73,26 @@ def render(water_height, ground_height, cell_size, size, params=None, progress=N
     ``water_height``/``ground_height``: (H, W) heights in m at cell centres. ``workspace``: a
     Workspace to keep scratch memory in (for frame after frame), or None."""
     p = _struct(params)
-    wh = np.ascontiguousarray(water_height, dtype=np.float32)
-    gh = np.ascontiguousarray(ground_height, dtype=np.float32)
+    wh = args.float32_array(water_height, "water_height")
+    gh = args.float32_array(ground_height, "ground_height")
+    if workspace is not None and not isinstance(workspace, Workspace):
+        raise errors.InvalidArgument(f"workspace: must be a caustics.Workspace or None, got "
+                                     f"{type(workspace).__name__}")
     if out is None:
-        out = np.zeros((size[1], size[0], 4), np.float32)
+        # The library's limit on an image's side, checked before numpy allocates the map
+        # (size = (2**31, 1) asked numpy for 32 GiB).
+        w, h = (args.integer(v, f"size[{k}]", 1, arrays.MAX_IMAGE_SIDE)
+                for k, v in enumerate(args.sequence(size, "size", 2, "integers")))
+        out = np.zeros((h, w, 4), np.float32)
     stats = Stats()
-    args = (ctypes.byref(p), arrays.as_image(wh, "water_height", 1),
-            arrays.as_image(gh, "ground_height", 1), float(cell_size),
-            arrays.as_image(out, "out", (3, 4), writable=True), stats, progress, Message())
+    call = (ctypes.byref(p), arrays.as_image(wh, "water_height", 1),
+            arrays.as_image(gh, "ground_height", 1), args.number(cell_size, "cell_size"),
+            arrays.as_image(out, "out", (3, 4), writable=True), stats, args.progress(progress),
+            Message())
     if workspace is None:
-        _lib.lib.hbk_caustics_render(*args)
+        _lib.lib.hbk_caustics_render(*call)
     else:
-        _lib.lib.hbk_caustics_render_with(workspace.h, *args)
+        _lib.lib.hbk_caustics_render_with(workspace.h, *call)
     return out, stats
 
 
@@ -92,13 +100,17 @@ def view(water_height, ground_height, cell_size, camera, params=None, channels=4
     """View refraction: per surface sample (u, v[, path length, reflectance]) of the ground
     hit, and the reflected view direction (H, W, 3)."""
     p = _struct(params)
-    wh = np.ascontiguousarray(water_height, dtype=np.float32)
-    gh = np.ascontiguousarray(ground_height, dtype=np.float32)
+    wh = args.float32_array(water_height, "water_height")
+    gh = args.float32_array(ground_height, "ground_height")
+    wh_img = arrays.as_image(wh, "water_height", 1)  # before the outputs are shaped from it
+    # out_uv's channels (hbk_caustics_view), checked before numpy allocates from them.
+    channels = args.integer(channels, "channels", 2, 4)
     uv = np.zeros(wh.shape + (channels,), np.float32)
     refl = np.zeros(wh.shape + (3,), np.float32)
-    cam = (ctypes.c_float * 3)(*camera)
-    _lib.lib.hbk_caustics_view(ctypes.byref(p), arrays.as_image(wh, "water_height", 1),
-                               arrays.as_image(gh, "ground_height", 1), float(cell_size),
+    cam = args.numbers(camera, "camera", 3)
+    _lib.lib.hbk_caustics_view(ctypes.byref(p), wh_img,
+                               arrays.as_image(gh, "ground_height", 1),
+                               args.number(cell_size, "cell_size"),
                                cam, arrays.as_image(uv, "out_uv", (2, 3, 4), writable=True),
                                arrays.as_image(refl, "out_reflect", 3, writable=True),
                                Message())
@@ -108,11 +120,12 @@ def view(water_height, ground_height, cell_size, camera, params=None, channels=4
 def lit_ground(texture, caustic_map, edge="WRAP"):
     """texture x caustic map, per channel (the paper's lit ground)."""
     from .image import EDGES
-    tex = np.ascontiguousarray(texture, dtype=np.float32)
-    cm = np.ascontiguousarray(caustic_map, dtype=np.float32)
+    edge = EDGES[args.choice(edge, "edge", EDGES)]
+    tex = args.float32_array(texture, "texture")
+    cm = args.float32_array(caustic_map, "caustic_map")
     out = np.empty_like(tex)
     _lib.lib.hbk_caustics_lit_ground(arrays.as_image(tex, "texture", (3, 4)),
-                                     arrays.as_image(cm, "caustics", (3, 4)), EDGES[edge],
+                                     arrays.as_image(cm, "caustic_map", (3, 4)), edge,
                                      arrays.as_image(out, "out", (3, 4), writable=True),
                                      Message())
     return out
@@ -131,6 +144,18 @@ def _bilinear(img, x, y):
     return top * (1 - ty) + bot * ty
 
 
+def _environment(environment):
+    """view_image's environment as (h, w, c) float32, c 1 (grey, as a 2-D image is), 3 or 4.
+    An empty one has nothing to sample (numpy failed on it with an IndexError)."""
+    env = args.float32_array(environment, "environment")
+    if env.ndim == 2:
+        env = env[..., None]  # as (h, w) it would broadcast against the view's rows
+    if env.ndim != 3 or env.shape[2] not in (1, 3, 4) or min(env.shape[:2]) < 1:
+        raise errors.InvalidArgument(f"environment: must have shape (height, width[, 1|3|4]), "
+                                     f"at least 1 x 1, got {env.shape}")
+    return env
+
+
 def view_image(water_height, ground_height, cell_size, camera, ground_texture, caustic_map,
                environment=None, params=None, heading=0.0):
     """The paper's rendering of the water seen from ``camera`` (§3.2), one pixel per surface
@@ -140,11 +165,16 @@ def view_image(water_height, ground_height, cell_size, camera, ground_texture, c
     x axis from the environment's, in radians about z (a grid turned with its pool sees the
     sky turned back). (H, W, 3) float32."""
     p = _struct(params)
+    heading = args.number(heading, "heading")
+    tex = args.float32_array(ground_texture, "ground_texture")
+    if not (tex.ndim == 2 or tex.ndim == 3 and tex.shape[2] in (3, 4)):
+        raise errors.InvalidArgument(f"ground_texture: must have shape (height, width[, 3|4]), "
+                                     f"got {tex.shape}")
+    env = None if environment is None else _environment(environment)
     uv, refl = view(water_height, ground_height, cell_size, camera, p, channels=4)
-    tex = np.ascontiguousarray(ground_texture, np.float32)
     if tex.ndim == 2:
         tex = np.repeat(tex[..., None], 3, axis=2)
-    cm = np.ascontiguousarray(caustic_map, np.float32)
+    cm = args.float32_array(caustic_map, "caustic_map")
     if tex.shape[2] == 4:
         tex = np.ascontiguousarray(tex[..., :3])
     lit = lit_ground(tex, cm, edge="CLAMP")
@@ -153,8 +183,7 @@ def view_image(water_height, ground_height, cell_size, camera, ground_texture, c
     absorb = np.exp(-np.asarray(p.absorption[:3], np.float64)[None, None, :] * uv[..., 2:3])
     R = uv[..., 3:4]
     color = (1.0 - R) * ground * absorb
-    if environment is not None:
-        env = np.ascontiguousarray(environment, np.float32)
+    if env is not None:
         eh, ew = env.shape[:2]
         lon = np.arctan2(refl[..., 1], refl[..., 0]) + heading
         lon = np.mod(lon + np.pi, 2 * np.pi) - np.pi

@@ -6,10 +6,11 @@ complete, so a failed or interrupted write never leaves a partial file.
 """
 import ctypes
 import os
+from collections.abc import Mapping
 
 import numpy as np
 
-from . import _lib, errors
+from . import _lib, args, errors
 from ._lib import ExrChannel, Message, P, check_message, check_handle, hbk_result_t
 from .handle import Owner
 
@@ -41,18 +42,39 @@ _lib.declare([
 ])
 
 
+def _path(path):
+    """path as the bytes the C calls take."""
+    try:
+        b = os.fsencode(path)
+    except TypeError:
+        raise errors.InvalidArgument(f"path: must be a str, bytes or os.PathLike, got "
+                                     f"{type(path).__name__}") from None
+    if b"\0" in b:  # C would stop at it: another file's name
+        raise errors.InvalidArgument(f"path: must not contain a NUL character, got {path!r}")
+    return b
+
+
 def write(path, channels, half=(), compression="ZIP"):
     """Writes ``channels`` (name -> (h, w) float32 array, all the same size) to ``path``.
 
-    ``half``: names stored as 16-bit half (the rest as 32-bit float), or True for all."""
+    ``half``: names stored as 16-bit half (the rest as 32-bit float), or True for all;
+    None or False for none."""
+    path = _path(path)
+    if not isinstance(channels, Mapping):
+        raise errors.InvalidArgument(f"channels: must be a dict of name -> (height, width) "
+                                     f"array, got {type(channels).__name__}")
     if not channels:
         raise errors.InvalidArgument("channels: must name at least one channel")
-    if compression not in COMPRESSION:
-        raise errors.InvalidArgument(
-            f"compression = {compression!r}: must be one of {', '.join(COMPRESSION)}")
+    compression = args.choice(compression, "compression", COMPRESSION)
+    if half is None or isinstance(half, (bool, np.bool_)):
+        half = list(channels) if half else ()
+    elif not isinstance(half, str):  # a string is searched as before ("RGB" holds R, G, B)
+        half = args.sequence(half, "half", what="channel names")
     arrays, shape = [], None
     for name, arr in channels.items():
-        arr = np.ascontiguousarray(arr, dtype=np.float32)
+        if not isinstance(name, str):
+            raise errors.InvalidArgument(f"channels: names must be strings, got {name!r}")
+        arr = args.float32_array(arr, f"channels[{name!r}]")
         if arr.ndim != 2:
             raise errors.InvalidArgument(f"channels[{name!r}]: must be 2-D (height, width), got "
                                          f"shape {arr.shape}")
@@ -65,13 +87,17 @@ def write(path, channels, half=(), compression="ZIP"):
     table = (ExrChannel * len(arrays))()
     for i, (name, arr) in enumerate(arrays):
         table[i] = ExrChannel(name.encode(), arr.ctypes.data_as(P(ctypes.c_float)), 1,
-                              shape[1], int(half is True or name in half))
-    _lib.lib.hbk_exr_write(os.fsencode(path), shape[1], shape[0], table, len(arrays),
+                              shape[1], int(name in half))
+    _lib.lib.hbk_exr_write(path, shape[1], shape[0], table, len(arrays),
                            COMPRESSION[compression], Message())
 
 
 def write_rgba(path, rgba, half=False, compression="ZIP"):
     """Writes an (h, w, 3|4) array as R, G, B[, A] channels: what Blender loads from EXR."""
+    rgba = args.float32_array(rgba, "rgba")
+    if rgba.ndim != 3 or rgba.shape[2] not in (3, 4):
+        raise errors.InvalidArgument(f"rgba: must have shape (height, width, 3|4), got "
+                                     f"{rgba.shape}")
     names = "RGBA"[:rgba.shape[2]]
     write(path, {n: rgba[:, :, i] for i, n in enumerate(names)}, half=True if half else (),
           compression=compression)
@@ -84,7 +110,7 @@ class Reader(Owner):
 
     def __init__(self, path):
         handle = _ReaderP()
-        _lib.lib.hbk_exr_open(ctypes.byref(handle), os.fsencode(path), Message())
+        _lib.lib.hbk_exr_open(ctypes.byref(handle), _path(path), Message())
         self._own(handle, _lib.lib.hbk_exr_close)
         w, h = ctypes.c_int32(), ctypes.c_int32()
         _lib.lib.hbk_exr_size(handle, ctypes.byref(w), ctypes.byref(h))
@@ -95,6 +121,9 @@ class Reader(Owner):
 
     def read(self, name):
         """Channel ``name`` as a (h, w) float32 array, row 0 at the bottom."""
+        if not isinstance(name, str):
+            raise errors.InvalidArgument(f"name: must be a channel name (a str), got "
+                                         f"{type(name).__name__}")
         w, h = self.size
         out = np.empty((h, w), dtype=np.float32)
         _lib.lib.hbk_exr_read_channel(self.h, name.encode(), out.ctypes.data_as(P(ctypes.c_float)),

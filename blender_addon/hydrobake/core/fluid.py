@@ -6,7 +6,7 @@ import ctypes
 
 import numpy as np
 
-from . import _lib, arrays, errors
+from . import _lib, args, arrays, errors
 from ._lib import Message, P, Progress, check_message
 from .handle import Handle
 
@@ -16,6 +16,9 @@ VOLUMES = {"uvw_a": (0, 3), "uvw_b": (1, 3), "blend": (2, None), "motion": (3, 3
            "density": (4, 1), "surface": (5, 1), "features": (6, len(FEATURES)),
            "wrap_a": (7, 3), "wrap_b": (8, 3), "uvw_weight": (9, 1),
            "uvw_a_unwrapped": (10, 3), "uvw_b_unwrapped": (11, 3)}
+OBSTACLE_KINDS = ("sphere", "box")  # hbk_fluid_obstacle_t.type 0, 1
+# hbk_noise3d_tileable's range of size (checked here too: the output is allocated from it).
+NOISE_MAX_SIZE = 1024
 
 
 class Obstacle(ctypes.Structure):
@@ -72,15 +75,16 @@ class Fluid(Handle):
         return tuple(v)
 
     def set_particles(self, pos, vel=None):
-        pos = np.ascontiguousarray(pos, np.float32).reshape(-1, 3)
-        v = None if vel is None else np.ascontiguousarray(vel, np.float32).reshape(-1, 3)
+        pos = args.float32_array(pos, "pos", 3)
+        v = None if vel is None else args.float32_array(vel, "vel", 3)
         if v is not None and v.shape != pos.shape:
             raise errors.InvalidArgument(f"vel: shape {v.shape} must match pos {pos.shape}")
         self.call("set_particles", pos.reshape(-1), None if v is None else v.ctypes.data,
                   len(pos))
 
     def fill_box(self, lo, hi, jitter=0.0):
-        self.call("fill_box", _V3(*lo), _V3(*hi), float(jitter))
+        self.call("fill_box", args.numbers(lo, "lo", 3), args.numbers(hi, "hi", 3),
+                  args.number(jitter, "jitter"))
 
     def particles(self):
         n = _lib.lib.hbk_fluid_particle_count(self.h)
@@ -90,16 +94,25 @@ class Fluid(Handle):
 
     def set_obstacles(self, obstacles):
         """obstacles: [("sphere", centre, radius) | ("box", centre, half_sizes)]."""
+        obstacles = args.sequence(obstacles, "obstacles", what="obstacles")
         arr = (Obstacle * max(len(obstacles), 1))()
-        for i, (kind, c, e) in enumerate(obstacles):
-            ext = (e, 0.0, 0.0) if kind == "sphere" else tuple(e)
-            arr[i] = Obstacle(0 if kind == "sphere" else 1, _V3(*c), _V3(*ext))
+        for i, ob in enumerate(obstacles):
+            name = f"obstacles[{i}]"
+            kind, c, e = args.sequence(ob, name, 3, "values (kind, centre, size)")
+            # Checked by name: any other kind would be taken as a box (type 1).
+            kind = args.choice(kind, f"{name}.kind", OBSTACLE_KINDS)
+            if kind == "sphere":
+                ext = _V3(args.number(e, f"{name}.radius"), 0.0, 0.0)
+            else:
+                ext = args.numbers(e, f"{name}.half_sizes", 3)
+            arr[i] = Obstacle(OBSTACLE_KINDS.index(kind), args.numbers(c, f"{name}.centre", 3),
+                              ext)
         self.call("set_obstacles", arr, len(obstacles))
 
     def _per_vertex(self, name, values, components=1):
         """values as a flat float32 array of one entry per grid vertex (the C side reads that
         many, so a wrong size must stop here)."""
-        a = np.ascontiguousarray(values, np.float32).reshape(-1)
+        a = args.float32_array(values, name).reshape(-1)
         want = components * int(np.prod(self.vertices))
         if a.size != want:
             raise errors.InvalidArgument(f"{name}: {a.size} values, must be {want} (grid "
@@ -112,7 +125,7 @@ class Fluid(Handle):
         self.call("set_velocity_grid", vel, None if s is None else s.ctypes.data)
 
     def step(self, progress=None):
-        self.call("step", progress)
+        self.call("step", args.progress(progress))
 
     @property
     def substeps_taken(self):
@@ -124,7 +137,7 @@ class Fluid(Handle):
 
     def volume(self, name):
         """A volume as (nz, ny, nx, c) (vertex fields +1 per axis), x fastest in memory."""
-        idx, _ = VOLUMES[name]
+        idx, _ = VOLUMES[args.choice(name, "name", VOLUMES)]
         n = _lib.lib.hbk_fluid_volume_size(self.h, idx)
         out = np.empty(n, np.float32)
         self.call("get_volume", idx, out, n)
@@ -137,33 +150,38 @@ class Fluid(Handle):
         return _lib.lib.hbk_fluid_uvw_weight(self.h)
 
     def paint_sphere(self, texture, center, radius, falloff=0.0):
-        self.call("paint_sphere", int(texture), _V3(*center), float(radius), float(falloff))
+        self.call("paint_sphere", args.integer(texture, "texture"),
+                  args.numbers(center, "center", 3), args.number(radius, "radius"),
+                  args.number(falloff, "falloff"))
 
     def paint_mask(self, texture, mask):
-        self.call("paint_mask", int(texture), self._per_vertex("mask", mask))
+        self.call("paint_mask", args.integer(texture, "texture"), self._per_vertex("mask", mask))
 
     def paint_points(self, texture, positions, coverage=None, radius=0.0, falloff=0.0):
         """Paints texture around each point (n x 3, world space): coverage (n values in [0, 1],
         None: 1) within radius m, fading to 0 over falloff m; the largest coverage wins."""
-        pos = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
-        cov = None if coverage is None else np.ascontiguousarray(coverage, np.float32).reshape(-1)
+        texture = args.integer(texture, "texture")
+        pos = args.float32_array(positions, "positions", 3)
+        cov = None if coverage is None else args.float32_array(coverage, "coverage").reshape(-1)
         if cov is not None and len(cov) != len(pos):
             raise errors.InvalidArgument(f"coverage: {len(cov)} values for {len(pos)} points")
-        self.call("paint_points", int(texture), len(pos), pos.ctypes.data if len(pos) else None,
-                  None if cov is None else cov.ctypes.data, float(radius), float(falloff))
+        self.call("paint_points", texture, len(pos), pos.ctypes.data if len(pos) else None,
+                  None if cov is None else cov.ctypes.data, args.number(radius, "radius"),
+                  args.number(falloff, "falloff"))
 
     def set_feature_rule(self, texture, lo, hi):
         n = len(FEATURES)
-        self.call("set_feature_rule", int(texture), (ctypes.c_float * n)(*lo),
-                  (ctypes.c_float * n)(*hi))
+        self.call("set_feature_rule", args.integer(texture, "texture"),
+                  args.numbers(lo, "lo", n), args.numbers(hi, "hi", n))
 
     def capture_feature_rule(self, texture, mask):
-        self.call("capture_feature_rule", int(texture), self._per_vertex("mask", mask))
+        self.call("capture_feature_rule", args.integer(texture, "texture"),
+                  self._per_vertex("mask", mask))
 
     def surface(self, progress=None):
         """The surface mesh: dict of positions, normals, triangles, uvw_a, uvw_b, blend,
         features and uvw_weight (A's cross-fade weight) per vertex."""
-        self.call("update_surface", progress)
+        self.call("update_surface", args.progress(progress))
         nv, nt = ctypes.c_int32(), ctypes.c_int32()
         self.call("mesh_counts", ctypes.byref(nv), ctypes.byref(nt))
         nv, nt = nv.value, nt.value
@@ -181,7 +199,11 @@ class Fluid(Handle):
 
 
 def noise3d(size, period=4, octaves=3, persistence=0.5, seed=0):
-    """A tileable size^3 gradient-noise texture in [0, 1], as (z, y, x)."""
+    """A tileable size^3 gradient-noise texture in [0, 1], as (z, y, x); size in [1, 1024]."""
+    size = args.integer(size, "size", 1, NOISE_MAX_SIZE)
     out = np.empty(size ** 3, np.float32)
-    _lib.lib.hbk_noise3d_tileable(out, size, period, octaves, persistence, seed, Message())
+    _lib.lib.hbk_noise3d_tileable(out, size, args.integer(period, "period"),
+                                  args.integer(octaves, "octaves"),
+                                  args.number(persistence, "persistence"),
+                                  args.integer(seed, "seed", 0, 2**64 - 1), Message())
     return out.reshape(size, size, size)

@@ -88,5 +88,9 @@ class Handle(Owner):
 
     def load_state(self, data):
         """Continues from a checkpoint of a handle with the same params, bit for bit."""
-        buf = np.frombuffer(data, np.uint8)  # read in place: the C side only reads it
+        try:
+            buf = np.frombuffer(data, np.uint8)  # read in place: the C side only reads it
+        except (TypeError, ValueError):
+            raise errors.InvalidArgument(f"data: must be a bytes-like checkpoint (save_state's), "
+                                         f"got {type(data).__name__}") from None
         self.call("load_state", buf.ctypes.data_as(ctypes.c_void_p), len(buf))

@@ -5,7 +5,7 @@ import ctypes
 
 import numpy as np
 
-from . import _lib, arrays
+from . import _lib, args, arrays, errors
 from ._lib import Image, Message, P, Progress, check_message
 from .handle import Handle
 
@@ -71,25 +71,26 @@ class Rain(Handle):
 
     def set_tangents(self, gravity_dir=None, mask=None):
         """Curved glass: (H, W, 2|4) in-plane gravity (and airflow) per cell, (H, W) mask."""
-        g = None if gravity_dir is None else np.ascontiguousarray(gravity_dir, np.float32)
-        m = None if mask is None else np.ascontiguousarray(mask, np.float32)
+        g = None if gravity_dir is None else args.float32_array(gravity_dir, "gravity_dir")
+        m = None if mask is None else args.float32_array(mask, "mask")
         self.call("set_tangents",
                   None if g is None else arrays.as_image(g, "gravity_dir", (2, 4)),
                   None if m is None else arrays.as_image(m, "mask", 1))
 
     def set_wiper_angles(self, values):
-        arr = (ctypes.c_float * len(values))(*values)
-        self.call("set_wiper_angles", arr, len(values))
+        arr = args.numbers(values, "values")
+        self.call("set_wiper_angles", arr, len(arr))
 
     def set_car(self, speed, accel, wind=None):
-        w = None if wind is None else (ctypes.c_float * 2)(*wind)
-        self.call("set_car", float(speed), float(accel), w)
+        w = None if wind is None else args.numbers(wind, "wind", 2)
+        self.call("set_car", args.number(speed, "speed"), args.number(accel, "accel"), w)
 
     def add_drop(self, x, y, mass):
-        self.call("add_drop", float(x), float(y), float(mass))
+        self.call("add_drop", args.number(x, "x"), args.number(y, "y"),
+                  args.number(mass, "mass"))
 
     def step(self, dt, progress=None):
-        self.call("step", float(dt), progress)
+        self.call("step", args.number(dt, "dt"), args.progress(progress))
 
     def heightmap(self):
         out = arrays.empty(*self.map_shape)
@@ -123,21 +124,27 @@ class Rain(Handle):
 def refraction(normals, background, strength=0.05):
     """The paper's cheap refraction: background looked up at an offset by the normals'
     in-plane parts, mirrored at the edges. normals (h, w, 3|4) unit (not encoded)."""
-    n = np.ascontiguousarray(normals, np.float32)
-    bg = np.ascontiguousarray(background, np.float32)
+    n = args.float32_array(normals, "normals")
+    bg = args.float32_array(background, "background")
+    # The views first: they check the shapes out is made from.
+    n_img, bg_img = arrays.as_image(n, "normals", (3, 4)), arrays.as_image(bg, "background")
     out = np.empty(n.shape[:2] + (bg.shape[2] if bg.ndim == 3 else 1,), np.float32)
     if out.shape[2] == 1:
         out = out[..., 0]
-    _lib.lib.hbk_rain_refraction(arrays.as_image(n, "normals", (3, 4)),
-                                 arrays.as_image(bg, "background"), float(strength),
+    _lib.lib.hbk_rain_refraction(n_img, bg_img, args.number(strength, "strength"),
                                  arrays.as_image(out, "out", writable=True), Message())
     return out
 
 
 def kernel(q):
-    return _lib.lib.hbk_rain_kernel(float(q))
+    return _lib.lib.hbk_rain_kernel(args.number(q, "q"))
 
 
 def compress(v, params=None):
+    """The map's compression passes applied to one value v; params: a Rain's ``params``
+    (None: the defaults)."""
+    if params is not None and not isinstance(params, Rain.spec().struct):
+        raise errors.InvalidArgument(f"params: must be a Rain's params (Rain(...).params) or "
+                                     f"None, got {type(params).__name__}")
     return _lib.lib.hbk_rain_compress(ctypes.byref(params) if params is not None else None,
-                                      float(v))
+                                      args.number(v, "v"))

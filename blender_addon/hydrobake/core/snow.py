@@ -4,7 +4,7 @@ import ctypes
 
 import numpy as np
 
-from . import _lib, arrays, errors
+from . import _lib, args, arrays, errors
 from ._lib import Image, P, Progress
 from .handle import Handle
 
@@ -50,26 +50,31 @@ class Snow(Handle):
 
     def set_materials(self, materials):
         """materials: list of (catch_chance, melts, sheds), one per material slot."""
-        table = (Material * len(materials))(*[Material(float(c), int(bool(m)), int(bool(s)))
-                                              for c, m, s in materials])
-        self.call("set_materials", table, len(materials))
+        rows = []
+        for i, m in enumerate(args.sequence(materials, "materials", what="materials")):
+            name = f"materials[{i}]"
+            c, melts, sheds = args.sequence(m, name, 3, "values (catch_chance, melts, sheds)")
+            rows.append(Material(args.number(c, f"{name}.catch_chance"),
+                                 args.flag(melts, f"{name}.melts"),
+                                 args.flag(sheds, f"{name}.sheds")))
+        self.call("set_materials", (Material * len(rows))(*rows), len(rows))
 
     def set_mesh(self, positions, triangles, uvs=None, material_index=None):
         """positions (V, 3) world space; triangles (T, 3) int; uvs (T, 3, 2) per corner;
         material_index (T,) int."""
-        pos = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
-        tri = np.ascontiguousarray(triangles, np.int32).reshape(-1, 3)
+        pos = args.float32_array(positions, "positions", 3)
+        tri = args.index_array(triangles, "triangles", 3)
         keep = [pos, tri]
         uv_ptr = mi_ptr = None
         if uvs is not None:
-            uv = np.ascontiguousarray(uvs, np.float32).reshape(-1)
+            uv = args.float32_array(uvs, "uvs").reshape(-1)
             if uv.size != tri.shape[0] * 6:
                 raise errors.InvalidArgument(f"uvs: {uv.size} values, need 6 per triangle "
                                              f"({tri.shape[0] * 6})")
             keep.append(uv)
             uv_ptr = uv.ctypes.data
         if material_index is not None:
-            mi = np.ascontiguousarray(material_index, np.int32).reshape(-1)
+            mi = args.index_array(material_index, "material_index").reshape(-1)
             if mi.size != tri.shape[0]:
                 raise errors.InvalidArgument(f"material_index: {mi.size} values, need one per "
                                              f"triangle ({tri.shape[0]})")
@@ -79,7 +84,7 @@ class Snow(Handle):
                   tri.shape[0])
 
     def step(self, substeps=1, progress=None):
-        self.call("step", int(substeps), progress)
+        self.call("step", args.integer(substeps, "substeps"), args.progress(progress))
 
     @property
     def texture_size(self):
@@ -113,19 +118,28 @@ class Snow(Handle):
 
 
 
+def _params_ref(params):
+    """The formulas' params: a Snow's ``params``, or None for the paper's figures."""
+    if params is None:
+        return None
+    if not isinstance(params, Snow.spec().struct):
+        raise errors.InvalidArgument(f"params: must be a Snow's params (Snow(...).params) or "
+                                     f"None, got {type(params).__name__}")
+    return ctypes.byref(params)
+
+
 def stamp_alpha(temp_c, r, params=None):
     """The 3x3 stamp (0-255 scale) the model adds for random number r at temp_c."""
     out = (ctypes.c_float * 9)()
-    p = ctypes.byref(params) if params is not None else None
-    _lib.lib.hbk_snow_stamp_alpha(p, float(temp_c), float(r), out)
+    _lib.lib.hbk_snow_stamp_alpha(_params_ref(params), args.number(temp_c, "temp_c"),
+                                  args.number(r, "r"), out)
     return np.array(out[:], np.float32).reshape(3, 3)
 
 
 def hit_chance(temp_c, catch_chance=0.0, params=None):
-    p = ctypes.byref(params) if params is not None else None
-    return _lib.lib.hbk_snow_hit_chance(p, float(temp_c), float(catch_chance))
+    return _lib.lib.hbk_snow_hit_chance(_params_ref(params), args.number(temp_c, "temp_c"),
+                                        args.number(catch_chance, "catch_chance"))
 
 
 def water_content(temp_c, params=None):
-    p = ctypes.byref(params) if params is not None else None
-    return _lib.lib.hbk_snow_water_content(p, float(temp_c))
+    return _lib.lib.hbk_snow_water_content(_params_ref(params), args.number(temp_c, "temp_c"))

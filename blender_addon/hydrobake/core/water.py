@@ -3,9 +3,7 @@ ground, sources, wind, object footprints and rain. Arrays are (height, width) fl
 at the bottom (y = 0), one cell per pixel."""
 import ctypes
 
-import numpy as np
-
-from . import _lib, arrays
+from . import _lib, args, arrays
 from ._lib import Image, P, Progress
 from .handle import Handle
 
@@ -33,14 +31,15 @@ class Water(Handle):
         if arr is None:
             self.call(name, None)
             return
-        arr = np.ascontiguousarray(arr, dtype=np.float32)
-        self.call(name, arrays.as_image(arr, name.replace("set_", ""), channels=channels))
+        label = name.replace("set_", "")
+        arr = args.float32_array(arr, label)
+        self.call(name, arrays.as_image(arr, label, channels=channels))
 
     def set_ground(self, b):
         self._set("set_ground", b)
 
     def set_level(self, level):
-        self.call("set_level", float(level))
+        self.call("set_level", args.number(level, "level"))
 
     def set_surface(self, h):
         self._set("set_surface", h)
@@ -58,7 +57,7 @@ class Water(Handle):
         self._set("set_footprint", depth)
 
     def step(self, progress=None):
-        self.call("step", progress)
+        self.call("step", args.progress(progress))
 
     def _get(self, name, channels=1):
         out = arrays.empty(*self.shape, channels)
