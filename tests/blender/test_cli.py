@@ -41,9 +41,10 @@ def test_errors_exit_non_zero_with_the_message_on_stderr(blender, tmp_path):
     assert r.returncode == 1 and "--effects nope: not an effect" in r.stderr
     r = blender.run("cli_fixture.py", "bake", "--objects", "Missing", blend=blend, check=False)
     assert r.returncode == 1 and "--objects Missing" in r.stderr
-    for frames in ("9-2", "5-"):
+    for frames in ("9-2", "5-", "1-1048575"):  # the last ran on for ever, past Blender's end
         r = blender.run("cli_fixture.py", "bake", "--frames", frames, blend=blend, check=False)
         assert r.returncode != 0 and f"--frames '{frames}'" in r.stderr, r.stderr
+    assert "need 0 <= START <= END <= 1048574 (Blender's last frame)" in r.stderr, r.stderr
     # Overrides of the wrong shape or type are named, without a traceback.
     for table, want in (([1, 2], "must be a JSON object of objects"),
                         ({"*/testwave": {"frame_start": "soon"}},
@@ -354,3 +355,17 @@ def test_the_shipped_command_runs_quietly(blender, tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     assert "module changed on disk" not in r.stdout + r.stderr, r.stdout[-2000:]
     assert "effects: caustics, fluid, rain, snow" in r.stdout and "Traceback" not in r.stderr
+
+
+def test_an_object_name_with_a_comma_is_taken_whole(blender, tmp_path):
+    """--objects splits at commas; a name holding one ("Wall, North") could not be given."""
+    blend = str(tmp_path / "shot.blend")
+    blender.run("make_fixture_blend.py", blend, "Wall, North", "Wall", "Gate")
+    r = blender.run("cli_fixture.py", "bake", "--objects", "Wall, North,Gate", "--effects",
+                    "testwave", "--frames", "1-1", "--output", tmp_path / "cache", blend=blend)
+    assert "hydrobake: Wall, North/testwave finished" in r.stdout, r.stdout[-2000:]
+    assert "hydrobake: Gate/testwave finished" in r.stdout
+    assert "hydrobake: Wall/testwave" not in r.stdout  # the longest name that matches wins
+    r = blender.run("cli_fixture.py", "bake", "--objects", "Wall,Gate", "--effects", "testwave",
+                    "--frames", "1-1", "--output", tmp_path / "cache", blend=blend)
+    assert "hydrobake: Wall/testwave finished" in r.stdout and "Wall, North/" not in r.stdout

@@ -41,14 +41,19 @@ def _argv():
     return argv[argv.index("--") + 1:] if "--" in argv else []
 
 
+MAX_FRAME = 1048574  # Blender's MAXFRAME: no scene or frame property goes past it
+
+
 def _frames(text):
     try:
         a, dash, b = text.partition("-")
         start, end = int(a), int(b) if dash else int(a)  # "5" is one frame; "5-" is a typo
     except ValueError:
         raise argparse.ArgumentTypeError(f"--frames {text!r}: must be START-END, e.g. 1-48")
-    if start < 0 or end < start:
-        raise argparse.ArgumentTypeError(f"--frames {text!r}: need 0 <= START <= END")
+    if start < 0 or end < start or end > MAX_FRAME:
+        # Past Blender's last frame the bake would run on for ever (1-99999999999 did).
+        raise argparse.ArgumentTypeError(f"--frames {text!r}: need 0 <= START <= END <= "
+                                         f"{MAX_FRAME} (Blender's last frame)")
     return start, end
 
 
@@ -127,9 +132,23 @@ def parser():
     return p
 
 
+def _object_names(pieces):
+    """The object names in --objects' comma-separated pieces: at each piece, the longest run
+    of pieces that, joined by commas again, names an object of the file (a name may hold a
+    comma: "Wall, North"); else the piece alone."""
+    out, i = [], 0
+    while i < len(pieces):
+        j = next((j for j in range(len(pieces), i + 1, -1)
+                  if ",".join(pieces[i:j]) in bpy.data.objects), i + 1)
+        out.append(",".join(pieces[i:j]))
+        i = j
+    return out
+
+
 def targets(objects=None, effect_names=None):
     """(object, effect name) pairs: named ones, else every enabled effect."""
     known = effects.load_all()
+    objects = _object_names(objects) if objects else objects
     for name in effect_names or ():
         if name not in known:
             raise KeyError(f"--effects {name}: not an effect; known: {', '.join(sorted(known))}")
