@@ -263,6 +263,20 @@ for attr, value, label, takes in (("ground_object", low, "Ground",
     assert f"Bare caustics: {label}: {value.name} cannot be the {label}, which takes " \
         f"{takes}" in msg, msg
     setattr(b, attr, None)
+# An image whose file went missing has no pixels: named as the setting it is (a missing
+# Ground Image failed with an IndexError traceback).
+gone = bpy.data.images.new("gone", 8, 8)
+gone.source, gone.filepath = "FILE", "/nonexistent/ground.exr"
+b.ground_image = gone
+msg = refused(bare)
+assert "Bare caustics: Ground Image: image 'gone' has no pixels (its file " \
+    "/nonexistent/ground.exr is missing?)" in msg, msg
+b.ground_image = None
+b.preview_camera, b.ground_texture = low, gone
+low.location.z = 5.0
+msg = refused(bare)
+assert "Bare caustics: Ground Texture: image 'gone' has no pixels" in msg, msg
+b.preview_camera = b.ground_texture = None
 b.ground_object = bare
 # Deleted so, the pointer to itself keeps it in the file, in no collection: baked, it would
 # leave at the next save with nothing recording its folder (monkey seed 460).

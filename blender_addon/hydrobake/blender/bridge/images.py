@@ -49,10 +49,14 @@ def configure_user(image_user, frame_start, frame_count):
     image_user.use_cyclic = False
 
 
-def pixels(img, colour=False):
+def pixels(img, colour=False, role="Image"):
     """An image's pixels as a (h, w, channels) float32 array, row 0 at the bottom. colour:
     the values are colours wanted in scene-linear light; an 8-bit sRGB image's pixels are its
-    sRGB values (Blender linearises only float images), so they are linearised here."""
+    sRGB values (Blender linearises only float images), so they are linearised here. An
+    image without pixels is a ValueError naming ``role``, the setting it is."""
+    if not has_pixels(img):
+        raise ValueError(f"{role}: image '{img.name}' has no pixels (its file "
+                         f"{img.filepath or '(none)'} is missing?)")
     w, h = img.size
     buf = np.empty(w * h * img.channels, dtype=np.float32)
     img.pixels.foreach_get(buf)

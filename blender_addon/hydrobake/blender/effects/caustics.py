@@ -209,7 +209,8 @@ class CausticsBlender(BlenderEffect):
             ground[np.isnan(ground)] = level - 1.0 if np.all(np.isnan(ground)) else \
                 np.nanmin(ground)
         elif settings.ground_image is not None:
-            px = images.pixels(settings.ground_image)[..., 0].astype(np.float64)
+            px = images.pixels(settings.ground_image, role="Ground Image")[..., 0].astype(
+                np.float64)
             ih, iw = px.shape
             yy = (np.arange(shape[0]) + 0.5) / shape[0] * ih - 0.5
             xx = (np.arange(shape[1]) + 0.5) / shape[1] * iw - 0.5
@@ -267,9 +268,11 @@ class CausticsBlender(BlenderEffect):
             inputs["view"] = {
                 "heading": grid.angle,
                 "camera": (*grid.to_grid(cam.x, cam.y), cam.z),
-                "texture": np.ascontiguousarray(images.pixels(settings.ground_texture, colour=True)[..., :3]),
+                "texture": np.ascontiguousarray(images.pixels(
+                    settings.ground_texture, colour=True, role="Ground Texture")[..., :3]),
                 "environment": None if settings.environment is None else
-                np.ascontiguousarray(images.pixels(settings.environment, colour=True)[..., :3])}
+                np.ascontiguousarray(images.pixels(settings.environment, colour=True,
+                                                   role="Environment")[..., :3])}
         return params, inputs
 
     # --- wiring -------------------------------------------------------------------------

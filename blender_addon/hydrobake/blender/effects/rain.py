@@ -125,11 +125,8 @@ class RainBlender(BlenderEffect):
                                  f"wiper_count = {rp['wiper_count']}; set one per blade")
             inputs["wipers"] = cls._wiper_motion(scene, blades, rp["wiper_mode"], frames)
         if settings.background_image is not None:
-            img = settings.background_image
-            if not images.has_pixels(img):
-                raise ValueError(f"Preview Background: image '{img.name}' has no pixels (its "
-                                 f"file {img.filepath or '(none)'} is missing?)")
-            inputs["background"] = images.pixels(img, colour=True)
+            inputs["background"] = images.pixels(settings.background_image, colour=True,
+                                                 role="Preview Background")
         return params, inputs
 
     @staticmethod
