@@ -1,4 +1,6 @@
 """Water and caustics through the binding: parameter tables, physics and contracts."""
+import re
+
 import numpy as np
 import pytest
 
@@ -166,6 +168,17 @@ def test_view_image_shows_the_lit_ground_and_reflects_the_sky():
     # A brighter caustic map brightens the ground in proportion.
     img2 = caustics.view_image(wh, gh, cell, centre, tex, cmap * 2, None, {"fresnel": 1})
     np.testing.assert_allclose(img2[mid, 4:-4, 0], 2 * (1 - r0) * tex[mid, 4:-4, 0], atol=2e-3)
+    # A NaN or infinite texel came out as such in the image: refused by pixel, in the sky as
+    # in the ground texture and the map (checked by the library's lit ground).
+    for name, arr, at, want in (("environment", sky, (3, 5, 1), "environment at pixel (5, 3)"),
+                                ("texture", tex, (2, 7, 0), "texture at pixel (7, 2)"),
+                                ("map", cmap, (4, 1, 2), "caustics at pixel (1, 4)")):
+        bad = arr.copy()
+        bad[at] = np.inf if name != "texture" else np.nan
+        got = [sky, tex, cmap]
+        got[("environment", "texture", "map").index(name)] = bad
+        with pytest.raises(errors.InvalidArgument, match=re.escape(want)):
+            caustics.view_image(wh, gh, cell, centre, got[1], got[2], got[0], {"fresnel": 1})
 
 
 def test_view_image_looks_up_the_sky_in_the_world_for_a_turned_grid():

@@ -153,6 +153,11 @@ def _environment(environment):
     if env.ndim != 3 or env.shape[2] not in (1, 3, 4) or min(env.shape[:2]) < 1:
         raise errors.InvalidArgument(f"environment: must have shape (height, width[, 1|3|4]), "
                                      f"at least 1 x 1, got {env.shape}")
+    bad = ~(np.abs(env) <= 1e6)  # a NaN or infinite texel would come out in the reflection
+    if bad.any():
+        y, x, c = np.argwhere(bad)[0]
+        raise errors.InvalidArgument(f"environment at pixel ({x}, {y}) = {env[y, x, c]:g}: must "
+                                     "be a finite number in [-1e+06, 1e+06]")
     return env
 
 
