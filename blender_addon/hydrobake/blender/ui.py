@@ -39,6 +39,7 @@ def draw_effect(layout, context, beffect):
         _draw_left_out(layout, context, obj, settings, beffect)
     if settings.is_baked and job is None:
         layout.label(text=f"Baked in {bpy.path.relpath(settings.bake_folder)}", icon="CHECKMARK")
+        _draw_eevee_refraction(layout, context, beffect)
 
     locked = settings.is_baked or job is not None
     col = layout.column()
@@ -59,6 +60,21 @@ def draw_effect(layout, context, beffect):
             op.effect, op.object_name, op.preset = beffect.name, obj.name, name
     box = col.box()
     beffect.draw_settings(box, settings)
+
+
+def _draw_eevee_refraction(layout, context, beffect):
+    """A baked water or glass renders in EEVEE only with screen-space refraction, a scene
+    setting the bake leaves to the artist: offered here where it is off."""
+    ee = context.scene.eevee
+    if not beffect.refracts or context.scene.render.engine != "BLENDER_EEVEE" or \
+            (ee.use_ssr and ee.use_ssr_refraction):
+        return
+    box = layout.box()
+    box.use_property_split = False
+    box.label(text="EEVEE draws it opaque without screen-space refraction", icon="INFO")
+    row = box.row()
+    row.prop(ee, "use_ssr", text="Screen Space Reflections")
+    row.prop(ee, "use_ssr_refraction", text="Refraction")
 
 
 def _draw_deleted_bakes(layout, obj, beffect):

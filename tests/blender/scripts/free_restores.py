@@ -70,9 +70,11 @@ def tagged(m):
 
 
 def state(m):
-    """What Free Bake must give back: nodes, links, the shader's values, the custom props."""
+    """What Free Bake must give back: nodes, links, the shader's values, the custom props,
+    the EEVEE settings a bake sets for a refracting surface."""
     bsdf = next((n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
-    return (m.use_nodes, sorted(n.name for n in m.node_tree.nodes), len(m.node_tree.links),
+    return (m.use_nodes, m.blend_method, m.use_screen_refraction,
+            sorted(n.name for n in m.node_tree.nodes), len(m.node_tree.links),
             tuple(round(bsdf.inputs[k].default_value, 6) for k in
                   ("Roughness", "IOR", "Transmission")) if bsdf else None,
             sorted(k for k in m.keys() if k.startswith("hydrobake") and
@@ -116,6 +118,9 @@ elif case == "slot_changed":  # 2: the baked material replaced in its slot, or i
     before = {n: state(bpy.data.materials[n]) for n in ("GlassMat", "PaneMat")}
     bake("Glass", "rain")
     bake("Pane", "rain")
+    for name in ("GlassMat", "PaneMat"):  # EEVEE sees through the glass (Cycles reads neither)
+        m = bpy.data.materials[name]
+        check(m.blend_method == "BLEND" and m.use_screen_refraction, f"{name} opaque in EEVEE")
     g.material_slots[0].material = in_blender.node_material("Other")
     h.data.materials.pop(index=0)
     free("Glass", "rain")
@@ -277,6 +282,7 @@ elif case == "pool_over_pool":  # 11: a pool whose ground is another pool of its
     bake("Water", "caustics")
     check(slots()["Water"] == ["WaterMat (Water)"] and
           tagged(bpy.data.materials["WaterMat"]), f"slots {slots()}")
+    check(bpy.data.materials["WaterMat (Water)"].use_screen_refraction, "water opaque in EEVEE")
     free("Water", "caustics")
     check(slots()["Water"] == ["WaterMat"] == slots()[other.name], f"slots {slots()}")
     check(state(bpy.data.materials["WaterMat"]) == before, "WaterMat changed")

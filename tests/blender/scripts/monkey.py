@@ -222,7 +222,7 @@ def _round(v):
 
 
 def mat_state(m):
-    st = {"use_nodes": m.use_nodes,
+    st = {"use_nodes": m.use_nodes, "eevee": (m.blend_method, m.use_screen_refraction),
           "props": sorted(k for k in m.keys() if k != "hydrobake_snow")}
     if m.node_tree and m.use_nodes:  # nodes switched off: what they hold does not show
         tree = m.node_tree

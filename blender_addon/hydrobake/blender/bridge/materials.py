@@ -13,6 +13,7 @@ ANY = object()  # remove_tagged: whoever added the node
 MADE = "hydrobake_made"  # on a material ensure_material made and gave the object
 SAVED = "hydrobake_saved"  # on a material: the values set_inputs replaced, by input name
 NODES_WERE_OFF = "hydrobake_nodes_were_off"  # use_nodes() turned its nodes on
+SETTINGS_WERE = "hydrobake_settings_were"  # the material settings see_through() changed
 
 
 def ensure_material(obj, name, nodes=True):
@@ -40,6 +41,24 @@ def use_nodes(mat):
     if not mat.use_nodes:
         mat[NODES_WERE_OFF] = 1
         mat.use_nodes = True
+
+
+def see_through(mat, blend=False):
+    """The material's EEVEE settings for a refracting surface: Screen Space Refraction on
+    (else EEVEE and the viewport draw the water or glass opaque grey, hiding the caustics
+    under it), and with ``blend`` the Blend mode (a windshield, with the whole scene behind
+    it). Cycles reads neither. What they were is kept until no bake is left in the material
+    (give_back)."""
+    want = {"use_screen_refraction": True}
+    if blend:
+        want["blend_method"] = "BLEND"
+    were = mat[SETTINGS_WERE].to_dict() if SETTINGS_WERE in mat else {}
+    for k, v in want.items():
+        if getattr(mat, k) != v:
+            were.setdefault(k, getattr(mat, k))
+            setattr(mat, k, v)
+    if were:
+        mat[SETTINGS_WERE] = were
 
 
 def set_inputs(mat, shader, values, prefix):
@@ -92,6 +111,10 @@ def give_back(obj, mat, prefix):
     if NODES_WERE_OFF in mat:
         mat.use_nodes = False
         del mat[NODES_WERE_OFF]
+    if SETTINGS_WERE in mat:
+        for k, v in mat[SETTINGS_WERE].to_dict().items():
+            setattr(mat, k, v)
+        del mat[SETTINGS_WERE]
     if MADE in mat:
         _let_go_made(obj, mat, prefix)
 

@@ -60,6 +60,7 @@ class BlenderEffect:
     icon = "MOD_FLUIDSIM"
     object_types = {"MESH"}
     presets = {}        # preset name -> parameter dict (partial)
+    refracts = False    # its bake makes a surface one sees through (EEVEE: ui)
     description = ""
 
     @classmethod

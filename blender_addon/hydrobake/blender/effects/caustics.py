@@ -71,6 +71,7 @@ class CausticsBlender(BlenderEffect):
     label = "Caustics"
     wired_prefix, wired_streams = "caustics.", ("surface",)
     icon = "MOD_OCEAN"
+    refracts = True
     presets = {
         "Calm Pool": {"water": {"rain_rate": 0.0, "substeps": 4, "implicitness": 0.55},
                       "light": {"absorption": (0.0, 0.0, 0.0)}},
@@ -325,6 +326,7 @@ class CausticsBlender(BlenderEffect):
         if bsdf is not None:
             materials.set_inputs(mat, bsdf, {"Transmission": 1.0, "Roughness": 0.0,
                                              "IOR": 1.333}, "caustics.")
+            materials.see_through(mat)
             tex = cls._sequence_texture(tree, obj, grid, "caustics.surface", folder,
                                         "surface", frames, (bsdf.location.x - 500, 0))
             nm = materials.add_node(tree, "ShaderNodeNormalMap", "caustics.normal",

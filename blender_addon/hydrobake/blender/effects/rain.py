@@ -23,6 +23,7 @@ class RainBlender(BlenderEffect):
     label = "Windshield Rain"
     wired_prefix, wired_streams = "rain.", ("rain_normal",)
     icon = "MOD_FLUIDSIM"
+    refracts = True
     presets = {
         "Drizzle": {"rain": {"rain_rate": 80.0, "drop_mass": 1.5}},
         "Downpour": {"rain": {"rain_rate": 1500.0, "drop_mass": 5.0}},
@@ -242,6 +243,7 @@ class RainBlender(BlenderEffect):
             if "Transmission" in bsdf.inputs:
                 want["Transmission"] = 1.0
             materials.set_inputs(mat, bsdf, want, "rain.")
+            materials.see_through(mat, blend=True)
         uv = obj.data.uv_layers.active.name if obj.data.uv_layers.active else ""
         x, y = bsdf.location
         uvn = materials.add_node(tree, "ShaderNodeUVMap", "rain.uv", (x - 1100, y - 300))
