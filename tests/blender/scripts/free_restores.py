@@ -520,6 +520,26 @@ elif case == "made_copy_deleted_baked":  # 30: a glass without a material baked 
     check(slots() == {"Glass": []}, f"slots {slots()}")
     assert bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}
     clean()
+elif case == "made_under_own_bake":  # 31: a pool without a material and two Alt+D copies;
+    # one copy baked (the made material in the shared mesh's slot), the pool Shift+D copied
+    # (its own mesh keeps that slot) and the copy baked on its own: freeing every bake, the
+    # made material left the copy's mesh too, behind the copy's own material (monkey --more
+    # --elsewhere 3783, --more --delete-baked 1539, 1587)
+    w = pool()
+    w1 = in_blender.duplicate(w, linked=True)
+    w2 = in_blender.duplicate(w1, linked=True)
+    bake("Water", "caustics")
+    bake(w2.name, "caustics")
+    free(w2.name, "caustics")
+    bake(w1.name, "caustics")
+    w4 = in_blender.duplicate(w)
+    bake(w4.name, "caustics")
+    for o in sorted(bpy.data.objects, key=lambda o: o.name):
+        if o.hydrobake_caustics.is_baked:
+            free(o.name, "caustics")
+    left = [(m.name, m.users) for m in bpy.data.materials if m.name.startswith("HBK")]
+    check(not left, f"made materials left {left} in slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -125,10 +125,15 @@ def _let_go_made(obj, mat, prefix):
     holds no bake of the effect and shows it alone: it goes there too (while a copy holds the
     bake's record, the mark stays for its own Free; another effect's Free would never give
     it back: monkey seed 477)."""
+    # The bake being freed: a copy keeping its record shows the material for its own Free.
+    # A bake of another folder is another object's own (a Shift+D copy re-baked, or one made
+    # while a shared mesh showed the material): it goes there too (monkey seed 3783).
+    own = getattr(obj, f"hydrobake_{prefix.rstrip('.')}", None) if obj and prefix else None
+    folder = own.bake_folder if own is not None and own.is_baked else None
     if obj is not None:
         _take_out(obj, mat)
     for other in bpy.data.objects:
-        if other != obj and not _holds_bake(other, prefix):
+        if other != obj and not _holds_bake(other, prefix, folder):
             _take_out(other, mat)
     if _unused(mat):
         bpy.data.materials.remove(mat)
@@ -157,11 +162,15 @@ EFFECT_SETTINGS = ("hydrobake_caustics", "hydrobake_rain", "hydrobake_snow",
                    "hydrobake_fluid")
 
 
-def _holds_bake(obj, prefix=None):
+def _holds_bake(obj, prefix=None, folder=None):
     """Whether the object holds a bake of the effect whose nodes' role is ``prefix`` (of any
-    effect, without one)."""
+    effect, without one); with ``folder``, the bake in that folder only."""
     names = [f"hydrobake_{prefix.rstrip('.')}"] if prefix else EFFECT_SETTINGS
-    return any(getattr(getattr(obj, n, None), "is_baked", False) for n in names)
+    for n in names:
+        s = getattr(obj, n, None)
+        if getattr(s, "is_baked", False) and (folder is None or s.bake_folder == folder):
+            return True
+    return False
 
 
 def _take_out(obj, mat):
