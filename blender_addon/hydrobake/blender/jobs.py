@@ -148,14 +148,18 @@ class Job:
         settings = settings_of(obj, effect_name)
         self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
         self.override = folder_override
-        if not (resume and settings.bake_folder and not folder_override):
-            holder = name_holder(obj, effect_name, self.folder)
-            if holder is not None:  # its files and wiring would be taken for this object's
-                raise ValueError(
-                    f"{obj.name}: {holder.name} records a {effect_name} bake made under this "
-                    f"name or in this folder ({self.folder}) (it was renamed, or is a Shift+D "
-                    f"copy keeping the record); free or re-bake {holder.name} first, or "
-                    "rename this object")
+        # A resume stays in its folder, but is wired under the name the object has now:
+        # another object's bake made under that name is checked for too (monkey 1560: a
+        # renamed pool resumed under its copy's baked name took the copy's made material).
+        into = settings.bake_folder if (resume and settings.bake_folder and not folder_override) \
+            else self.folder
+        holder = name_holder(obj, effect_name, into)
+        if holder is not None:  # its files and wiring would be taken for this object's
+            raise ValueError(
+                f"{obj.name}: {holder.name} records a {effect_name} bake made under this "
+                f"name or in this folder ({into}) (it was renamed, or is a Shift+D "
+                f"copy keeping the record); free or re-bake {holder.name} first, or "
+                "rename this object")
         self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
         if resume and self.copy_of is not None:
             raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "

@@ -101,6 +101,31 @@ assert os.path.isdir(ofolder) and twin.hydrobake_caustics.is_baked
 assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=twin.name) == {"FINISHED"}
 assert not os.path.exists(ofolder)
 
+# A resume stays in its folder but is wired under the name the pool has now: where another
+# pool's bake was made under that name it is refused, as a new bake is (monkey --more
+# --delete-baked 1560: the resume took the other pool's made material and left a slot).
+pools = []
+for i, name in enumerate(("ResA", "ResB")):
+    p = in_blender.new_plane(name)
+    p.location.y = 20.0 + 3 * i
+    r = p.hydrobake_caustics
+    r.enabled, r.use_scene_range, r.frame_start, r.frame_end = True, False, 1, 2
+    r.water.width, r.map_resolution = 16, 32
+    assert bpy.ops.hydrobake.bake(effect="caustics", object_name=name) == {"FINISHED"}
+    pools.append(p)
+pools[1].name = "ResC"
+pools[0].name = "ResB"
+try:
+    bpy.ops.hydrobake.bake(effect="caustics", object_name="ResB", resume=True)
+    raise AssertionError("a resume under another pool's baked name was not refused")
+except RuntimeError as exc:
+    assert "ResB: ResC records a caustics bake made under this name" in str(exc), exc
+assert pools[0].material_slots[0].material.name == "HBK_ResA_water"  # its wiring untouched
+pools[0].name = "ResA"
+for p in pools:
+    assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=p.name) == {"FINISHED"}
+    assert not p.material_slots, [s.material for s in p.material_slots]
+
 # After the file is opened again (new addresses), a bake's holder is known again.
 from hydrobake.blender import jobs  # noqa: E402
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Renamed") == {"FINISHED"}
