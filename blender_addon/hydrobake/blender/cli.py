@@ -32,7 +32,7 @@ import time
 
 import bpy
 
-from ..core import errors
+from ..core import errors, jsonfile
 from . import effects, jobs, paths
 
 
@@ -181,13 +181,7 @@ def _print_frame(job, t0):
 def _load_overrides(path):
     """The --overrides table: a JSON object of objects, read with the file's name in every
     error."""
-    try:
-        with open(path) as f:
-            table = json.load(f)
-    except OSError as exc:
-        raise ValueError(f"--overrides {path}: {exc.strerror or exc}") from None
-    except ValueError as exc:  # json.JSONDecodeError, UnicodeDecodeError
-        raise ValueError(f"--overrides {path}: not valid JSON ({exc})") from None
+    table = jsonfile.read(path, "--overrides")
     if not isinstance(table, dict) or not all(isinstance(v, dict) for v in table.values()):
         raise ValueError(f"--overrides {path}: must be a JSON object of objects "
                          '{"Object/effect": {"setting": value, ...}, ...}')

@@ -19,7 +19,7 @@ import zipfile
 
 import numpy as np
 
-from . import errors
+from . import errors, jsonfile
 from .bake.cache import MANIFEST, BakeCache, write_bytes_atomic
 
 # Per stream: max_abs (largest allowed |new - golden|), mean_abs, min_psnr (dB), and for VDB
@@ -310,14 +310,7 @@ def load_tolerances(path):
     ValueError names the file."""
     if not path:
         return DEFAULT_TOLERANCES
-    try:
-        with open(path) as f:
-            table = json.load(f)
-    except OSError as exc:
-        raise ValueError(f"--tolerances {path}: {exc.strerror or exc}") from None
-    except ValueError as exc:  # json.JSONDecodeError, UnicodeDecodeError
-        raise ValueError(f"--tolerances {path}: not valid JSON ({exc})") from None
-    return check_tolerances(table, f"--tolerances {path}")
+    return check_tolerances(jsonfile.read(path, "--tolerances"), f"--tolerances {path}")
 
 
 def main(argv=None):
