@@ -34,6 +34,7 @@ import bpy
 
 from ..core import errors, jsonfile
 from . import effects, jobs, paths
+from .effects.base import poll_of
 
 
 def _argv():
@@ -277,8 +278,7 @@ def _pointer_value(target, attr, value, where):
     if block is None:
         raise ValueError(f"--overrides {where} = {json.dumps(value)}: no {kind} of that name in "
                          f"{bpy.data.filepath or 'the file'}")
-    deferred = getattr(type(target), "__annotations__", {}).get(attr)
-    poll = getattr(deferred, "keywords", {}).get("poll")
+    poll = poll_of(target, attr)
     if poll is not None and not poll(target, block):
         takes = getattr(poll, "takes", "what the panel offers")
         raise ValueError(f"--overrides {where} = {json.dumps(value)}: {value} cannot be the "

@@ -34,16 +34,23 @@ def offers(takes):
     return mark
 
 
+def poll_of(group, attr):
+    """The poll of ``group``'s data-block setting ``attr`` (None without one): kept in the
+    registered class's annotation, not in its RNA."""
+    deferred = getattr(type(group), "__annotations__", {}).get(attr)
+    return getattr(deferred, "keywords", {}).get("poll")
+
+
 def unoffered(group):
     """The error for the first data-block setting of ``group`` (or of its groups) that holds
     what its poll refuses, else None. Items of a collection (a fluid's sample textures) are
     the effect's to check, with the item's number in the message."""
-    for attr, deferred in getattr(type(group), "__annotations__", {}).items():
+    for attr in getattr(type(group), "__annotations__", {}):
         value = getattr(group, attr, None)
         if isinstance(value, bpy.types.PropertyGroup):
             found = unoffered(value)
         else:
-            poll = getattr(deferred, "keywords", {}).get("poll")
+            poll = poll_of(group, attr)
             found = None
             if value is not None and poll is not None and not poll(group, value):
                 label = group.bl_rna.properties[attr].name
