@@ -30,6 +30,23 @@ def _after_save(*_args):
     jobs.free_superseded()
 
 
+_objects_seen = [0]
+
+
+@bpy.app.handlers.persistent
+def _after_deletes(*_args):
+    """After an update that left fewer objects (a delete): the mesh slots a made material
+    left, kept for a deleted object, go; and each effect's leftovers of deleted bakes.
+    Counting is all the other updates cost."""
+    count = len(bpy.data.objects)
+    fewer, _objects_seen[0] = count < _objects_seen[0], count
+    if fewer:
+        from .bridge import materials
+        materials.drop_left_empty_slots()
+        for beffect in effects.BLENDER_EFFECTS.values():
+            beffect.after_deletes()
+
+
 @bpy.app.handlers.persistent
 def _rebase_before_save(*_args):
     """The file about to be saved records its bakes relative to where it is now."""
@@ -59,6 +76,7 @@ def register():
     bpy.app.handlers.load_post.append(_refresh_on_load)
     bpy.app.handlers.save_pre.append(_rebase_before_save)
     bpy.app.handlers.save_post.append(_after_save)
+    bpy.app.handlers.depsgraph_update_post.append(_after_deletes)
 
 
 def unregister():
@@ -73,6 +91,8 @@ def unregister():
         bpy.app.handlers.save_pre.remove(_rebase_before_save)
     if _after_save in bpy.app.handlers.save_post:
         bpy.app.handlers.save_post.remove(_after_save)
+    if _after_deletes in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(_after_deletes)
     for attr in _object_props:
         delattr(bpy.types.Object, attr)
         effects.BLENDER_EFFECTS[attr[len("hydrobake_"):]].unregister_extra()

@@ -540,6 +540,58 @@ elif case == "made_under_own_bake":  # 31: a pool without a material and two Alt
     left = [(m.name, m.users) for m in bpy.data.materials if m.name.startswith("HBK")]
     check(not left, f"made materials left {left} in slots {slots()}")
     clean()
+elif case == "made_behind_copy_link":  # 32: a glass without a material baked (a made
+    # material appended), Shift+D copied (its own mesh keeps it) with the copy's slot at
+    # Link: Object, the copy baked, the glass deleted while baked and the copy freed: the
+    # copy's mesh keeps the deleted glass's material behind the copy's own slot. A Shift+D
+    # copy of the copy showing it (Link: Data) baked and freed: the first copy keeps its slot
+    # at Link: Object, the second shows the mesh's material again (monkey --more
+    # --delete-baked 1611: the bake wired the material the first copy held and its Free took
+    # the first copy's slot away)
+    g = glass(mat=None)
+    bake("Glass", "rain")
+    c = in_blender.duplicate(g)
+    c.material_slots[0].link = "OBJECT"
+    bake(c.name, "rain")
+    bpy.data.objects.remove(g)
+    free(c.name, "rain")
+    d = in_blender.duplicate(c)
+    d.material_slots[0].link = "DATA"
+    def links(*objs):  # (a clean copy the Free leaves stands for the material it copied)
+        return {o.name: [(s.link, s.material.get("hydrobake_copy_of", s.material.name)
+                          if s.material else None) for s in o.material_slots] for o in objs}
+    before = links(c, d)
+    def images(m):
+        return sorted(n.image.name for n in m.node_tree.nodes
+                      if n.type == "TEX_IMAGE" and n.image is not None)
+    held = images(c.data.materials[0])
+    bake(d.name, "rain")
+    check(images(c.data.materials[0]) == held,
+          f"the copy's bake wired the material the first copy holds: {slots()}")
+    free(d.name, "rain")
+    check(links(c, d) == before, f"slots {links(c, d)}, were {before}")
+    # The deleted glass's bake removed: its material goes, and the slot appended for it.
+    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
+          "no deleted object's bake left to remove")
+    check(links(c, d) == {c.name: [], d.name: []}, f"slots {links(c, d)}")
+    clean()
+elif case == "linked_copy_deleted_baked":  # 33: a pool without a material and its Alt+D
+    # copy, both baked (the made material in the mesh's slot, the copy's own copy of it at
+    # Link: Object); the pool freed keeps the mesh's slot for the copy's Free, which never
+    # comes: the copy is deleted while baked. The empty slot goes with it (monkey --more
+    # --delete-baked 1620)
+    w = pool()
+    w2 = in_blender.duplicate(w, linked=True)
+    bake(w2.name, "caustics")
+    bake("Water", "caustics")
+    free("Water", "caustics")
+    bpy.data.objects.remove(w2)
+    bpy.context.view_layer.update()  # (as the UI evaluates after a delete)
+    check(slots() == {"Ground": ["GroundMat"], "Water": []}, f"slots {slots()}")
+    check("hydrobake_empty_slot" not in w.data, "the mesh keeps its empty-slot mark")
+    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
+          "no deleted object's bake left to remove")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -322,9 +322,7 @@ def own(obj, index, unwire):
     mat = slot.material if slot is not None else None
     if mat is None or mat.get(COPY_FOR) == obj.name:
         return mat
-    if COPY_OF not in mat and not any(o != obj and any(s.material == mat for s in
-                                                       o.material_slots)
-                                      for o in bpy.data.objects):
+    if COPY_OF not in mat and not _used_elsewhere(obj, mat):
         return mat
     shared = mat.get(COPY_OF, mat.name)
     copy = _copy(mat)
@@ -344,6 +342,23 @@ def own(obj, index, unwire):
     if COPY_OF in mat and mat.users == 0:  # this object's copy from before a rename
         bpy.data.materials.remove(mat)
     return copy
+
+
+def _used_elsewhere(obj, mat):
+    """Whether an object other than ``obj`` shows ``mat``, or holds it behind a slot's Link
+    (another mesh's slot under its own material, or its own under the mesh's): the wiring
+    would show there once the Link is switched (monkey --more 1611: a Shift+D copy's mesh
+    kept a deleted object's made material behind the copy's own slot)."""
+    if any(o != obj and any(s.material == mat for s in o.material_slots)
+           for o in bpy.data.objects):
+        return True
+    for user in bpy.data.user_map(subset=[mat])[mat]:
+        if isinstance(user, bpy.types.Object) and user != obj:
+            return True
+        # (a deleted object's mesh, used by none, waits for the save: it shows nothing)
+        if isinstance(user, bpy.types.Mesh) and user != obj.data and user.users > 0:
+            return True
+    return False
 
 
 def _copy(mat):
@@ -457,6 +472,16 @@ def _drop_empty_slot(obj):
         for o in users:
             o.material_slots[index].link = "DATA"
         _drop_slot(obj, index)
+
+
+def drop_left_empty_slots():
+    """_drop_empty_slot on every mesh still marked: the object it was kept for may be gone
+    (deleted while baked, its Free never to come: monkey --more --delete-baked 1620)."""
+    for mesh in bpy.data.meshes:
+        if EMPTY_SLOT in mesh:
+            obj = next((o for o in bpy.data.objects if o.data == mesh), None)
+            if obj is not None:
+                _drop_empty_slot(obj)
 
 
 def _put_back_others(prefix, but=None):

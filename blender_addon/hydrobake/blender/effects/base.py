@@ -93,6 +93,11 @@ class BlenderEffect:
         """Undoes register_extra."""
 
     @classmethod
+    def after_deletes(cls):
+        """After objects were deleted (not freed first): what of their bakes other objects
+        still show, and no object records now, goes."""
+
+    @classmethod
     def extra_properties(cls):
         """Blender-only settings beside the kernels' parameters: {name: bpy property}."""
         return {}

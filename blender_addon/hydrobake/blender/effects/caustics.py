@@ -611,16 +611,17 @@ class CausticsBlender(BlenderEffect):
             bpy.data.lights.remove(light)
 
     @classmethod
+    def after_deletes(cls):
+        cls.forget_deleted_floors()
+
+    @classmethod
     def register_extra(cls):
-        bpy.app.handlers.depsgraph_update_post.append(_after_deletes)
         bpy.app.handlers.save_pre.append(_before_save)
 
     @classmethod
     def unregister_extra(cls):
-        for handlers, fn in ((bpy.app.handlers.depsgraph_update_post, _after_deletes),
-                             (bpy.app.handlers.save_pre, _before_save)):
-            if fn in handlers:
-                handlers.remove(fn)
+        if _before_save in bpy.app.handlers.save_pre:
+            bpy.app.handlers.save_pre.remove(_before_save)
 
     @classmethod
     def remove(cls, context, obj, settings):
@@ -668,19 +669,6 @@ class CausticsBlender(BlenderEffect):
         super().draw_settings(layout, settings)
 
 
-
-
-_objects_seen = [0]
-
-
-@bpy.app.handlers.persistent
-def _after_deletes(*_args):
-    """After an update that left fewer objects (a delete): a deleted pool's floor wiring
-    goes (CausticsBlender.forget_deleted_floors). Counting is all the other updates cost."""
-    count = len(bpy.data.objects)
-    fewer, _objects_seen[0] = count < _objects_seen[0], count
-    if fewer:
-        CausticsBlender.forget_deleted_floors()
 
 
 @bpy.app.handlers.persistent
