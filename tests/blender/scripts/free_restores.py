@@ -592,6 +592,24 @@ elif case == "linked_copy_deleted_baked":  # 33: a pool without a material and i
     check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
           "no deleted object's bake left to remove")
     clean()
+elif case == "linked_copy_deleted_floor_shared":  # 34: as 33, the pool showing the ground's
+    # floor material: the pool's Free keeps its clean copy while the copy's floor nodes are
+    # in the shared material; the copy deleted while baked takes them out, and the pool
+    # shows the floor material again (monkey --more --delete-baked 1620)
+    w = pool()
+    w.data.materials.append(bpy.data.materials["GroundMat"])
+    w2 = in_blender.duplicate(w, linked=True)
+    bake(w2.name, "caustics")
+    bake("Water", "caustics")
+    free("Water", "caustics")
+    bpy.data.objects.remove(w2)
+    bpy.context.view_layer.update()  # (as the UI evaluates after a delete)
+    check(slots() == {"Ground": ["GroundMat"], "Water": ["GroundMat"]} and
+          w.material_slots[0].link == "DATA",
+          f"slots {slots()}, Link {w.material_slots[0].link}")
+    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
+          "no deleted object's bake left to remove")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

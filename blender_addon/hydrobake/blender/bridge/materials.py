@@ -300,7 +300,7 @@ def forget(name, prefix, image_names, unwire):
     for mat in [m for m in bpy.data.materials if m.get(COPY_FOR) == name]:
         if not _has_wiring(mat) and _unused(mat):
             bpy.data.materials.remove(mat)
-    _put_back_others(prefix)  # clean copies that stood for them while they were wired
+    put_back_others(prefix)  # clean copies that stood for them while they were wired
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
@@ -396,7 +396,7 @@ def restore(obj, prefix):
             _put_shared_back(slot, prefix, obj)
     _put_back_hidden(obj)
     _drop_empty_slot(obj)
-    _put_back_others(prefix, but=obj)
+    put_back_others(prefix, but=obj)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
     # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
     # it, it leaves the file.
@@ -484,7 +484,7 @@ def drop_left_empty_slots():
                 _drop_empty_slot(obj)
 
 
-def _put_back_others(prefix, but=None):
+def put_back_others(prefix, but=None):
     """The clean copies in the slots of objects other than ``but`` that waited for their
     shared material to be free of another object's wiring: the shared one back in its place,
     or (a made one, gone with that wiring) the copy out."""

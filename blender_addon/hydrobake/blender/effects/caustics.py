@@ -580,6 +580,9 @@ class CausticsBlender(BlenderEffect):
             materials.tagged(s.material.node_tree, "caustics.map", pool)
             for s in o.material_slots)]
         cls._unwire_floors(pool, grounds)
+        # Clean copies of a floor material that waters kept while the pool's floor nodes were
+        # in it: the floor material back (monkey --more --delete-baked 1620).
+        materials.put_back_others("caustics.")
         cls._remove_helpers(f"HBK_{pool}")
         for stream in STREAM_IMAGES:  # those nothing shows any more
             images.remove(f"HBK_{pool}_{stream}")
