@@ -610,6 +610,20 @@ elif case == "linked_copy_deleted_floor_shared":  # 34: as 33, the pool showing 
     check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
           "no deleted object's bake left to remove")
     clean()
+elif case == "linked_copy_made_deleted":  # 35: an Alt+D copy of an object without a
+    # material baked with snow (the made material in the shared mesh's slot, the object
+    # showing it, the copy its own copy of it) and deleted while baked: removing the deleted
+    # bake takes the made material too (monkey --more --delete-baked 1673)
+    o = plane("Snowy", 0.5, (6, 0, 0))
+    in_blender.snow(o, (1, 3), 40.0, 16)
+    c = in_blender.duplicate(o, linked=True)
+    bake(c.name, "snow")
+    bpy.data.objects.remove(c)
+    bpy.context.view_layer.update()
+    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
+          "no deleted object's bake left to remove")
+    check(slots() == {"Snowy": []}, f"slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -299,7 +299,13 @@ def forget(name, prefix, image_names, unwire):
         give_back(None, mat, prefix)
     for mat in [m for m in bpy.data.materials if m.get(COPY_FOR) == name]:
         if not _has_wiring(mat) and _unused(mat):
+            shared = bpy.data.materials.get(mat[COPY_OF]) if COPY_OF_MADE in mat else None
             bpy.data.materials.remove(mat)
+            if shared is not None and MADE in shared and not _has_wiring(shared) and \
+                    SAVED not in shared:
+                # Made for the bake and copied at once (an Alt+D copy showed it): it goes
+                # as the Free would have taken it (monkey --more --delete-baked 1673).
+                _let_go_made(None, shared, prefix)
     put_back_others(prefix)  # clean copies that stood for them while they were wired
 
 
