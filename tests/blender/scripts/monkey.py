@@ -498,6 +498,9 @@ class Monkey:
             if what == "image":
                 left = [x for x in left if not self.image_only_orphans_hold(bpy.data.images[x[0]])]
             left = [x for x in left if not self.of_deleted(x[0], what)]
+            if what == "material":  # a copy own() made, named after the shared material,
+                # wired by a deleted object's bake (monkey --more --delete-baked 1696)
+                left = [x for x in left if not self.shows_deleted(bpy.data.materials[x[0]])]
             if what == "material":  # the shared flake material of a deleted object's flakes
                 users = bpy.data.user_map(subset=[bpy.data.materials[x[0]] for x in left])
                 left = [x for x in left if not users[bpy.data.materials[x[0]]] or not all(
