@@ -16,7 +16,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "copy_hidden_in_freed_copy", "linked_copy_of_baked",
          "linked_copy_then_copy", "made_copy_deleted_baked", "made_under_own_bake",
          "made_behind_copy_link", "linked_copy_deleted_baked",
-         "linked_copy_deleted_floor_shared", "linked_copy_made_deleted")
+         "linked_copy_deleted_floor_shared", "linked_copy_made_deleted",
+         "linked_copies_own_glass")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -624,6 +624,34 @@ elif case == "linked_copy_made_deleted":  # 35: an Alt+D copy of an object witho
           "no deleted object's bake left to remove")
     check(slots() == {"Snowy": []}, f"slots {slots()}")
     clean()
+elif case == "linked_copies_own_glass":  # 36: a pool without a material and its Alt+D
+    # copy, both baked; the copy given the glass's material on its own slot (Link: Object),
+    # the glass baked (its own copy of it), the copy Alt+D copied again and baked (its own
+    # copy), the first copy renamed and baked (wiring the glass material itself). Freed in
+    # turn, the mesh's empty slot stays for the copies' own materials, and its mark goes with
+    # the last Free (monkey --more --elsewhere 3897)
+    w = pool()
+    w1 = in_blender.duplicate(w, linked=True)
+    w1.name = "Water1"
+    bake("Water1", "caustics")
+    bake("Water", "caustics")
+    w1.material_slots[0].material = in_blender.node_material("GlassMat")
+    glass()
+    bake("Glass", "rain")
+    w2 = in_blender.duplicate(w1, linked=True)
+    bake(w2.name, "caustics")
+    w1.name = "Water1.A"
+    bake("Water1.A", "caustics")
+    for name, effect in (("Glass", "rain"), ("Water", "caustics"), (w2.name, "caustics"),
+                         ("Water1.A", "caustics")):
+        free(name, effect)
+    links = {o.name: [(s.link, s.material.name if s.material else None)
+                      for s in o.material_slots] for o in (w, w1, w2)}
+    want = {"Water": [("DATA", None)], "Water1.A": [("OBJECT", "GlassMat")],
+            w2.name: [("OBJECT", "GlassMat")]}
+    check(links == want, f"slots {links}")
+    check("hydrobake_empty_slot" not in w.data, "the mesh keeps its empty-slot mark")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

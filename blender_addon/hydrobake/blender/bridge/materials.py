@@ -457,11 +457,12 @@ def _mesh_slot_again(obj, slot):
     return True
 
 
-def _drop_empty_slot(obj):
+def _drop_empty_slot(obj, freed=None):
     """The mesh's slot a made material left (EMPTY_SLOT, kept while another object of the
     mesh showed its own material there) goes once no object of the mesh shows anything there
     (monkey --more 1009: the last of two Alt+D copies freed); it stays, empty and unmarked,
-    where the artist's slots follow it."""
+    where the artist's slots follow it. ``freed``: an object of the mesh being freed, whose
+    bake no longer counts (monkey --more --elsewhere 3897)."""
     index = obj.data.get(EMPTY_SLOT) if obj.data is not None else None
     if index is None:
         return
@@ -470,7 +471,7 @@ def _drop_empty_slot(obj):
              if index < len(o.material_slots) and o.material_slots[index].material]
     if shown:
         if not any(COPY_OF in m or MADE in m for m in shown) and not any(
-                o != obj and _holds_bake(o) for o in users):
+                o not in (obj, freed) and _holds_bake(o) for o in users):
             del obj.data[EMPTY_SLOT]  # the artist's own material there: no Free will come
         return
     del obj.data[EMPTY_SLOT]  # no object shows anything there: the slot goes, unless
@@ -508,7 +509,7 @@ def put_back_others(prefix, but=None):
                 _put_back_hidden(other)  # (a freed Shift+D copy's, Link switched: 1062)
             # Its slot back to the mesh's, the mesh's empty one may go (an Alt+D pool whose
             # copy of the mesh's made material a Shift+D copy shares: monkey --more 3020).
-            _drop_empty_slot(other)
+            _drop_empty_slot(other, freed=but)
 
 
 def _shared_again(mat):
