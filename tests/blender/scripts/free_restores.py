@@ -652,6 +652,29 @@ elif case == "linked_copies_own_glass":  # 36: a pool without a material and its
     check(links == want, f"slots {links}")
     check("hydrobake_empty_slot" not in w.data, "the mesh keeps its empty-slot mark")
     clean()
+elif case in ("two_effects_one_shader", "two_effects_one_shader_lifo"):  # 37, 38: the
+    # glass baked, its material given to a pool too, the glass re-baked (its own copy: the
+    # material keeps the first bake's rain) and the pool baked (the material wired itself:
+    # rain and the water both set the shader's Roughness, IOR and Transmission). Freed in
+    # either order, the shader has its values from before both (monkey --more --elsewhere
+    # 3897: the rain's Free put its values back under the water's, whose Free then put back
+    # the rain's)
+    glass()
+    before = state(bpy.data.materials["GlassMat"])
+    bake("Glass", "rain")
+    w = pool()
+    w.data.materials.append(bpy.data.materials["GlassMat"])
+    bake("Glass", "rain")
+    bake("Water", "caustics")
+    check(tagged(bpy.data.materials["GlassMat"]) and
+          {t.split(".")[0] for t in tagged(bpy.data.materials["GlassMat"])} ==
+          {"rain", "caustics"}, f"GlassMat wired by {tagged(bpy.data.materials['GlassMat'])}")
+    order = [("Glass", "rain"), ("Water", "caustics")]
+    for name, effect in order if case == "two_effects_one_shader" else order[::-1]:
+        free(name, effect)
+    check(state(bpy.data.materials["GlassMat"]) == before,
+          f"GlassMat {state(bpy.data.materials['GlassMat'])}, was {before}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -97,9 +97,17 @@ def give_back(obj, mat, prefix):
         shader = principled(tree) if tree else None
         saved = {prefix: {"node": shader.name if shader else "", "values": saved}}
     if prefix in saved:
-        node = tree.nodes.get(saved[prefix]["node"]) if tree else None
-        for k, v in saved[prefix]["values"].items():
-            if node is not None and k in node.inputs:
+        mine = saved[prefix]
+        node = tree.nodes.get(mine["node"]) if tree else None
+        later = list(saved)[list(saved).index(prefix) + 1:]
+        for k, v in mine["values"].items():
+            # An effect that set the input after this one saved this one's value: it gets
+            # the value from before both, for its own Free (monkey --more --elsewhere 3897).
+            heir = next((saved[p] for p in later if saved[p]["node"] == mine["node"] and
+                         k in saved[p]["values"]), None)
+            if heir is not None:
+                heir["values"][k] = v
+            elif node is not None and k in node.inputs:
                 node.inputs[k].default_value = v
         del saved[prefix]
         if saved:
