@@ -575,38 +575,28 @@ elif case == "made_behind_copy_link":  # 32: a glass without a material baked (a
           "no deleted object's bake left to remove")
     check(links(c, d) == {c.name: [], d.name: []}, f"slots {links(c, d)}")
     clean()
-elif case == "linked_copy_deleted_baked":  # 33: a pool without a material and its Alt+D
-    # copy, both baked (the made material in the mesh's slot, the copy's own copy of it at
-    # Link: Object); the pool freed keeps the mesh's slot for the copy's Free, which never
-    # comes: the copy is deleted while baked. The empty slot goes with it (monkey --more
-    # --delete-baked 1620)
+elif case in ("linked_copy_deleted_baked", "linked_copy_deleted_floor_shared"):  # 33, 34:
+    # a pool without a material and its Alt+D copy, both baked (the made material in the
+    # mesh's slot, the copy's own copy of it at Link: Object); the pool freed keeps the
+    # mesh's slot for the copy's Free, which never comes: the copy is deleted while baked.
+    # The empty slot goes with it. 34: the pool shows the ground's floor material, and its
+    # Free keeps its clean copy while the copy's floor nodes are in the shared one; the
+    # delete takes them out and the pool shows the floor material again (monkey --more
+    # --delete-baked 1620, both)
+    shared = case == "linked_copy_deleted_floor_shared"
     w = pool()
+    if shared:
+        w.data.materials.append(bpy.data.materials["GroundMat"])
     w2 = in_blender.duplicate(w, linked=True)
     bake(w2.name, "caustics")
     bake("Water", "caustics")
     free("Water", "caustics")
     bpy.data.objects.remove(w2)
     bpy.context.view_layer.update()  # (as the UI evaluates after a delete)
-    check(slots() == {"Ground": ["GroundMat"], "Water": []}, f"slots {slots()}")
+    want = {"Ground": ["GroundMat"], "Water": ["GroundMat"] if shared else []}
+    check(slots() == want and all(s.link == "DATA" for s in w.material_slots),
+          f"slots {slots()}, Links {[s.link for s in w.material_slots]}")
     check("hydrobake_empty_slot" not in w.data, "the mesh keeps its empty-slot mark")
-    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
-          "no deleted object's bake left to remove")
-    clean()
-elif case == "linked_copy_deleted_floor_shared":  # 34: as 33, the pool showing the ground's
-    # floor material: the pool's Free keeps its clean copy while the copy's floor nodes are
-    # in the shared material; the copy deleted while baked takes them out, and the pool
-    # shows the floor material again (monkey --more --delete-baked 1620)
-    w = pool()
-    w.data.materials.append(bpy.data.materials["GroundMat"])
-    w2 = in_blender.duplicate(w, linked=True)
-    bake(w2.name, "caustics")
-    bake("Water", "caustics")
-    free("Water", "caustics")
-    bpy.data.objects.remove(w2)
-    bpy.context.view_layer.update()  # (as the UI evaluates after a delete)
-    check(slots() == {"Ground": ["GroundMat"], "Water": ["GroundMat"]} and
-          w.material_slots[0].link == "DATA",
-          f"slots {slots()}, Link {w.material_slots[0].link}")
     check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
           "no deleted object's bake left to remove")
     clean()
