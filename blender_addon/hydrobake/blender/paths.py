@@ -127,6 +127,39 @@ def after_save():
     _saving_from.clear()
     if old and here() and os.path.normcase(old) != os.path.normcase(here()):
         _rebase(lambda folder, _base: os.path.normpath(os.path.join(old, folder[2:])))
+        repoint_data([old])
+
+
+def repoint_data(bases=None):
+    """The images and volumes of the bakes the file records, whose relative paths lead
+    nowhere, pointed at their files again, found from ``bases`` (default: the folders the
+    records say the .blend was in). A Save As with Remap Relative off keeps every relative
+    path as it was, now relative to the new folder (measured: a glass's normal maps missing
+    from the saved file and the session, the render without its drops)."""
+    folders, recorded = [], set()
+    for obj in bpy.data.objects:
+        if obj.library is not None:
+            continue
+        for group, _key, base_key, folder, _rebuild in _records(obj):
+            if folder:
+                full = resolve(folder, group.get(base_key))
+                folders.append(os.path.join(os.path.normcase(
+                    os.path.dirname(full) if os.path.isfile(full) else full), ""))
+            if group.get(base_key):
+                recorded.add(group[base_key])
+    for block in (*bpy.data.images, *bpy.data.volumes):
+        path = block.filepath
+        if block.library is not None or not path.startswith("//") or \
+                os.path.exists(bpy.path.abspath(path)):
+            continue
+        for base in bases if bases is not None else sorted(recorded):
+            there = os.path.normpath(os.path.join(base, path[2:]))
+            if os.path.exists(there) and os.path.normcase(there).startswith(tuple(folders)):
+                try:
+                    block.filepath = bpy.path.relpath(there)
+                except ValueError:  # another drive (Windows): absolute
+                    block.filepath = there
+                break
 
 
 def _rebase(full_of):

@@ -16,9 +16,11 @@ def _cancel_on_load(*_args):
 
 @bpy.app.handlers.persistent
 def _refresh_on_load(*_args):
-    """The objects' addresses are new in an opened file: tell bakes their holders again."""
-    from . import jobs
+    """The objects' addresses are new in an opened file: tell bakes their holders again. The
+    bakes' images and volumes are found again where a Save As left their paths behind."""
+    from . import jobs, paths
     jobs.refresh_holders()
+    paths.repoint_data()
 
 
 @bpy.app.handlers.persistent

@@ -3,7 +3,8 @@ appended into a file elsewhere still finds its bakes: Blender rebases its own re
 (images, volumes) there, and the addon's recorded folders follow. Phase "bake" bakes a fluid
 (a mesh sequence, a Volume) and the fixture effect (an image sequence) in ``<tmp>/a`` into the
 default relative cache, then saves as ``<tmp>/b/shot.blend`` and a copy as
-``<tmp>/c/x/copy.blend``; phase "check" opens each of those, a file in ``<tmp>/d`` that
+``<tmp>/c/x/copy.blend``, and with Remap Relative off a copy as ``<tmp>/r/s/norel.blend``
+and the file as ``<tmp>/f/g/h.blend``; phase "check" opens each of those, a file in ``<tmp>/d`` that
 appends the objects, and one in ``<tmp>/e`` that links them from the project moved whole."""
 import os
 
@@ -77,9 +78,18 @@ if phase == "bake":
         for group, key, base in records():
             assert in_a(group[key]), (sub, group[key])
             assert group[base] == os.path.join(tmp, "b"), (sub, group[base])
+    # Remap Relative off: Blender keeps its relative paths as they were (a copy from b, and
+    # the session saved as f/g/h.blend); the bakes' images and volumes are found again, in
+    # the session and when the files are opened.
+    for sub, name, copy in ((os.path.join("r", "s"), "norel.blend", True),
+                            (os.path.join("f", "g"), "h.blend", False)):
+        os.makedirs(os.path.join(tmp, sub))
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, sub, name), copy=copy,
+                                    relative_remap=False)
+        assert_found(f"after saving {sub} without remapping", cache)
     print("SAVED ELSEWHERE BAKED")
 else:
-    for blend in ("b/shot.blend", "c/x/copy.blend"):
+    for blend in ("b/shot.blend", "c/x/copy.blend", "r/s/norel.blend", "f/g/h.blend"):
         bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, blend))
         assert_found(blend, cache)
     # Saved while the bakes are out of reach (a drive not mounted), b keeps where they are.
