@@ -9,6 +9,8 @@ invariants checked after every step:
 * every object whose settings say is_baked has a folder with a valid, complete or resumable
   manifest whose listed files (frames and checkpoints) exist and match their SHA-256, and
   nothing else but the manifest in it (no temporaries, no lock, no unlisted frame);
+* every image and volume of a bake that something uses reads a file that exists (a Save As
+  with Remap Relative off left them relative to the folder the file was in);
 * no bake folder on disk that no object records, unless it was freed on purpose (a
   superseded folder of a renamed object waits for the save; a deleted object's stays);
 * whenever nothing is baked: every object and material is as it was before its first bake
@@ -292,6 +294,8 @@ class Monkey:
     def __init__(self, seed, tmp, effects, subprocess_ok=True, delete_baked=False):
         self.seed, self.tmp, self.effects = seed, tmp, effects
         self.rng = random.Random(seed)
+        # Draws added since: their own generator, so that the fixed seeds' sequences stay.
+        self.rng2 = random.Random(seed + 100003)
         self.subprocess_ok, self.delete_baked = subprocess_ok, delete_baked
         self.log = []
         self.blend = None
@@ -336,6 +340,12 @@ class Monkey:
                 folder = s.bake_folder
                 self.check_folder(o.name, e, folder)
                 recorded.add(os.path.realpath(folder))
+        for block in (*bpy.data.images, *bpy.data.volumes):  # (a bake's, shown: its file)
+            if block.name.startswith("HBK") and block.filepath and block.users and \
+                    block.library is None and \
+                    not os.path.exists(bpy.path.abspath(block.filepath)):
+                raise Violation("missing-file", f"{block.name} reads {block.filepath}, "
+                                                "which leads nowhere")
         allowed = {os.path.realpath(f) for f in self.abandoned}
         # By design a bake sent to another folder on purpose (the command line's --output, all
         # under the farm folder) replaces nothing and is replaced by nothing: the bake it took
@@ -834,13 +844,14 @@ class Monkey:
         bpy.ops.wm.open_mainfile(filepath=self.blend)
         return "reopened"
 
-    def do_save_as(self, folder, copy=False):
-        """File > Save As (or Save Copy, then opening the copy) into ``folder`` of the run's."""
+    def do_save_as(self, folder, copy=False, remap=True):
+        """File > Save As (or Save Copy, then opening the copy) into ``folder`` of the run's,
+        with Remap Relative on or off."""
         self.left_behind |= {os.path.realpath(f) for f in self.bake_folders_on_disk()}
         where = os.path.join(self.tmp, folder)
         os.makedirs(where, exist_ok=True)
         path = os.path.join(where, "monkey.blend")
-        bpy.ops.wm.save_as_mainfile(filepath=path, copy=copy)
+        bpy.ops.wm.save_as_mainfile(filepath=path, copy=copy, relative_remap=remap)
         if copy:
             bpy.ops.wm.open_mainfile(filepath=path)
         self.blend = path
@@ -989,7 +1000,7 @@ class Monkey:
                      "kind": rng.choice(("move", "exclude", "hide"))}]
         if op == "save_as":
             return [{"op": "save_as", "folder": rng.choice(("", "s1", os.path.join("s2", "deep"))),
-                     "copy": rng.random() < 0.4}]
+                     "copy": rng.random() < 0.4, "remap": self.rng2.random() < 0.6}]
         if op == "bake":
             return [{"op": "bake", "name": name, "effect": effect}]
         if op == "free":
