@@ -275,7 +275,11 @@ def slots_of(o):
 def obj_state(o, name_of=slot_name):
     # A DROPPED slot goes only where no other slot follows it; before one it stays, empty:
     # the artist's slots keep their indices, which the faces use (monkey --more 1357).
-    slots = [(link, name_of(m)) for link, m in slots_of(o)]
+    # A clean copy standing for the mesh's material (name_of gives that one's name) stands
+    # on the object's own slot of a shared mesh: the slot's Link is the mesh's then (1738).
+    slots = [("DATA" if m is not None and m.get("hydrobake_link_was") == "DATA" and
+              name_of(m) == m.get("hydrobake_copy_of") else link, name_of(m))
+             for link, m in slots_of(o)]
     while slots and slots[-1][1] is DROPPED:
         slots.pop()
     return {
