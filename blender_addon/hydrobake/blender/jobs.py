@@ -394,12 +394,16 @@ def free(context, obj, effect_name):
     if not settings.is_baked:
         # No record: nothing of this object's is wired (a bake is wired when recorded), and
         # its slots may be a baked object's (a freed Shift+D copy). Only files a bake of this
-        # object left unrecorded (Blender died before it finished) are removed.
+        # object left unrecorded (Blender died before it finished) are removed; not those of
+        # an object of that name deleted while baked, which the file still shows and undo
+        # brings back (monkey --more --delete-baked 1673).
         try:
             m = cache.read_manifest()
         except ValueError:
             m = None
-        return cache.free() if m is not None and m.get("object") == obj.name else []
+        if m is None or m.get("object") != obj.name or paths.shown_from(folder):
+            return []
+        return cache.free()
     # Unwired before the files go: if unwiring fails, the bake and its record stay as they
     # were (the files had been deleted under a record that still named them). Under the
     # folder's lock, so that no other process bakes into it meanwhile.

@@ -186,6 +186,24 @@ def _rebase(full_of):
                 group[base_key] = now
 
 
+def shown_from(folder):
+    """Whether an image, a volume or a recorded mesh sequence of the file reads files in
+    ``folder`` (a deleted object's bake, its wiring still in the file)."""
+    top = os.path.join(os.path.normcase(os.path.abspath(folder)), "")
+
+    def under(path, library=None):
+        return os.path.join(os.path.normcase(os.path.abspath(
+            bpy.path.abspath(path, library=library))), "").startswith(top)
+    if any(b.filepath and under(b.filepath, b.library)
+           for b in (*bpy.data.images, *bpy.data.volumes)):
+        return True
+    from .bridge import frame_meshes
+    return any(isinstance(o.get(frame_meshes.PROP), str) and
+               under(resolve(o[frame_meshes.PROP].split("|", 2)[1],
+                             o.get(frame_meshes.PROP_BASE), o.library))
+               for o in bpy.data.objects)
+
+
 def relink(folder, recorded):
     """Records the paths a bake's wiring gave its data (absolute, under ``folder``) the way
     ``recorded`` is: relative ones stay relative."""

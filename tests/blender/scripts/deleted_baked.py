@@ -3,7 +3,8 @@ showed (taken out then, by a handler, Undo would not bring it back); the panel o
 given such a material says so, and Remove Deleted Objects' Bakes (File > Clean Up) takes it
 out as the Free would have: the materials are as before the bake, the deleted object's own
 material copies, flakes and images go, the files stay. A Shift+D copy holding the same bake
-keeps it. (Monkey seed 159.)"""
+keeps it (monkey seed 159); an object later given the deleted one's name frees its files
+only once the file no longer shows them."""
 import os
 
 import bpy
@@ -102,6 +103,22 @@ assert remove() == {"FINISHED"}
 assert "GlassMat (Glass)" not in bpy.data.materials, "the deleted glass's copy stayed"
 assert state(shared) == before and [s.material for s in bpy.data.objects["Pane"].material_slots] \
     == [shared]
+
+# A glass deleted while baked and another object given its name: the newcomer's Free (it
+# records no bake) leaves the deleted glass's files while the file shows them (undo brings
+# the glass back with them), and removes them once Remove has taken them out of the file
+# (monkey --more --delete-baked 1673).
+lens_folder = bake(glass("Lens", in_blender.node_material("LensMat")).name, "rain")
+delete("Lens")
+newcomer = glass("Lens", None)
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Lens") == {"FINISHED"}
+assert os.path.isfile(os.path.join(lens_folder, "normal_0001.exr")), \
+    "a Free of an object of the same name removed the deleted glass's files"
+assert remove("rain") == {"FINISHED"}
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Lens") == {"FINISHED"}
+assert not os.path.exists(os.path.join(lens_folder, "manifest.json")), \
+    "the files nothing shows stayed"
+bpy.data.objects.remove(newcomer)
 
 # A pool: the floor's caustics go with the delete (a handler; the floor's material changes
 # with it, and Undo brings them back), the water's values and wiring with Remove.
