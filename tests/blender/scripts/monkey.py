@@ -471,7 +471,7 @@ class Monkey:
         return bpy.ops.hydrobake.remove_deleted_bakes()
 
     def shows_deleted(self, mat):
-        if self.removed_deleted or mat.node_tree is None:
+        if self.removed_deleted or mat is None or mat.node_tree is None:
             return False
         images = [n.image.name for n in mat.node_tree.nodes
                   if n.get("hydrobake") and getattr(n, "image", None) is not None]
@@ -482,14 +482,15 @@ class Monkey:
         deleted while baked is that material: by design the copy stands in the slot until
         Remove Deleted Objects' Bakes takes the wiring out (seeds 767, 769). A material made
         for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790),
-        unless another slot follows it (obj_state)."""
+        unless another slot follows it (obj_state); so is a clean copy of a material made
+        for a bake that only a deleted object's bake wires now (1673)."""
         if mat is not None and self.of_deleted(mat.get("hydrobake_copy_of", mat.name)):
             return DROPPED
         shared = bpy.data.materials.get(mat["hydrobake_copy_of"]) \
             if mat is not None and "hydrobake_copy_of" in mat else None
         if shared is not None and self.shows_deleted(shared) and not (mat.node_tree and any(
                 n.get("hydrobake") for n in mat.node_tree.nodes)):
-            return shared.name
+            return DROPPED if "hydrobake_made" in shared else shared.name
         return slot_name(mat)
 
     def check_clean(self, compare=True):
@@ -513,8 +514,11 @@ class Monkey:
                 left = [x for x in left if not self.image_only_orphans_hold(bpy.data.images[x[0]])]
             left = [x for x in left if not self.of_deleted(x[0], what)]
             if what == "material":  # a copy own() made, named after the shared material,
-                # wired by a deleted object's bake (monkey --more --delete-baked 1696)
-                left = [x for x in left if not self.shows_deleted(bpy.data.materials[x[0]])]
+                # wired by a deleted object's bake (monkey --more --delete-baked 1696), or a
+                # clean one standing for a material that is (1673: see stands_for)
+                left = [x for x in left if not self.shows_deleted(bpy.data.materials[x[0]])
+                        and not self.shows_deleted(bpy.data.materials.get(
+                            bpy.data.materials[x[0]].get("hydrobake_copy_of", "")))]
             if what == "material":  # the shared flake material of a deleted object's flakes
                 users = bpy.data.user_map(subset=[bpy.data.materials[x[0]] for x in left])
                 left = [x for x in left if not users[bpy.data.materials[x[0]]] or not all(
