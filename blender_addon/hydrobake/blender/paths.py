@@ -54,6 +54,13 @@ def here():
     return os.path.dirname(os.path.abspath(bpy.data.filepath)) if bpy.data.filepath else ""
 
 
+def _inside(path, folders):
+    """Whether the absolute ``path`` is in one of ``folders`` (absolute), or is one."""
+    key = os.path.join(os.path.normcase(os.path.abspath(path)), "")
+    return any(key.startswith(os.path.join(os.path.normcase(os.path.abspath(f)), ""))
+               for f in folders)
+
+
 def resolve(raw, base=None, library=None):
     """A folder or file the addon recorded, absolute. A relative ('//') one is taken from the
     .blend's folder, else from ``base``, the folder the .blend was in when it was recorded,
@@ -143,8 +150,7 @@ def repoint_data(bases=None):
         for group, _key, base_key, folder, _rebuild in _records(obj):
             if folder:
                 full = resolve(folder, group.get(base_key))
-                folders.append(os.path.join(os.path.normcase(
-                    os.path.dirname(full) if os.path.isfile(full) else full), ""))
+                folders.append(os.path.dirname(full) if os.path.isfile(full) else full)
             if group.get(base_key):
                 recorded.add(group[base_key])
     for block in (*bpy.data.images, *bpy.data.volumes):
@@ -154,7 +160,7 @@ def repoint_data(bases=None):
             continue
         for base in bases if bases is not None else sorted(recorded):
             there = os.path.normpath(os.path.join(base, path[2:]))
-            if os.path.exists(there) and os.path.normcase(there).startswith(tuple(folders)):
+            if os.path.exists(there) and _inside(there, folders):
                 try:
                     block.filepath = bpy.path.relpath(there)
                 except ValueError:  # another drive (Windows): absolute
@@ -189,11 +195,8 @@ def _rebase(full_of):
 def shown_from(folder):
     """Whether an image, a volume or a recorded mesh sequence of the file reads files in
     ``folder`` (a deleted object's bake, its wiring still in the file)."""
-    top = os.path.join(os.path.normcase(os.path.abspath(folder)), "")
-
     def under(path, library=None):
-        return os.path.join(os.path.normcase(os.path.abspath(
-            bpy.path.abspath(path, library=library))), "").startswith(top)
+        return _inside(bpy.path.abspath(path, library=library), [folder])
     if any(b.filepath and under(b.filepath, b.library)
            for b in (*bpy.data.images, *bpy.data.volumes)):
         return True
@@ -216,11 +219,9 @@ def make_relative(root):
     volumes, baked mesh sequences and bake folders (a farm's wiring step; Blender's own
     'Make Paths Relative' would change the artist's other paths too). A path on another
     drive (Windows) stays absolute."""
-    top = os.path.normcase(os.path.join(os.path.abspath(bpy.path.abspath(root)), ""))
-
     def rel(path):
         full = os.path.abspath(bpy.path.abspath(path))
-        if not path or not os.path.normcase(os.path.join(full, "")).startswith(top):
+        if not path or not _inside(full, [bpy.path.abspath(root)]):
             return path
         try:
             return bpy.path.relpath(full)
