@@ -44,13 +44,19 @@ def test_identical_bake_passes(golden, tmp_path, capsys):
     assert "PASSED" in (tmp_path / "rep" / "report.html").read_text()
 
 
-def test_a_changed_bake_fails_with_the_channel_and_a_picture(golden, tmp_path, capsys):
+def _raised_copy(golden, tmp_path, frame, delta):
+    """A copy of the golden set whose wave frame ``frame`` is ``delta`` higher."""
     new = tmp_path / "new"
     shutil.copytree(golden, new)
-    p = new / "shot" / "Plane_testwave" / "wave_0002.exr"
+    p = new / "shot" / "Plane_testwave" / f"wave_{frame:04d}.exr"
     ch = exr.read(p)
-    ch["height"] = ch["height"] + 0.01
+    ch["height"] = ch["height"] + delta
     exr.write(p, ch, half=("R", "G", "B"))
+    return new
+
+
+def test_a_changed_bake_fails_with_the_channel_and_a_picture(golden, tmp_path, capsys):
+    new = _raised_copy(golden, tmp_path, 2, 0.01)
     os.remove(new / "shot" / "Plane_testwave" / "wave_0003.exr")
     rep_dir = tmp_path / "rep"
     assert regress.main([str(new), str(golden), "--report", str(rep_dir)]) == 1
@@ -63,12 +69,7 @@ def test_a_changed_bake_fails_with_the_channel_and_a_picture(golden, tmp_path, c
 
 
 def test_tolerances_per_effect_and_stream(golden, tmp_path):
-    new = tmp_path / "new"
-    shutil.copytree(golden, new)
-    p = new / "shot" / "Plane_testwave" / "wave_0001.exr"
-    ch = exr.read(p)
-    ch["height"] = ch["height"] + 1e-3
-    exr.write(p, ch, half=("R", "G", "B"))
+    new = _raised_copy(golden, tmp_path, 1, 1e-3)
     loose = {"testwave": {"wave": {"max_abs": 1e-2}}}
     assert regress.compare(new, golden, loose)["passed"]
     strict = {"testwave": {"wave": {"max_abs": 1e-4}}}
@@ -98,12 +99,7 @@ def test_tolerances_that_would_check_less_are_refused(golden, table, want):
 def test_a_stream_without_tolerances_is_a_regression_not_a_pass(golden, tmp_path):
     """A table naming other effects only left the bake's streams unchecked: it passed
     whatever the files held."""
-    new = tmp_path / "new"
-    shutil.copytree(golden, new)
-    p = new / "shot" / "Plane_testwave" / "wave_0001.exr"
-    ch = exr.read(p)
-    ch["height"] = ch["height"] + 1.0
-    exr.write(p, ch, half=("R", "G", "B"))
+    new = _raised_copy(golden, tmp_path, 1, 1.0)
     rep = regress.compare(new, golden, {"snow": {"*": {"max_abs": 1.0}}})
     assert not rep["passed"]
     assert "no tolerance for testwave/wave: name it, testwave/*, or */* in the tolerances" in \

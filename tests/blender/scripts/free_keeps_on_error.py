@@ -10,12 +10,7 @@ import in_blender
 in_blender.enable()
 from hydrobake.blender import effects  # noqa: E402
 
-in_blender.empty_file("keep.blend")
-glass = in_blender.uv_plane("Glass")
-s = glass.hydrobake_rain
-s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
-s.rain.cell_size = 0.05
-assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
+s = in_blender.baked_glass("keep.blend")
 folder = bpy.path.abspath(s.bake_folder)
 files = sorted(os.listdir(folder))
 

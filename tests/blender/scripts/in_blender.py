@@ -97,6 +97,17 @@ def dam_break(resolution, textures=2, frames=(1, 2), substeps=4):
     return domain, fill, s
 
 
+def baked_glass(blend):
+    """Saves the session as ``blend`` (empty_file) and bakes one frame of rain on a plane
+    "Glass" with a coarse rain grid; returns the plane's rain settings."""
+    empty_file(blend)
+    s = uv_plane("Glass").hydrobake_rain
+    s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
+    s.rain.cell_size = 0.05
+    assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
+    return s
+
+
 def snow(obj, frames, density, texture=64):
     """The object's snow settings for a small test bake: enabled, the frame range, the
     Flake Density (flakes per m³ of the Auto Volume; a 2 m cube's is about 100 m³ in the

@@ -9,12 +9,7 @@ import in_blender
 
 in_blender.enable()
 
-in_blender.empty_file("arguments.blend")
-glass = in_blender.uv_plane("Glass")
-s = glass.hydrobake_rain
-s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
-s.rain.cell_size = 0.05
-assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
+s = in_blender.baked_glass("arguments.blend")
 cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
 bpy.context.scene.collection.objects.link(cam)
 
