@@ -111,6 +111,20 @@ def _records(obj):
 
 
 _saving_from = []  # the .blend's folder when the save in progress began
+DATA_BASE = "hydrobake_base"  # on a bake's image or volume: the folder its '//' path is from
+
+
+def _in_bake_folder(path):
+    """Whether the file ``path`` lies in a bake folder (one with a manifest)."""
+    return os.path.isfile(os.path.join(os.path.dirname(path), "manifest.json"))
+
+
+def _bake_data():
+    """The file's own images and volumes whose relative paths lead into a bake folder."""
+    for block in (*bpy.data.images, *bpy.data.volumes):
+        if block.library is None and block.filepath.startswith("//") and \
+                _in_bake_folder(bpy.path.abspath(block.filepath)):
+            yield block
 
 
 def before_save():
@@ -124,6 +138,11 @@ def before_save():
         full = resolve(folder, base)
         return full if os.path.exists(full) else None
     _rebase(found)
+    # A bake's data records its base too: a deleted object's bake, still shown, has no
+    # record left to give repoint_data a base.
+    for block in _bake_data():
+        if block.get(DATA_BASE) != here():
+            block[DATA_BASE] = here()
 
 
 def after_save():
@@ -138,11 +157,14 @@ def after_save():
 
 
 def repoint_data(bases=None):
-    """The images and volumes of the bakes the file records, whose relative paths lead
-    nowhere, pointed at their files again, found from ``bases`` (default: the folders the
-    records say the .blend was in). A Save As with Remap Relative off keeps every relative
-    path as it was, now relative to the new folder (measured: a glass's normal maps missing
-    from the saved file and the session, the render without its drops)."""
+    """The images and volumes of the bakes the file records or shows, whose relative paths
+    lead nowhere, pointed at their files again, found from ``bases`` (default: the folders the
+    records, and the data's own, say the .blend was in). A Save As with Remap Relative off
+    keeps every relative path as it was, now relative to the new folder (measured: a glass's
+    normal maps missing from the saved file and the session, the render without its drops).
+    A file found in a bake folder no object records (a deleted object's bake) is taken only
+    for data that recorded a base when saved (DATA_BASE): an artist's own image is never
+    repointed into a bake."""
     folders, recorded = [], set()
     for obj in bpy.data.objects:
         if obj.library is not None:
@@ -158,9 +180,12 @@ def repoint_data(bases=None):
         if block.library is not None or not path.startswith("//") or \
                 os.path.exists(bpy.path.abspath(path)):
             continue
-        for base in bases if bases is not None else sorted(recorded):
+        own = block.get(DATA_BASE)
+        tried = bases if bases is not None else sorted(recorded | ({own} if own else set()))
+        for base in tried:
             there = os.path.normpath(os.path.join(base, path[2:]))
-            if os.path.exists(there) and _inside(there, folders):
+            if os.path.exists(there) and (_inside(there, folders) or
+                                          (own and _in_bake_folder(there))):
                 try:
                     block.filepath = bpy.path.relpath(there)
                 except ValueError:  # another drive (Windows): absolute

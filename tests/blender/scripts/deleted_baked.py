@@ -160,4 +160,31 @@ except RuntimeError as exc:
     assert "effect = 'nope': must be one of caustics" in str(exc), exc
 assert "draw_cleanup_menu" in [f.__name__ for f in
                                bpy.types.TOPBAR_MT_file_cleanup._dyn_ui_initialize()]
+
+
+def shown_missing():
+    return [(b.name, b.filepath) for b in (*bpy.data.images, *bpy.data.volumes)
+            if b.name.startswith("HBK") and b.users and
+            not os.path.exists(bpy.path.abspath(b.filepath))]
+
+
+# A deleted glass's bake still shown by its material on another object, the file saved into
+# other folders with Remap Relative off: no object records the bake, yet its images are
+# found again, after a Save As and in a copy once opened (monkey --more --delete-baked
+# --elsewhere 7017).
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+lamp_mat = in_blender.node_material("LampMat")
+bake(glass("Lamp", lamp_mat).name, "rain")
+delete("Lamp")
+in_blender.uv_plane("Shade").data.materials.append(lamp_mat)
+assert any(b.name.startswith("HBK_Lamp") for b in bpy.data.images) and not shown_missing()
+bpy.ops.wm.save_mainfile()
+for sub, copy in (("far", True), ("other", False)):
+    os.makedirs(os.path.join(tmp, sub, "deeper"))
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, sub, "deeper", "moved.blend"),
+                                copy=copy, relative_remap=False)
+    assert not shown_missing(), f"after saving into {sub}: {shown_missing()}"
+bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, "far", "deeper", "moved.blend"))
+assert not shown_missing(), f"the copy, opened: {shown_missing()}"
 print("DELETED BAKED OK")
