@@ -5,6 +5,8 @@ import os
 
 import bpy
 
+from ..core.bake.cache import MANIFEST
+
 
 class CacheFolderError(ValueError):
     pass
@@ -116,7 +118,7 @@ DATA_BASE = "hydrobake_base"  # on a bake's image or volume: the folder its '//'
 
 def _in_bake_folder(path):
     """Whether the file ``path`` lies in a bake folder (one with a manifest)."""
-    return os.path.isfile(os.path.join(os.path.dirname(path), "manifest.json"))
+    return os.path.isfile(os.path.join(os.path.dirname(path), MANIFEST))
 
 
 def _bake_data():
