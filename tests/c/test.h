@@ -108,6 +108,7 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(caustics, view_uv)                 \
     X(caustics, lit_ground)              \
     X(caustics, tiny_extent)             \
+    X(caustics, huge_extent_dispersive)  \
     X(caustics, cancel)                  \
     X(caustics, workspace_reuse)         \
     X(caustics, paths_same_bytes)        \

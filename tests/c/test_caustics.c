@@ -541,6 +541,31 @@ void test_caustics_tiny_extent(void)
     free(out.v);
 }
 
+void test_caustics_huge_extent_dispersive(void)
+{
+    /* A map 170 km wide with dispersion: some pass draws no loose triangle of a group, whose
+     * rows stayed [+inf, -inf] and reached the int64 conversion (undefined; found by a fuzz
+     * of parameter combinations under UBSan). Drawn nowhere: the map as before, finite. */
+    grid_t w = grid_new(8, 8, 1), g = grid_new(8, 8, 1), out = grid_new(16, 16, 4);
+    for (int i = 0; i < 64; ++i) {
+        w.v[i] = 0.02f * sinf((float)i * 0.7f);
+        g.v[i] = -1.0f;
+    }
+    hbk_caustics_params_t p = sun(0.0, 0.0);
+    p.auto_extent = 0;
+    p.extent[0] = -170795.18f;
+    p.extent[1] = 0.0f;
+    p.extent[2] = p.extent[3] = 0.8f;
+    p.ior[0] = p.ior[2] = 1.333f;
+    p.ior[1] = 3.0f;
+    hbk_message_t m;
+    CHECK_OK(hbk_caustics_render(&p, &w.img, &g.img, 0.1f, &out.img, NULL, NULL, &m));
+    for (int i = 0; i < 16 * 16 * 4; ++i) CHECK(isfinite(out.v[i]));
+    free(w.v);
+    free(g.v);
+    free(out.v);
+}
+
 void test_caustics_lit_ground(void)
 {
     grid_t tex = grid_new(8, 6, 4), map = grid_new(4, 3, 3), out = grid_new(8, 6, 4);

@@ -114,22 +114,15 @@ static void group_rows(const hbk_caustics_ctx_t *c, group_t *gr)
         return;
     }
     for (int32_t i = gr->i0; i < gr->i0 + gr->n; ++i) {
+        if (!c->loose[i].used[g]) continue;
         double a, b;
-        if (gr->kind == IT_LOOSE) {
-            if (!c->loose[i].used[g]) continue;
-            loose_rows(&c->loose[i], g, &a, &b);
-        } else {
-            size_t v0, v1;
-            edge_verts(c, gr->kind, gr->j, i, &v0, &v1);
-            const double y0 = c->ipy[g][v0], y1 = c->ipy[g][v1];
-            if (y0 == y1) continue;
-            a = ffloor(y0 < y1 ? y0 : y1);
-            b = -ffloor(-(y0 < y1 ? y1 : y0));
-        }
+        loose_rows(&c->loose[i], g, &a, &b);
         lo = a < lo ? a : lo;
         hi = b > hi ? b : hi;
     }
-    if (!(lo > -1e9 && hi < 1e9)) lo = hi = 0.0; /* empty, or absurd coordinates */
+    /* Empty (no triangle used in this pass: lo stays +inf, which no cast may take), or
+     * absurd coordinates: drawn nowhere. */
+    if (!(lo <= hi && lo > -1e9 && hi < 1e9)) lo = hi = 0.0;
     gr->lo = (int64_t)lo;
     gr->hi = (int64_t)hi;
 }
