@@ -147,6 +147,9 @@ def test_loop_is_seamless_and_resumes(tmp_path):
             (tmp_path / "c" / f"caustics_{i:04d}.exr").read_bytes()
     with pytest.raises(errors.InvalidArgument, match="loop blend = 16"):
         get("caustics")(params, {"loop": (1, 16, 16)})
+    with pytest.raises(errors.InvalidArgument, match=r"^loop = frames 5\.\.5: a loop needs at "
+                       "least 2 frames"):  # not "loop blend = 1: must be in [1, 0]"
+        get("caustics")(params, {"loop": (5, 5, 1)})
 
 
 def test_view_image_shows_the_lit_ground_and_reflects_the_sky():

@@ -78,6 +78,11 @@ class CausticsEffect(Effect):
         self.preroll = None  # surfaces of the `blend` frames before the first (loop only)
         if self.loop is not None:
             first, last, blend = (int(v) for v in self.loop)
+            if last <= first:  # no blend is allowed then: say what is wrong
+                self.close()
+                raise errors.InvalidArgument(
+                    f"loop = frames {first}..{last}: a loop needs at least 2 frames (bake a "
+                    "longer frame range, or turn Loop off)")
             if not 1 <= blend <= last - first:
                 self.close()
                 raise errors.InvalidArgument(
