@@ -526,8 +526,13 @@ def regress(args):
 
 def free(args):
     for obj, name in targets(args.objects, args.effects):
+        folder = jobs.folder_of(obj, name)
         removed = jobs.free(bpy.context, obj, name)
         print(f"hydrobake: {obj.name}/{name} freed {len(removed)} files", flush=True)
+        why = jobs.unreadable_manifest(folder)
+        if why:
+            print(f"hydrobake: {obj.name}/{name}: {why}: its files are kept (delete the folder "
+                  "by hand)", file=sys.stderr, flush=True)
     if bpy.data.filepath and not _save():
         return 1
     return 0

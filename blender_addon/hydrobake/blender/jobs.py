@@ -233,7 +233,10 @@ class Job:
         if obj is None:  # deleted while baking: the files stay, nothing to wire
             return
         settings = settings_of(obj, self.effect_name)
-        manifest = BakeCache(self.folder).read_manifest()
+        try:
+            manifest = BakeCache(self.folder).read_manifest()
+        except ValueError:  # edited by hand: the bake refused it, and nothing is wired from it
+            return
         if manifest and manifest["frames"]:
             old_name, old_folder = settings.get("baked_as", obj.name), settings.bake_folder
             if self.copy_of is not None:
@@ -375,11 +378,28 @@ def bake_state(obj, effect_name):
     return "COMPLETE" if m.get("complete") else "PARTIAL"
 
 
+def folder_of(obj, effect_name):
+    """The folder of the object's bake: the recorded one, else where a bake would go."""
+    settings = settings_of(obj, effect_name)
+    return settings.bake_folder or paths.bake_folder(obj, effect_name, settings)
+
+
+def unreadable_manifest(folder):
+    """Why the manifest in ``folder`` cannot be read (edited by hand, not ours), or None (it
+    reads, or there is none): a free then keeps every file, since it removes only what a
+    manifest names."""
+    try:
+        BakeCache(folder).read_manifest()
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 def free(context, obj, effect_name):
     """Removes the bake's files (and nothing else) and unwires it."""
     settings = settings_of(obj, effect_name)
     beffect = effects.get(effect_name)
-    folder = settings.bake_folder or paths.bake_folder(obj, effect_name, settings)
+    folder = folder_of(obj, effect_name)
     others = holders(folder, effect_name, but=obj)
     if others:  # others record this bake too (Shift+D copies): its files stay for them
         if settings.is_baked:

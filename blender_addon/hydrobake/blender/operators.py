@@ -204,6 +204,7 @@ class HYDROBAKE_OT_free_bake(_EffectTarget, bpy.types.Operator):
             self.report({"ERROR"}, "Cancel the running bake first")
             return {"CANCELLED"}
         try:
+            folder = jobs.folder_of(obj, self.effect)
             removed = jobs.free(context, obj, self.effect)
         except (KeyError, paths.CacheFolderError, OSError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
@@ -214,6 +215,9 @@ class HYDROBAKE_OT_free_bake(_EffectTarget, bpy.types.Operator):
                         f"({type(exc).__name__}: {exc}); its files and record are kept")
             return {"CANCELLED"}
         self.report({"INFO"}, f"Freed {len(removed)} files")
+        why = jobs.unreadable_manifest(folder)
+        if why:
+            self.report({"WARNING"}, f"{why}: its files are kept (delete the folder by hand)")
         return {"FINISHED"}
 
 

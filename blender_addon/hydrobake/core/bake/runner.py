@@ -192,7 +192,10 @@ class BakeRunner:
         """(manifest, first frame to bake) continuing an earlier bake in the folder: from the
         last checkpoint up to which every frame is present and passes its checksum."""
         s = self.state
-        m = self.cache.read_manifest()
+        try:
+            m = self.cache.read_manifest()
+        except ValueError as exc:  # (a bake error like the others: callers report those)
+            raise errors.StateError(f"cannot resume: {exc}; free it or bake anew") from exc
         if m is None:
             return self.cache.start(header), s.frame_start
         for key in ("effect", "streams", "frame_start", "params", "inputs"):
