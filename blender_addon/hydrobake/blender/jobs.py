@@ -232,11 +232,10 @@ class Job:
                 del s[BAKING]
         if obj is None:  # deleted while baking: the files stay, nothing to wire
             return
+        if self.runner.state.status == "FAILED" and self.runner.state.frame is None:
+            return  # refused before a frame (a resume that does not match): all as it was
         settings = settings_of(obj, self.effect_name)
-        try:
-            manifest = BakeCache(self.folder).read_manifest()
-        except ValueError:  # edited by hand: the bake refused it, and nothing is wired from it
-            return
+        manifest = BakeCache(self.folder).read_manifest()
         if manifest and manifest["frames"]:
             old_name, old_folder = settings.get("baked_as", obj.name), settings.bake_folder
             if self.copy_of is not None:

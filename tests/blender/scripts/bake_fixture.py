@@ -93,4 +93,20 @@ assert sorted(os.listdir(folder)) == before and settings.is_baked
 # (the report is checked by the test, in Blender's output).
 assert bpy.ops.hydrobake.free_bake(effect="testwave", object_name="Glass") == {"FINISHED"}
 assert sorted(os.listdir(folder)) == before and not settings.is_baked
+
+# A resume refused for another reason (a record the file lost, a manifest that differs from
+# the settings) changes nothing either: it neither records nor wires that bake (it wired it
+# from the manifest's own values, which failed for a fluid's edited texture count).
+assert bpy.ops.hydrobake.bake(effect="testwave", object_name="Glass") == {"FINISHED"}
+m = json.load(open(os.path.join(folder, "manifest.json")))
+m["frame_start"] = 2
+json.dump(m, open(os.path.join(folder, "manifest.json"), "w"))
+settings.is_baked, settings.bake_folder = False, ""  # the record lost
+try:
+    bpy.ops.hydrobake.bake(effect="testwave", object_name="Glass", resume=True)
+    raise AssertionError("a resume of another frame range went on")
+except RuntimeError as exc:
+    assert "cannot resume the bake in " in str(exc) and "frame_start: 2 in the bake, 1 now" \
+        in str(exc), exc
+assert not settings.is_baked and not settings.bake_folder, "a refused resume recorded the bake"
 print("BAKE FIXTURE OK", len(done), "frames kept after cancel")
