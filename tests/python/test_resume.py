@@ -291,3 +291,15 @@ def test_snow_resumed_between_given_transforms_is_bit_identical(tmp_path):
     r.run()
     e.close()
     assert r.resumed_from == 5 and exrs(cut) == exrs(ref)
+
+
+def test_a_refusal_shows_values_as_set_and_any_number_quietly():
+    """float32 parameters as the artist typed them; a manifest number past float32 (edited
+    by hand) as it is, with no overflow warning from the conversion (a manifest fuzz)."""
+    import warnings
+    from hydrobake.core.bake.runner import _show
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _show(9.8100004196167) == "9.81"
+        assert _show([1e308, -1e39, 2.5]) == "[1e+308, -1e+39, 2.5]"
+        assert _show(None) == "none" and _show("x") == "x"

@@ -415,6 +415,9 @@ def _first_difference(there, here, path=""):
     return f"{path or 'value'}: {_show(there)} in the bake, {_show(here)} now"
 
 
+FLT_MAX = float(np.finfo(np.float32).max)
+
+
 def _show(value):
     """A manifest value as the user set it: a float32 parameter (9.8100004196167 in the
     manifest) as 9.81."""
@@ -422,7 +425,7 @@ def _show(value):
         return "none"
     if isinstance(value, str):
         return value
-    if isinstance(value, float) and math.isfinite(value):
+    if isinstance(value, float) and math.isfinite(value) and abs(value) <= FLT_MAX:
         short = float(np.format_float_positional(np.float32(value), unique=True, trim="-"))
         if float(np.float32(short)) == value:  # exactly a float32: its shortest form
             return json.dumps(short)
