@@ -109,7 +109,8 @@ def on_frame(scene, *_args):
                 load(obj, frame)
             except Exception as exc:  # noqa: BLE001
                 # A damaged file must not stop the other sequences from following the frame.
-                print(f"Hydrobake: {obj.name}: frame {frame}: {exc}")
+                print(f"Hydrobake: {obj.name}: frame {frame}: damaged file ({exc}); Resume "
+                      "the bake to bake it again")
 
 
 def ensure_handler():
