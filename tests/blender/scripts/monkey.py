@@ -44,6 +44,7 @@ import in_blender  # noqa: E402
 
 in_blender.enable()
 from hydrobake.blender import cli, jobs, paths  # noqa: E402
+from hydrobake.blender import effects as hb_effects  # noqa: E402
 from hydrobake.core import errors  # noqa: E402
 from hydrobake.core.bake.cache import BakeCache, file_checksum  # noqa: E402
 
@@ -344,6 +345,15 @@ class Monkey:
                 folder = s.bake_folder
                 self.check_folder(o.name, e, folder)
                 recorded.add(os.path.realpath(folder))
+        for o in bpy.data.objects:  # every panel draws, whatever the file has become
+            for e in EFFECTS:
+                if not hb_effects.get(e).poll(o):
+                    continue
+                try:
+                    in_blender.panel_calls(o, e)
+                except Exception as exc:
+                    raise Violation("panel", f"{o.name} {e} panel: {type(exc).__name__}: "
+                                             f"{exc}") from exc
         for block in (*bpy.data.images, *bpy.data.volumes):  # (a bake's, shown: its file)
             if block.name.startswith("HBK") and block.filepath and block.users and \
                     block.library is None and \
