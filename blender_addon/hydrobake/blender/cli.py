@@ -529,10 +529,9 @@ def free(args):
         folder = jobs.folder_of(obj, name)
         removed = jobs.free(bpy.context, obj, name)
         print(f"hydrobake: {obj.name}/{name} freed {len(removed)} files", flush=True)
-        why = jobs.unreadable_manifest(folder)
-        if why:
-            print(f"hydrobake: {obj.name}/{name}: {why}: its files are kept (delete the folder "
-                  "by hand)", file=sys.stderr, flush=True)
+        kept = jobs.kept_after_free(folder)
+        if kept:
+            print(f"hydrobake: {obj.name}/{name}: {kept}", file=sys.stderr, flush=True)
     if bpy.data.filepath and not _save():
         return 1
     return 0

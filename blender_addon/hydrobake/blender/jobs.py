@@ -383,14 +383,14 @@ def folder_of(obj, effect_name):
     return settings.bake_folder or paths.bake_folder(obj, effect_name, settings)
 
 
-def unreadable_manifest(folder):
-    """Why the manifest in ``folder`` cannot be read (edited by hand, not ours), or None (it
-    reads, or there is none): a free then keeps every file, since it removes only what a
-    manifest names."""
+def kept_after_free(folder):
+    """What a free left in ``folder`` because its manifest cannot be read (edited by hand, not
+    ours: a free removes only what a manifest names), as a message; None if it reads, or there
+    is none."""
     try:
         BakeCache(folder).read_manifest()
     except ValueError as exc:
-        return str(exc)
+        return f"{exc}: its files are kept (delete the folder by hand)"
     return None
 
 

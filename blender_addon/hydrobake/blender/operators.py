@@ -215,9 +215,9 @@ class HYDROBAKE_OT_free_bake(_EffectTarget, bpy.types.Operator):
                         f"({type(exc).__name__}: {exc}); its files and record are kept")
             return {"CANCELLED"}
         self.report({"INFO"}, f"Freed {len(removed)} files")
-        why = jobs.unreadable_manifest(folder)
-        if why:
-            self.report({"WARNING"}, f"{why}: its files are kept (delete the folder by hand)")
+        kept = jobs.kept_after_free(folder)
+        if kept:
+            self.report({"WARNING"}, kept)
         return {"FINISHED"}
 
 
