@@ -29,8 +29,9 @@ def test_builtin_samples_repeat_every_uvw_unit(blender, tmp_path):
 def test_frames_without_fluid_and_bad_inputs_named(blender, tmp_path):
     r = blender.run("fluid_edges.py", tmp_path)
     assert "FLUID EMPTY FRAMES OK" in r.stdout and "FLUID REFUSALS OK" in r.stdout, r.stdout
-    assert "Hydrobake: AAA broken: frame 4: damaged file (File is not a zip file); Resume the " \
-        "bake to bake it again" in r.stdout, r.stdout[-3000:]
+    said = [line for line in r.stdout.splitlines() if line.startswith("Hydrobake: AAA broken")]
+    assert len(said) == 1 and said[0].startswith("Hydrobake: AAA broken: frame 4: damaged file (") \
+        and said[0].endswith("); Resume the bake to bake it again"), r.stdout[-3000:]
 
 
 def test_paint_captured_from_the_surface_lands_where_it_was_painted(blender, tmp_path):
