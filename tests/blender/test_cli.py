@@ -33,6 +33,18 @@ def test_bake_all_enabled_with_output_override(blender, tmp_path):
     r = blender.run("cli_fixture.py", "free", "--objects", "Glass", "--effects", "testwave",
                     blend=blend)
     assert "Glass/testwave freed" in r.stdout
+    # A manifest edited by hand out of shape: free keeps what it names, and says so.
+    folder = out / "shot" / "Rear_testwave"
+    m = json.loads((folder / "manifest.json").read_text())
+    m["frames"]["2"] = None
+    (folder / "manifest.json").write_text(json.dumps(m))
+    r = blender.run("cli_fixture.py", "free", "--objects", "Rear", "--effects", "testwave",
+                    blend=blend)
+    assert "Rear/testwave freed 0 files" in r.stdout, r.stdout
+    assert "manifest.json: unreadable manifest (frame 2: not a list of files): its files are " \
+        "kept (delete the folder by hand)" in r.stderr, r.stderr
+    assert sorted(p.name for p in folder.iterdir()) == ["manifest.json"] + [
+        f"wave_{i:04d}.exr" for i in (2, 3, 4, 5)]
 
 
 def test_errors_exit_non_zero_with_the_message_on_stderr(blender, tmp_path):
