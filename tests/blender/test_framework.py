@@ -111,3 +111,8 @@ def test_deleted_objects_bakes_are_shown_and_removed_on_request(blender, tmp_pat
 def test_operator_arguments_that_name_nothing_are_refused_by_name(blender, tmp_path):
     r = blender.run("operator_arguments.py", tmp_path)
     assert "OPERATOR ARGUMENTS OK" in r.stdout
+
+
+def test_linked_objects_and_overrides_are_baked_in_their_library(blender, tmp_path):
+    r = blender.run("linked_objects.py", tmp_path)
+    assert "LINKED OBJECTS OK" in r.stdout

@@ -165,6 +165,10 @@ def targets(objects=None, effect_names=None):
             if settings is None or not beffect.poll(obj) or \
                     (not objects and not obj.users_collection):  # (deleted: Job refuses it)
                 continue
+            if not objects and settings.enabled and jobs.foreign(obj):  # its library's
+                print(f"hydrobake: {obj.name}/{name} skipped: {jobs.foreign(obj)}",
+                      file=sys.stderr, flush=True)
+                continue
             if settings.enabled or (objects and effect_names):
                 out.append((obj, name))
     return out
@@ -544,8 +548,11 @@ def list_(args):
         for name in known:
             s = getattr(obj, f"hydrobake_{name}", None)
             if s is not None and (s.enabled or s.is_baked):
+                lib = obj.library or (obj.override_library and obj.override_library.reference
+                                      and obj.override_library.reference.library)
                 print(f"{obj.name}/{name}: enabled={s.enabled} baked={s.is_baked} "
-                      f"folder={s.bake_folder or '-'}")
+                      f"folder={s.bake_folder or '-'}" +
+                      (f" library={lib.filepath}" if lib else ""))
     return 0
 
 

@@ -22,6 +22,23 @@ def settings_of(obj, effect_name):
     return getattr(obj, f"hydrobake_{effect_name}")
 
 
+def foreign(obj):
+    """Why this file cannot keep a bake record on the object, or None. A linked object's
+    settings are read from its library at every open, and so are a library override's (its
+    Hydrobake settings are not overridable): a bake or free recorded here would be lost on
+    the next save, and its material wiring left half in each file."""
+    if obj.library is not None:
+        return (f"{obj.name} is linked from {obj.library.filepath}, which keeps its bake "
+                "record: bake or free it in that file, or make it local here (Object > "
+                "Relations > Make Local)")
+    if obj.override_library is not None:
+        return (f"{obj.name} is a library override; its Hydrobake settings come from the "
+                "library file at every open, so a bake recorded here would be lost: bake or "
+                "free it in the library file, or make it local (Object > Relations > Make "
+                "Local)")
+    return None
+
+
 def frame_range(scene, settings):
     if settings.use_scene_range:
         return scene.frame_start, scene.frame_end
@@ -139,6 +156,8 @@ class Job:
     def __init__(self, context, obj, effect_name, frames=None, folder_override=None,
                  threads=None, scene=None, resume=False):
         scene = scene or context.scene
+        if foreign(obj):
+            raise ValueError(foreign(obj))
         if not obj.users_collection:  # deleted, and kept only by a pointer to itself
             raise ValueError(f"{obj.name}: in no collection (deleted?); the next save would "
                              "drop it and leave its bake behind: link it to a collection to "
@@ -396,6 +415,8 @@ def kept_after_free(folder):
 
 def free(context, obj, effect_name):
     """Removes the bake's files (and nothing else) and unwires it."""
+    if foreign(obj):  # its record, wiring and files are the library's
+        raise ValueError(foreign(obj))
     settings = settings_of(obj, effect_name)
     beffect = effects.get(effect_name)
     folder = folder_of(obj, effect_name)

@@ -240,6 +240,9 @@ class HYDROBAKE_OT_apply_preset(_EffectTarget, bpy.types.Operator):
                                    f"{', '.join(sorted(beffect.presets)) or 'it has none'})")
             return {"CANCELLED"}
         settings = jobs.settings_of(obj, self.effect)
+        if jobs.foreign(obj):
+            self.report({"ERROR"}, jobs.foreign(obj))
+            return {"CANCELLED"}
         if settings.is_baked:
             self.report({"ERROR"}, "Free the bake before changing its settings")
             return {"CANCELLED"}

@@ -14,8 +14,10 @@ def draw_effect(layout, context, beffect):
     layout.use_property_decorate = False
     job = jobs.running(obj, beffect.name)
 
-    row = layout.row(align=True)
-    if job is not None:
+    row, op = layout.row(align=True), None
+    if job is None and jobs.foreign(obj):
+        _draw_foreign(row, obj)
+    elif job is not None:
         s = job.runner.state
         frame = s.frame if s.frame is not None else s.frame_start
         eta = s.eta()
@@ -33,15 +35,16 @@ def draw_effect(layout, context, beffect):
             op = row.operator("hydrobake.bake", text="Resume", icon="PLAY")
             op.effect, op.object_name, op.resume = beffect.name, obj.name, True
         op = row.operator("hydrobake.bake", text="Bake", icon="RENDER_ANIMATION")
-    op.effect, op.object_name = beffect.name, obj.name
+    if op is not None:
+        op.effect, op.object_name = beffect.name, obj.name
     _draw_deleted_bakes(layout, obj, beffect)
-    if not settings.is_baked and job is None:
+    if not settings.is_baked and job is None and op is not None:
         _draw_left_out(layout, context, obj, settings, beffect)
     if settings.is_baked and job is None:
         layout.label(text=f"Baked in {bpy.path.relpath(settings.bake_folder)}", icon="CHECKMARK")
         _draw_eevee_refraction(layout, context, beffect)
 
-    locked = settings.is_baked or job is not None
+    locked = settings.is_baked or job is not None or jobs.foreign(obj) is not None
     col = layout.column()
     col.enabled = not locked
     col.prop(settings, "cache_dir")
@@ -60,6 +63,16 @@ def draw_effect(layout, context, beffect):
             op.effect, op.object_name, op.preset = beffect.name, obj.name, name
     box = col.box()
     beffect.draw_settings(box, settings)
+
+
+def _draw_foreign(row, obj):
+    """A linked object or library override: its library keeps its bake (see jobs.foreign)."""
+    if obj.library is not None:
+        row.label(text=f"Linked from {bpy.path.basename(obj.library.filepath)}: bake it "
+                       "there, or Make Local", icon="LINKED")
+    else:
+        row.label(text="Library override: bake it in its library file, or Make Local",
+                  icon="LIBRARY_DATA_OVERRIDE")
 
 
 def _draw_eevee_refraction(layout, context, beffect):

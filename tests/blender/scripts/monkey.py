@@ -820,6 +820,10 @@ class Monkey:
         while Blender does not evaluate it)."""
         obj = self.obj(name)
         scene = bpy.context.scene
+        # Hidden (H) is a flag of the object's place in the view layer: a move gives it a new
+        # one, an excluded collection none (hide_get is False then): Blender's, not a bake's
+        # (monkey 7065).
+        self.touched(name, "vis")
         if kind == "move":
             self.counter += 1
             coll = bpy.data.collections.new(f"Coll{self.counter}")
