@@ -39,6 +39,22 @@ def foreign(obj):
     return None
 
 
+def linked_parts(beffect, obj, settings):
+    """Why the bake could not be wired in this file, or None: a mesh or material its wiring
+    changes is linked from a library (an object made local alone keeps them so), and would
+    come back from there, unwired, at the next open."""
+    for o in beffect.wired_objects(obj, settings):
+        parts = [(f"{o.name}'s mesh", o.data)] + [
+            (f"{o.name}'s material '{slot.material.name}'", slot.material)
+            for slot in o.material_slots if slot.material is not None]
+        for what, block in parts:
+            if block is not None and block.library is not None:
+                return (f"{what} is linked from {block.library.filepath}, so the bake's "
+                        "wiring could not be saved in it: make it local too (Object > "
+                        "Relations > Make Local > Selected Objects, Data and Materials)")
+    return None
+
+
 def frame_range(scene, settings):
     if settings.use_scene_range:
         return scene.frame_start, scene.frame_end
@@ -183,8 +199,8 @@ class Job:
         if resume and self.copy_of is not None:
             raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
                              f"record is a copy of {self.copy_of.name}'s); bake it anew")
-        wrong = unoffered(settings)  # a script's setattr skips the panel's choice
-        if wrong:
+        wrong = unoffered(settings) or linked_parts(self.beffect, obj, settings)
+        if wrong:  # (unoffered: a script's setattr skips the panel's choice)
             raise ValueError(wrong)
         groups = self.beffect.core_class().groups()
         params = properties.to_params(groups, settings)
@@ -364,8 +380,8 @@ def free_superseded():
 
 def _free_replaced(settings, effect_name):
     """Frees the bakes ``settings`` records as replaced (see supersede) and forgets them: each
-    only if made for that name and effect and recorded by no object now. Returns the files
-    removed."""
+    only if made for that name and effect, by this file, and recorded by no object now.
+    Returns the files removed."""
     pending = _superseded(settings)
     settings.pop(SUPERSEDED, None)
     removed = []
@@ -377,9 +393,19 @@ def _free_replaced(settings, effect_name):
             old = cache.read_manifest()
         except ValueError:
             continue
-        if old and old.get("object") == name and old.get("effect") == effect_name:
+        if old and old.get("object") == name and old.get("effect") == effect_name and \
+                _made_here(old):
             removed += cache.free()
     return removed
+
+
+def _made_here(manifest):
+    """Whether the bake was made by this .blend, or by one no longer where it was (moved
+    with its project). A bake another file made is that file's too, and may be all it has:
+    saved as shot_v2.blend, a glass renamed and re-baked there freed shot.blend's bake."""
+    blend = manifest.get("blend")
+    return not blend or not bpy.data.filepath or not os.path.exists(blend) or \
+        _same_folder(blend, bpy.data.filepath)
 
 
 def bake_state(obj, effect_name):
@@ -403,13 +429,16 @@ def folder_of(obj, effect_name):
 
 
 def kept_after_free(folder):
-    """What a free left in ``folder`` because its manifest cannot be read (edited by hand, not
-    ours: a free removes only what a manifest names), as a message; None if it reads, or there
-    is none."""
+    """What a free left in ``folder``, as a message: a bake whose manifest cannot be read
+    (edited by hand, not ours: a free removes only what a manifest names), or that another
+    .blend made (see free); None if there is none."""
     try:
-        BakeCache(folder).read_manifest()
+        m = BakeCache(folder).read_manifest()
     except ValueError as exc:
         return f"{exc}: its files are kept (delete the folder by hand)"
+    if m is not None and not _made_here(m):
+        return (f"{m['blend']} made this bake and may still show it: its files in {folder} "
+                "are kept (free it there, or delete the folder by hand)")
     return None
 
 
@@ -441,16 +470,23 @@ def free(context, obj, effect_name):
             m = cache.read_manifest()
         except ValueError:
             m = None
-        if m is None or m.get("object") != obj.name or paths.shown_from(folder):
+        if m is None or m.get("object") != obj.name or paths.shown_from(folder) or \
+                not _made_here(m):
             return []
         return cache.free()
+    # Made by another .blend still on disk (this one saved from it as a new version): that
+    # one may still show it, so this file lets go of it and its files stay (kept_after_free).
+    try:
+        theirs = not _made_here(cache.read_manifest() or {})
+    except ValueError:
+        theirs = False  # (what cannot be read is kept by cache.free anyway)
     # Unwired before the files go: if unwiring fails, the bake and its record stay as they
     # were (the files had been deleted under a record that still named them). Under the
     # folder's lock, so that no other process bakes into it meanwhile.
     with cache.locked():
         beffect.remove(context, obj, settings)
         forget(obj, effect_name)
-        removed = cache.free()
+        removed = [] if theirs else cache.free()
     with contextlib.suppress(OSError):
         os.rmdir(cache.folder)  # only if empty: never remove what is not ours
     # The bakes this one replaced under an older name, kept for the saved file until the next

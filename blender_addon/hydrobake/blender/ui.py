@@ -105,8 +105,9 @@ def _draw_deleted_bakes(layout, obj, beffect):
 
 
 def _draw_left_out(layout, context, obj, settings, beffect):
-    """Objects the bake reads that the view layer leaves out (not evaluated): the Bake would
-    refuse them, so say which before it is pressed."""
+    """Objects the bake reads that the view layer leaves out (not evaluated), and a linked mesh
+    or material it would wire: the Bake would refuse them, so say which before it is
+    pressed."""
     left = [o.name if role is None else f"{role}: {o.name}"
             for role, o in beffect.evaluated_inputs(obj, settings)
             if not depsgraph.enabled(context.view_layer, o)]
@@ -115,6 +116,14 @@ def _draw_left_out(layout, context, obj, settings, beffect):
         col.alert = True
         col.label(text=f"Not evaluated in this view layer: {', '.join(left)}", icon="ERROR")
         col.label(text="Turn on Show In > Viewports and include its collection to bake",
+                  icon="BLANK1")
+    linked = jobs.linked_parts(beffect, obj, settings)
+    if linked:  # its first words name the part, the rest what to do
+        part = linked.partition(", so ")[0]
+        col = layout.column(align=True)
+        col.alert = True
+        col.label(text=part, icon="LINKED")
+        col.label(text="Make Local > Selected Objects, Data and Materials to bake",
                   icon="BLANK1")
 
 

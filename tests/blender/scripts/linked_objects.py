@@ -1,7 +1,8 @@
 """A linked object and a library override keep their bake record in the library file: Bake,
 Free Bake and presets refuse them by name (a bake recorded here was lost on the next save,
 and a free could have removed the library's files), the panel says where to bake instead,
-and the command line leaves them out unless named."""
+and the command line leaves them out unless named. An object made local alone is refused
+while the mesh or material its bake would wire is still linked."""
 import contextlib
 import hashlib
 import io
@@ -102,6 +103,34 @@ said, buttons, icons = panel(over)
 assert "Library override: bake it in its library file, or Make Local" in said, said
 assert not {"hydrobake.bake", "hydrobake.free_bake"} & set(buttons), buttons
 assert icons <= set(icon_names), icons - set(icon_names)
+
+# Made local alone, the object keeps the library's mesh and material, which the wiring would
+# change: refused, naming each, until they are local too; then it bakes here.
+bpy.ops.wm.read_homefile(use_empty=True)
+bpy.ops.wm.save_as_mainfile(filepath=shot)
+with bpy.data.libraries.load(os.path.join(tmp, "lib.blend"), link=True) as (src, dst):
+    dst.objects = ["Glass"]
+bpy.context.scene.collection.objects.link(dst.objects[0])
+own = dst.objects[0].make_local()
+assert own.library is None and own.data.library is not None
+jobs.forget(own, "rain")  # (the library's record, copied: its bake is not this file's)
+for part, make_local in ((f"Glass's mesh is linked from {own.data.library.filepath}",
+                          lambda: own.data.make_local()),
+                         ("Glass's material 'HBK_Glass_glass' is linked from",
+                          lambda: own.material_slots[0].material.make_local())):
+    said, buttons, icons = panel(own)
+    assert any(x.startswith(part) for x in said) and "hydrobake.bake" in buttons, said
+    assert icons <= set(icon_names), icons - set(icon_names)
+    refused(bpy.ops.hydrobake.bake, part)
+    unchanged()
+    make_local()
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
+assert own.hydrobake_rain.bake_folder.startswith(os.path.join(tmp, "hydrobake_cache", "shot"))
+bpy.ops.wm.save_mainfile()
+assert files(lib_folder) == kept
+bpy.ops.wm.open_mainfile(filepath=shot)
+said, buttons, icons = panel(bpy.data.objects["Glass"])
+assert bpy.data.objects["Glass"].hydrobake_rain.is_baked and "hydrobake.free_bake" in buttons
 
 # In the library file itself the object is its own: freed and baked there.
 bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, "lib.blend"))

@@ -2,7 +2,9 @@
 folder is freed when the new bake is complete and the file saved. A renamed glass whose
 re-bake was cancelled keeps its old bake (a partial bake replaces nothing yet) until the
 resumed re-bake completes. Free Bake frees the bakes the freed one replaced, saved or not. A
-bake sent to another folder on purpose (another Cache Folder, --output) replaces nothing."""
+bake sent to another folder on purpose (another Cache Folder, --output) replaces nothing, nor
+does one an earlier version of the file made (saved from it as shot_v2.blend), whose Free in
+the new version lets go of it and keeps its files."""
 import os
 
 import bpy
@@ -109,4 +111,37 @@ assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass2") == {"FINISHED
 assert folder() != old
 save()
 assert os.path.isdir(old) and os.path.isdir(folder())
+
+# Saved as a new version (shot_v2.blend beside the first), renamed and re-baked there: the
+# first version still records its bake, which stays, at the save and at Free Bake; a bake the
+# new version made itself is replaced as before.
+v1 = os.path.join(tmp, "superseded.blend")
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "superseded_v2.blend"))
+s = bpy.data.objects["Glass2"].hydrobake_rain
+first = folder()
+bpy.data.objects["Glass2"].name = "Glass3"
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass3") == {"FINISHED"}
+save()
+assert os.path.isdir(first) and os.listdir(first), "the first version's bake was freed"
+v2_own = folder()
+bpy.data.objects["Glass3"].name = "Glass4"
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass4") == {"FINISHED"}
+save()
+assert not os.path.exists(v2_own) and os.path.isdir(first)
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass4") == {"FINISHED"}
+assert os.path.isdir(first) and os.listdir(first)
+bpy.ops.wm.open_mainfile(filepath=v1)
+assert jobs.bake_state(bpy.data.objects["Glass2"], "rain") == "COMPLETE"
+# Freed in a version saved from it, the first version's bake is let go of, its files kept.
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "superseded_v3.blend"))
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass2") == {"FINISHED"}
+assert not bpy.data.objects["Glass2"].hydrobake_rain.is_baked
+assert os.path.isdir(first) and os.listdir(first)
+assert jobs.kept_after_free(first) == (
+    f"{v1} made this bake and may still show it: its files in {first} are kept (free it "
+    "there, or delete the folder by hand)"), jobs.kept_after_free(first)
+bpy.ops.wm.open_mainfile(filepath=v1)
+assert jobs.bake_state(bpy.data.objects["Glass2"], "rain") == "COMPLETE"
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Glass2") == {"FINISHED"}
+assert not os.path.exists(first)  # freed where it was made
 print("SUPERSEDED FOLDERS OK")

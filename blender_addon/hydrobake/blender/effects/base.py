@@ -180,6 +180,12 @@ class BlenderEffect:
         return []
 
     @classmethod
+    def wired_objects(cls, obj, settings):
+        """The objects whose meshes and materials apply changes to wire the bake in: the
+        object itself unless the effect wires objects of its own."""
+        return [obj]
+
+    @classmethod
     def derived(cls, settings):
         """{"group.name": why} of the parameters that prepare sets itself from other
         settings, as snow's Auto Volume sets the volume and the flake count: drawn inactive,

@@ -198,6 +198,11 @@ class CausticsBlender(BlenderEffect):
                                           ("Source", settings.source_object)) if o is not None]
 
     @classmethod
+    def wired_objects(cls, obj, settings):
+        ground = settings.ground_object
+        return [obj] + ([ground] if ground is not None and ground.type == "MESH" else [])
+
+    @classmethod
     def prepare(cls, context, obj, settings, params, frames):
         scene = context.scene
         grid = cls.grid(obj, params["water"]["width"])

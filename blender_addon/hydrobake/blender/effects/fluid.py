@@ -165,6 +165,10 @@ class FluidBlender(BlenderEffect):
         )
 
     @classmethod
+    def wired_objects(cls, obj, settings):
+        return []  # the surface and Volume it makes are its own
+
+    @classmethod
     def evaluated_inputs(cls, obj, settings):
         source = settings.fluid.source
         if source == "PARTICLES" and settings.particle_object is not None:
