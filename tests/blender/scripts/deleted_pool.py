@@ -62,4 +62,33 @@ owners = {n.get(materials.OWNER) for n in floor.node_tree.nodes if n.get(materia
 assert owners == {"Pool B"}, f"the saved floor holds {owners}"
 assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Pool B") == {"FINISHED"}
 assert not floor_nodes()
+
+# The ground deleted and the file saved and opened (its floor material, unused, goes),
+# then the pool (surface displaced, a projector): its projector and grid Empty are all it
+# leaves, and they go with it; the water's wiring goes with Remove Deleted Objects' Bakes.
+ground = bpy.data.objects["Ground"]
+c = pool("Pool C", ground)
+c.hydrobake_caustics.displace_surface = True
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool C") == {"FINISHED"}
+helpers = ("HBK_Pool C_projector", "HBK_Pool C_grid")
+assert all(name in bpy.data.objects for name in helpers)
+bpy.data.objects.remove(ground)
+for _ in range(2):  # the mesh goes at the first save, its material, then unused, at the next
+    bpy.ops.wm.save_mainfile()
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, "deleted_pool.blend"))
+assert "Tiles" not in bpy.data.materials
+bpy.data.objects.remove(bpy.data.objects["Pool C"])
+bpy.context.view_layer.update()
+
+
+def left_of(pool):
+    return [o.name for o in bpy.data.objects if o.name.startswith(f"HBK_{pool}_")] + \
+        [b.name for blocks in (bpy.data.images, bpy.data.lights, bpy.data.textures)
+         for b in blocks if b.name.startswith(f"HBK_{pool}_")]
+
+
+assert sorted(left_of("Pool C")) == ["HBK_Pool C_height", "HBK_Pool C_height",
+                                     "HBK_Pool C_surface"], left_of("Pool C")
+assert bpy.ops.hydrobake.remove_deleted_bakes(effect="caustics") == {"FINISHED"}
+assert not left_of("Pool C"), left_of("Pool C")
 print("DELETED POOL OK")

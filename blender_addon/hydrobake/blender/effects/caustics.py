@@ -567,10 +567,21 @@ class CausticsBlender(BlenderEffect):
         floors, with the pools' projector, grid and images: no object records those pools
         now. Their files stay, as any deleted object's bake; undo brings pool and wiring
         back together (measured in the UI). Returns the pools' names."""
-        gone = cls.deleted_bakes(cls._floor_owners())
+        gone = cls.deleted_bakes(cls._floor_owners() | cls._helper_owners())
         for pool in sorted(gone):
             cls._forget_floors(pool)
         return gone
+
+    @staticmethod
+    def _helper_owners():
+        """The pools whose projector or grid Empty (apply's helper objects) is in the file:
+        with the ground deleted first, they are all a deleted pool leaves (monkey --more
+        --delete-baked 7076, 7077)."""
+        helpers = [(o.name, o.type) for o in bpy.data.objects] + \
+            [(light.name, "LIGHT") for light in bpy.data.lights]
+        return {name[4:-len(suffix)] for name, kind in helpers
+                for suffix, want in (("_projector", "LIGHT"), ("_grid", "EMPTY"))
+                if kind == want and name.startswith("HBK_") and name.endswith(suffix)}
 
     @staticmethod
     def _floor_owners():
@@ -594,8 +605,9 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def wired_names(cls):
-        """The pools the floors' nodes are for, and those whose surface a water shows."""
-        return cls._floor_owners() | cls.shown_in()
+        """The pools the floors' nodes are for, those whose surface a water shows, and those
+        whose helper objects are in the file."""
+        return cls._floor_owners() | cls.shown_in() | cls._helper_owners()
 
     @classmethod
     def forget(cls, pool):
@@ -603,10 +615,10 @@ class CausticsBlender(BlenderEffect):
         grid and images."""
         materials.forget(pool, "caustics.", {f"HBK_{pool}_surface"},
                          lambda tree: materials.remove_tagged(tree, "caustics.", owner=None))
-        cls._forget_floors(pool)
         height = bpy.data.textures.get(f"HBK_{pool}_height")  # the pool's Displace's
         if height is not None and height.users == 0:
-            bpy.data.textures.remove(height)
+            bpy.data.textures.remove(height)  # (first: its image goes with the others then)
+        cls._forget_floors(pool)
 
     @staticmethod
     def _remove_helpers(prefix):
