@@ -116,3 +116,8 @@ def test_operator_arguments_that_name_nothing_are_refused_by_name(blender, tmp_p
 def test_linked_objects_and_overrides_are_baked_in_their_library(blender, tmp_path):
     r = blender.run("linked_objects.py", tmp_path)
     assert "LINKED OBJECTS OK" in r.stdout
+
+
+def test_a_bake_another_file_made_in_the_folder_is_left_to_it(blender, tmp_path):
+    r = blender.run("other_files_bakes.py", tmp_path)
+    assert "OTHER FILES BAKES OK" in r.stdout

@@ -195,6 +195,11 @@ class Job:
                 f"name or in this folder ({into}) (it was renamed, or is a Shift+D "
                 f"copy keeping the record); free or re-bake {holder.name} first, or "
                 "rename this object")
+        other = None if resume else made_elsewhere(self.folder)
+        if other is not None:  # a bake would replace that file's
+            raise ValueError(f"{self.folder} holds a {effect_name} bake that {other} made, "
+                             "which may still show it: free it there, or set another Cache "
+                             "Folder")
         self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
         if resume and self.copy_of is not None:
             raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
@@ -220,8 +225,8 @@ class Job:
         if resume and settings.bake_folder and not folder_override:
             self.folder = settings.bake_folder  # continue where the bake actually is
         self.recorded = paths.stored(self.folder, settings, folder_override)  # in the file
-        self.runner = BakeRunner(effect, self.folder, start, end, resume=resume,
-                                 header={"object": obj.name, "blend": bpy.data.filepath})
+        self.runner = BakeRunner(effect, self.folder, start, end, resume=resume, header={
+            "object": obj.name, "blend": bpy.data.filepath, "folder": self.folder})
         # The object is marked, so that the bake finds it again if it is renamed meanwhile
         # (and never takes another object given its old name).
         self.token, self.pointer = uuid.uuid4().hex, obj.as_pointer()
@@ -394,18 +399,36 @@ def _free_replaced(settings, effect_name):
         except ValueError:
             continue
         if old and old.get("object") == name and old.get("effect") == effect_name and \
-                _made_here(old):
+                _made_here(old, folder):
             removed += cache.free()
     return removed
 
 
-def _made_here(manifest):
-    """Whether the bake was made by this .blend, or by one no longer where it was (moved
-    with its project). A bake another file made is that file's too, and may be all it has:
-    saved as shot_v2.blend, a glass renamed and re-baked there freed shot.blend's bake."""
+def _made_here(manifest, folder):
+    """Whether this file may take the bake in ``folder`` for its own: made by this .blend, by
+    one no longer where it was (moved with its project), or somewhere else than ``folder``
+    (a copy of the project: these files are the copy's). A bake another .blend on disk made in
+    this very folder is that file's too (this one saved from it as a new version, or both
+    baking into one absolute Cache Folder), and may be all it has: a versioned save, renamed
+    and re-baked, had freed the first version's bake."""
     blend = manifest.get("blend")
-    return not blend or not bpy.data.filepath or not os.path.exists(blend) or \
-        _same_folder(blend, bpy.data.filepath)
+    if not blend or not bpy.data.filepath or not os.path.exists(blend) or \
+            _same_folder(blend, bpy.data.filepath):
+        return True
+    made_in = manifest.get("folder")
+    if made_in is None:  # (recorded since 2026-11-27): where a relative Cache Folder puts it
+        return not os.path.realpath(folder).startswith(
+            os.path.join(os.path.realpath(os.path.dirname(blend)), ""))
+    return not _same_folder(made_in, folder)
+
+
+def made_elsewhere(folder):
+    """The other .blend whose bake ``folder`` holds (see _made_here), or None."""
+    try:
+        m = BakeCache(folder).read_manifest()
+    except ValueError:
+        return None
+    return m["blend"] if m is not None and not _made_here(m, folder) else None
 
 
 def bake_state(obj, effect_name):
@@ -433,11 +456,12 @@ def kept_after_free(folder):
     (edited by hand, not ours: a free removes only what a manifest names), or that another
     .blend made (see free); None if there is none."""
     try:
-        m = BakeCache(folder).read_manifest()
+        BakeCache(folder).read_manifest()
     except ValueError as exc:
         return f"{exc}: its files are kept (delete the folder by hand)"
-    if m is not None and not _made_here(m):
-        return (f"{m['blend']} made this bake and may still show it: its files in {folder} "
+    other = made_elsewhere(folder)
+    if other is not None:
+        return (f"{other} made this bake and may still show it: its files in {folder} "
                 "are kept (free it there, or delete the folder by hand)")
     return None
 
@@ -471,15 +495,12 @@ def free(context, obj, effect_name):
         except ValueError:
             m = None
         if m is None or m.get("object") != obj.name or paths.shown_from(folder) or \
-                not _made_here(m):
+                not _made_here(m, folder):
             return []
         return cache.free()
     # Made by another .blend still on disk (this one saved from it as a new version): that
     # one may still show it, so this file lets go of it and its files stay (kept_after_free).
-    try:
-        theirs = not _made_here(cache.read_manifest() or {})
-    except ValueError:
-        theirs = False  # (what cannot be read is kept by cache.free anyway)
+    theirs = made_elsewhere(folder) is not None  # (unreadable: cache.free keeps it anyway)
     # Unwired before the files go: if unwiring fails, the bake and its record stay as they
     # were (the files had been deleted under a record that still named them). Under the
     # folder's lock, so that no other process bakes into it meanwhile.
