@@ -278,8 +278,10 @@ class Job:
         manifest = BakeCache(self.folder).read_manifest()
         if manifest and manifest["frames"]:
             old_name, old_folder = settings.get("baked_as", obj.name), settings.bake_folder
-            if self.copy_of is not None:
-                pass  # the record was a copy of another object's bake: nothing of ours
+            if self.copy_of is not None:  # the record was a copy of another object's bake:
+                # nothing of ours, and its name is the original's, whose wiring (a fluid's
+                # surface and Volume) this bake took for its own (monkey --more 4001)
+                settings.pop("baked_as", None)
             else:
                 if old_name != obj.name:  # renamed: unwire the old
                     self.beffect.remove(context, obj, settings)

@@ -1,7 +1,8 @@
 """Bake records that do not own their bake: a Shift+D copy of a baked pool holds the
 original's record (folder, name, is_baked), and freeing or re-baking the copy must leave the
 original's files and wiring whole; a new object given a renamed pool's old name must not
-take that pool's bake (its files and wiring still go by the name) and is refused by name."""
+take that pool's bake (its files and wiring still go by the name) and is refused by name. A
+baked copy of a fluid domain makes its own surface and Volume."""
 import os
 
 import bpy
@@ -134,4 +135,17 @@ bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
 again = bpy.data.objects["Renamed"]
 s = again.hydrobake_caustics
 assert s.is_baked and s[jobs.HOLDER] == str(again.as_pointer())
+
+# A copy (Alt+D) of a baked fluid domain, baked: its own surface and Volume; the original's
+# still show the original's bake (the copy's record named them, and its bake took them).
+domain, _fill, fs = in_blender.dam_break((12, 6, 6))
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+surface, volume = bpy.data.objects["HBK_Domain_surface"], bpy.data.objects["HBK_Domain_volume"]
+shown = surface["hydrobake_sequence"], volume.data.filepath
+twin = in_blender.duplicate(domain, linked=True)
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name=twin.name) == {"FINISHED"}
+assert (surface["hydrobake_sequence"], volume.data.filepath) == shown, "the copy took them"
+own = bpy.data.objects[f"HBK_{twin.name}_volume"].data.filepath
+assert os.path.realpath(bpy.path.abspath(own)).startswith(
+    os.path.realpath(twin.hydrobake_fluid.bake_folder)), own
 print("COPIED AND RENAMED OK")
