@@ -2,7 +2,8 @@
 original's record (folder, name, is_baked), and freeing or re-baking the copy must leave the
 original's files and wiring whole; a new object given a renamed pool's old name must not
 take that pool's bake (its files and wiring still go by the name) and is refused by name. A
-baked copy of a fluid domain makes its own surface and Volume."""
+baked copy of a fluid domain makes its own surface and Volume, and one of a displaced pool
+keeps none of the original's modifiers."""
 import os
 
 import bpy
@@ -148,4 +149,25 @@ assert (surface["hydrobake_sequence"], volume.data.filepath) == shown, "the copy
 own = bpy.data.objects[f"HBK_{twin.name}_volume"].data.filepath
 assert os.path.realpath(bpy.path.abspath(own)).startswith(
     os.path.realpath(twin.hydrobake_fluid.bake_folder)), own
+
+# A displaced pool with a projector, copied (Shift+D: the copy holds its record and its
+# modifiers) and the copy baked without them (a script changes a baked object's settings):
+# the copy keeps nothing of the original's, and once both are freed nothing is left.
+deep = in_blender.new_plane("Deep")
+d = deep.hydrobake_caustics
+d.enabled, d.displace_surface, d.projector = True, True, True
+d.use_scene_range, d.frame_start, d.frame_end = False, 1, 2
+d.water.width, d.map_resolution = 16, 32
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Deep") == {"FINISHED"}
+twin = in_blender.duplicate(deep)
+assert twin.modifiers.get("HBK Displace") is not None  # copied with the object
+twin.hydrobake_caustics.displace_surface = twin.hydrobake_caustics.projector = False
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name=twin.name) == {"FINISHED"}
+assert not [m.name for m in twin.modifiers if m.name.startswith("HBK")], list(twin.modifiers)
+assert f"HBK_{twin.name}_projector" not in bpy.data.objects
+for name in ("Deep", twin.name):
+    assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=name) == {"FINISHED"}
+left = [b.name for blocks in (bpy.data.objects, bpy.data.textures, bpy.data.images,
+                              bpy.data.lights) for b in blocks if b.name.startswith("HBK_Deep")]
+assert not left, left
 print("COPIED AND RENAMED OK")

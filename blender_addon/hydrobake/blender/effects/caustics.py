@@ -345,10 +345,17 @@ class CausticsBlender(BlenderEffect):
             turn.inputs["Angle"].default_value = grid.angle
             tree.links.new(nm.outputs["Normal"], turn.inputs["Vector"])
             tree.links.new(turn.outputs["Vector"], bsdf.inputs["Normal"])
+        # Off, what an earlier bake made for them goes: a Shift+D copy's copied Displace
+        # read the original's heights, freed with it (monkey --more --delete-baked 7084), and
+        # a script may change a baked pool's settings before a re-bake.
         if settings.displace_surface:
             cls._displace(obj, folder, frames, grid)
+        else:
+            cls._undisplace(obj, f"HBK_{obj.name}")
         if settings.projector:
             cls._projector(context, obj, settings, folder, frames, grid)
+        else:
+            cls._remove_helpers(f"HBK_{obj.name}", ("projector",))
         if "view" in manifest.get("streams", []):
             images.load_unused_sequence(folder, "view", frames[0], len(frames),
                                         f"HBK_{obj.name}_view")
@@ -543,6 +550,23 @@ class CausticsBlender(BlenderEffect):
         tree.links.new(tex.outputs["Color"], emit.inputs["Color"])
 
     @classmethod
+    def _undisplace(cls, obj, prefix):
+        """The Subdivision and Displace modifiers, and the height texture and grid Empty of
+        the pool baked as ``prefix`` once nothing uses them."""
+        for name in ("HBK Displace", "HBK Subdivision"):
+            mod = obj.modifiers.get(name)
+            if mod is not None:
+                obj.modifiers.remove(mod)
+        height = bpy.data.textures.get(f"{prefix}_height")
+        if height is not None and height.users == 0:
+            bpy.data.textures.remove(height)
+        grid = bpy.data.objects.get(f"{prefix}_grid")
+        if grid is not None and not any(
+                m.type == "DISPLACE" and m.texture_coords_object == grid
+                for o in bpy.data.objects for m in o.modifiers):
+            bpy.data.objects.remove(grid)
+
+    @classmethod
     def let_go(cls, context, obj, settings, keep):
         for name in ("HBK Displace", "HBK Subdivision"):
             mod = obj.modifiers.get(name)
@@ -621,9 +645,9 @@ class CausticsBlender(BlenderEffect):
         cls._forget_floors(pool)
 
     @staticmethod
-    def _remove_helpers(prefix):
+    def _remove_helpers(prefix, which=("projector", "grid")):
         """The pool's projector (and its light) and its grid object."""
-        for name in (f"{prefix}_projector", f"{prefix}_grid"):
+        for name in (f"{prefix}_{helper}" for helper in which):
             if name in bpy.data.objects:
                 bpy.data.objects.remove(bpy.data.objects[name])
         light = bpy.data.lights.get(f"{prefix}_projector")
@@ -648,13 +672,7 @@ class CausticsBlender(BlenderEffect):
         pool = cls.baked_name(obj, settings)
         prefix = f"HBK_{pool}"
         cls._remove_helpers(prefix)
-        for name in ("HBK Displace", "HBK Subdivision"):
-            mod = obj.modifiers.get(name)
-            if mod is not None:
-                obj.modifiers.remove(mod)
-        height = bpy.data.textures.get(f"{prefix}_height")  # the Displace's, now unused
-        if height is not None and height.users == 0:
-            bpy.data.textures.remove(height)
+        cls._undisplace(obj, prefix)
         if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):  # from older bakes
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
         # The water's wiring wherever it is: in the pool's slots, and in materials taken out
