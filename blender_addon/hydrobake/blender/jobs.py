@@ -200,6 +200,14 @@ class Job:
             raise ValueError(f"{self.folder} holds a {effect_name} bake that {other} made, "
                              "which may still show it: free it there, or set another Cache "
                              "Folder")
+        gone = [] if resume or _same_folder(settings.bake_folder, self.folder) else [
+            n for n in sorted(self.beffect.deleted_bakes())
+            if paths.shown_from(self.folder, [f"HBK_{n}_"])]
+        if gone:  # the bake would change what Undo brings back with the deleted object
+            raise ValueError(f"{self.folder} holds the {effect_name} bake of deleted "
+                             f"{', '.join(repr(n) for n in gone)}, which this file still shows "
+                             "(Undo brings it back): take it out with File > Clean Up > "
+                             f"Remove Deleted Objects' Bakes first, or rename {obj.name}")
         self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
         if resume and self.copy_of is not None:
             raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "

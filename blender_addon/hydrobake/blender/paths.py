@@ -219,18 +219,20 @@ def _rebase(full_of):
                 group[base_key] = now
 
 
-def shown_from(folder):
-    """Whether an image, a volume or a recorded mesh sequence of the file reads files in
-    ``folder`` (a deleted object's bake, its wiring still in the file)."""
-    def under(path, library=None):
-        return _inside(bpy.path.abspath(path, library=library), [folder])
-    if any(b.filepath and under(b.filepath, b.library)
+def shown_from(folder, prefixes=None):
+    """Whether an image, a volume or a recorded mesh sequence of the file (one whose name
+    starts with one of ``prefixes``, if given) reads files in ``folder`` (a deleted object's
+    bake, its wiring still in the file)."""
+    def under(block, path, library=None):
+        return (prefixes is None or block.name.startswith(tuple(prefixes))) and \
+            _inside(bpy.path.abspath(path, library=library), [folder])
+    if any(b.filepath and under(b, b.filepath, b.library)
            for b in (*bpy.data.images, *bpy.data.volumes)):
         return True
     from .bridge import frame_meshes
     return any(isinstance(o.get(frame_meshes.PROP), str) and
-               under(resolve(o[frame_meshes.PROP].split("|", 2)[1],
-                             o.get(frame_meshes.PROP_BASE), o.library))
+               under(o, resolve(o[frame_meshes.PROP].split("|", 2)[1],
+                                o.get(frame_meshes.PROP_BASE), o.library))
                for o in bpy.data.objects)
 
 

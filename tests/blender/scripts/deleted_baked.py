@@ -187,4 +187,32 @@ for sub, copy in (("far", True), ("other", False)):
     assert not shown_missing(), f"after saving into {sub}: {shown_missing()}"
 bpy.ops.wm.open_mainfile(filepath=os.path.join(tmp, "far", "deeper", "moved.blend"))
 assert not shown_missing(), f"the copy, opened: {shown_missing()}"
+
+# The bake a Shift+D copy took over (its original freed, the copy resumed it after the file
+# was opened again) is in the original's folder; the copy deleted, the file still shows it
+# there: a new bake of the original is refused until Remove Deleted Objects' Bakes, so that
+# it does not change what Undo brings back (monkey --more --delete-baked --elsewhere 7103).
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+folder = bake(glass("Pane", None).name, "rain")
+in_blender.duplicate(bpy.data.objects["Pane"])
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Pane") == {"FINISHED"}
+bpy.ops.wm.save_mainfile()
+bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Pane.001", resume=True) == \
+    {"FINISHED"}
+delete("Pane.001")
+kept = sorted(os.listdir(folder))
+try:
+    bpy.ops.hydrobake.bake(effect="rain", object_name="Pane")
+    raise AssertionError("baked over a deleted object's bake the file shows")
+except RuntimeError as exc:
+    assert f"{folder} holds the rain bake of deleted 'Pane.001', which this file still shows " \
+        "(Undo brings it back): take it out with File > Clean Up > Remove Deleted Objects' " \
+        "Bakes first, or rename Pane" in str(exc), exc
+assert sorted(os.listdir(folder)) == kept and not shown_missing()
+assert remove("rain") == {"FINISHED"}
+bake("Pane", "rain")
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Pane") == {"FINISHED"}
+assert not shown_missing(), shown_missing()
 print("DELETED BAKED OK")
