@@ -435,7 +435,9 @@ def _bake(args, resume, stop):
     pairs = targets(args.objects, args.effects)
     undo = apply_overrides(pairs, getattr(args, "overrides", None))
     if not pairs:
-        raise KeyError("nothing to bake: no object has an enabled Hydrobake effect "
+        linked = " of this file (those of linked objects are baked in their libraries)" if \
+            any(jobs.foreign(o) for o in bpy.data.objects) else ""
+        raise KeyError(f"nothing to bake: no object{linked} has an enabled Hydrobake effect "
                        "(use --objects and --effects)")
     def not_started(rest):
         left = ", ".join(f"{o.name}/{n}" for o, n in rest)

@@ -81,6 +81,12 @@ with contextlib.redirect_stderr(err):
     assert cli.targets() == []
 assert f"hydrobake: Glass/rain skipped: {linked}" in err.getvalue(), err.getvalue()
 assert cli.targets(["Glass"]) == [(glass, "rain")]
+try:
+    cli._bake(cli.parser().parse_args(["bake"]), False, cli.Interrupts())
+    raise AssertionError("a whole-file bake of linked objects alone went on")
+except KeyError as exc:
+    assert exc.args[0].startswith("nothing to bake: no object of this file (those of linked "
+                                  "objects are baked in their libraries)"), exc
 out = io.StringIO()
 with contextlib.redirect_stdout(out):
     cli.list_(None)
