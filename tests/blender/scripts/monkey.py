@@ -835,6 +835,8 @@ class Monkey:
         coll = next((c for c in obj.users_collection if c != scene.collection), None)
         if coll is None:
             raise Skip("in the scene's own collection only")
+        for o in coll.all_objects:  # (every object in it: Shift+D copies share it, 7164)
+            self.touched(o.name, "vis")
         if kind == "exclude":
             lc = _layer_collection(bpy.context.view_layer.layer_collection, coll)
             if lc is None:
