@@ -426,7 +426,8 @@ def _made_here(manifest, folder):
             _same_folder(blend, bpy.data.filepath):
         return True
     made_in = manifest.get("folder")
-    if made_in is None:  # (recorded since 2026-11-27): where a relative Cache Folder puts it
+    if made_in is None:  # (a manifest from before it was recorded): where a relative
+        # Cache Folder puts it
         return not os.path.realpath(folder).startswith(
             os.path.join(os.path.realpath(os.path.dirname(blend)), ""))
     return not _same_folder(made_in, folder)
@@ -466,12 +467,11 @@ def kept_after_free(folder):
     (edited by hand, not ours: a free removes only what a manifest names), or that another
     .blend made (see free); None if there is none."""
     try:
-        BakeCache(folder).read_manifest()
+        m = BakeCache(folder).read_manifest()
     except ValueError as exc:
         return f"{exc}: its files are kept (delete the folder by hand)"
-    other = made_elsewhere(folder)
-    if other is not None:
-        return (f"{other} made this bake and may still show it: its files in {folder} "
+    if m is not None and not _made_here(m, folder):
+        return (f"{m['blend']} made this bake and may still show it: its files in {folder} "
                 "are kept (free it there, or delete the folder by hand)")
     return None
 
