@@ -493,9 +493,18 @@ class Monkey:
         Remove Deleted Objects' Bakes takes the wiring out (seeds 767, 769). A material made
         for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790),
         unless another slot follows it (obj_state); so is a clean copy of a material made
-        for a bake that only a deleted object's bake wires now (1673)."""
+        for a bake that only a deleted object's bake wires now (1673). A clean copy whose shared
+        material has left the file is that material."""
         if mat is not None and self.of_deleted(mat.get("hydrobake_copy_of", mat.name)):
             return DROPPED
+        if mat is not None and "hydrobake_copy_of" in mat and \
+                bpy.data.materials.get(mat["hydrobake_copy_of"]) is None and \
+                "hydrobake_copy_of_made" not in mat and \
+                mat.get("hydrobake_link_was") != "DATA" and not (mat.node_tree and any(
+                    n.get("hydrobake") for n in mat.node_tree.nodes)):
+            # its shared material left the file (unused at a save): the next put-back makes
+            # it that material again (materials._shared_again; monkey 7148)
+            return mat["hydrobake_copy_of"]
         shared = bpy.data.materials.get(mat["hydrobake_copy_of"]) \
             if mat is not None and "hydrobake_copy_of" in mat else None
         if shared is not None and self.shows_deleted(shared) and not (mat.node_tree and any(
