@@ -549,14 +549,18 @@ class CausticsBlender(BlenderEffect):
         tree.links.new(comb.outputs["Vector"], tex.inputs["Vector"])
         tree.links.new(tex.outputs["Color"], emit.inputs["Color"])
 
-    @classmethod
-    def _undisplace(cls, obj, prefix):
-        """The Subdivision and Displace modifiers, and the height texture and grid Empty of
-        the pool baked as ``prefix`` once nothing uses them."""
+    @staticmethod
+    def _remove_modifiers(obj):
         for name in ("HBK Displace", "HBK Subdivision"):
             mod = obj.modifiers.get(name)
             if mod is not None:
                 obj.modifiers.remove(mod)
+
+    @classmethod
+    def _undisplace(cls, obj, prefix):
+        """The Subdivision and Displace modifiers, and the height texture and grid Empty of
+        the pool baked as ``prefix`` once nothing uses them."""
+        cls._remove_modifiers(obj)
         height = bpy.data.textures.get(f"{prefix}_height")
         if height is not None and height.users == 0:
             bpy.data.textures.remove(height)
@@ -568,10 +572,7 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def let_go(cls, context, obj, settings, keep):
-        for name in ("HBK Displace", "HBK Subdivision"):
-            mod = obj.modifiers.get(name)
-            if mod is not None:
-                obj.modifiers.remove(mod)
+        cls._remove_modifiers(obj)
         for mat in {s.material for s in obj.material_slots if s.material} - set(keep):
             if mat.node_tree:
                 materials.remove_tagged(mat.node_tree, "caustics.")
