@@ -17,7 +17,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "linked_copy_then_copy", "made_copy_deleted_baked", "made_under_own_bake",
          "made_behind_copy_link", "linked_copy_deleted_baked",
          "linked_copy_deleted_floor_shared", "linked_copy_made_deleted",
-         "linked_copies_own_glass", "two_effects_one_shader", "two_effects_one_shader_lifo")
+         "linked_copies_own_glass", "two_effects_one_shader", "two_effects_one_shader_lifo",
+         "made_slot_removed_copy")
 
 
 @pytest.mark.parametrize("case", CASES)

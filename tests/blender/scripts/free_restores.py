@@ -665,6 +665,22 @@ elif case in ("two_effects_one_shader", "two_effects_one_shader_lifo"):  # 37, 3
     check(state(bpy.data.materials["GlassMat"]) == before,
           f"GlassMat {state(bpy.data.materials['GlassMat'])}, was {before}")
     clean()
+elif case == "made_slot_removed_copy":  # 39: a pool without a material and its Alt+D
+    # copy; the copy baked (the made material in the mesh's slot, the copy's own copy of it at
+    # Link: Object), the pool Shift+D copied (its own mesh, showing the made one), the mesh's
+    # slot removed: the copy's Free takes the made material out of the Shift+D copy, as it
+    # would have with the slot in place (monkey --more --delete-baked --elsewhere 7176)
+    w = pool()
+    w2 = in_blender.duplicate(w, linked=True)
+    bake(w2.name, "caustics")
+    w3 = in_blender.duplicate(w)
+    w.active_material_index = 0
+    with bpy.context.temp_override(object=w):
+        bpy.ops.object.material_slot_remove()
+    free(w2.name, "caustics")
+    check(slots() == {"Ground": ["GroundMat"], "Water": [], w2.name: [], w3.name: []},
+          f"slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -305,16 +305,24 @@ def forget(name, prefix, image_names, unwire):
     for mat in holding(prefix, image_names):
         unwire(mat.node_tree)
         give_back(None, mat, prefix)
-    for mat in [m for m in bpy.data.materials if m.get(COPY_FOR) == name]:
-        if not _has_wiring(mat) and _unused(mat):
-            shared = bpy.data.materials.get(mat[COPY_OF]) if COPY_OF_MADE in mat else None
-            bpy.data.materials.remove(mat)
-            if shared is not None and MADE in shared and not _has_wiring(shared) and \
-                    SAVED not in shared:
-                # Made for the bake and copied at once (an Alt+D copy showed it): it goes
-                # as the Free would have taken it (monkey --more --delete-baked 1673).
-                _let_go_made(None, shared, prefix)
+    for copy in [m.name for m in bpy.data.materials if m.get(COPY_FOR) == name]:
+        mat = bpy.data.materials.get(copy)  # (one removed may have taken another with it)
+        if mat is not None and not _has_wiring(mat) and _unused(mat):
+            _remove_copy(mat, prefix, None)
     put_back_others(prefix)  # clean copies that stood for them while they were wired
+
+
+def _remove_copy(mat, prefix, obj):
+    """Removes ``mat``, used by nothing and wired by no bake. A clean copy own() made of a
+    material made for the bake (an Alt+D copy showed it) takes that one with it, as the Free
+    of the object the copy was for (``obj``, None if deleted) would have with the copy in its
+    slot: out of Shift+D copies' slots too, unless a baked object's copy still stands for it
+    (monkey --more --delete-baked 1673; the mesh's slot removed since: --elsewhere 7176)."""
+    shared = bpy.data.materials.get(mat[COPY_OF]) if COPY_OF_MADE in mat else None
+    bpy.data.materials.remove(mat)
+    if shared is not None and MADE in shared and not _has_wiring(shared) and \
+            SAVED not in shared and not _stood_for(shared, obj):
+        _let_go_made(obj, shared, prefix)
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
@@ -414,9 +422,11 @@ def restore(obj, prefix):
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
     # bake's reach, while the bake was wired, and now wired by no bake: nothing else uses
     # it, it leaves the file.
-    for mat in [m for m in bpy.data.materials if (MADE in m or COPY_OF in m) and
-                m.users == 0 and not _has_wiring(m) and SAVED not in m]:
-        bpy.data.materials.remove(mat)
+    for name in [m.name for m in bpy.data.materials]:
+        mat = bpy.data.materials.get(name)  # (one removed may have taken another with it)
+        if mat is not None and (MADE in mat or COPY_OF in mat) and mat.users == 0 and \
+                not _has_wiring(mat) and SAVED not in mat:
+            _remove_copy(mat, prefix, obj)
 
 
 def _put_back_hidden(obj):
