@@ -18,7 +18,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "made_behind_copy_link", "linked_copy_deleted_baked",
          "linked_copy_deleted_floor_shared", "linked_copy_made_deleted",
          "linked_copies_own_glass", "two_effects_one_shader", "two_effects_one_shader_lifo",
-         "made_slot_removed_copy")
+         "made_slot_removed_copy", "linked_copy_own_made_deleted",
+         "made_slot_removed_copy_marked")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -681,6 +681,57 @@ elif case == "made_slot_removed_copy":  # 39: a pool without a material and its 
     check(slots() == {"Ground": ["GroundMat"], "Water": [], w2.name: [], w3.name: []},
           f"slots {slots()}")
     clean()
+elif case == "linked_copy_own_made_deleted":  # 40: an object without a material baked
+    # with snow and Alt+D copied (the copy keeps the record), renamed and freed, baked again
+    # (the made material in the mesh's slot, the object's own copy of it at Link: Object),
+    # the copy re-baked (its made one in the mesh's slot now) and deleted while baked:
+    # removing its bake takes its made material out of the mesh, and the object's Free
+    # leaves no slot (monkey --more --delete-baked --elsewhere 7147)
+    o = plane("Snowy", 0.5, (6, 0, 0))
+    in_blender.snow(o, (1, 3), 40.0, 16)
+    bake("Snowy", "snow")
+    c = in_blender.duplicate(o, linked=True)
+    o.name = "Snow2"
+    free("Snow2", "snow")
+    bake("Snow2", "snow")
+    bake(c.name, "snow")
+    bpy.data.objects.remove(c)
+    bpy.context.view_layer.update()
+    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"},
+          "no deleted object's bake left to remove")
+    free("Snow2", "snow")
+    check(slots() == {"Snow2": []}, f"slots {slots()}")
+    check("hydrobake_empty_slot" not in o.data, "the mesh keeps its empty-slot mark")
+    clean()
+elif case == "made_slot_removed_copy_marked":  # 41: a pool without a material and two
+    # Alt+D copies; one copy baked and its slot removed, the other baked (a made material
+    # appended, its own copy of it), the first freed (the mesh's slot stays, empty, marked
+    # for the other's own material) and baked again (its made material fills the slot); the
+    # other Shift+D copied (the mark goes with the mesh) and the copy freed; the slot removed
+    # again: Free All leaves the Shift+D copy no slot either (monkey --more --delete-baked
+    # --elsewhere 7176)
+    w = pool()
+    a = in_blender.duplicate(w, linked=True)
+    b = in_blender.duplicate(w, linked=True)
+
+    def remove_slot(o):
+        o.active_material_index = 0
+        with bpy.context.temp_override(object=o):
+            bpy.ops.object.material_slot_remove()
+    bake(a.name, "caustics")
+    remove_slot(w)
+    bake(b.name, "caustics")
+    free(a.name, "caustics")
+    bake(a.name, "caustics")
+    c = in_blender.duplicate(b)
+    free(c.name, "caustics")
+    remove_slot(b)
+    for o in (b, a):  # (Free All's order there)
+        free(o.name, "caustics")
+    check(slots() == {"Ground": ["GroundMat"], "Water": [], a.name: [], b.name: [],
+                      c.name: []}, f"slots {slots()}")
+    check("hydrobake_empty_slot" not in c.data, "the copy's mesh keeps the empty-slot mark")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -82,12 +82,12 @@ def _has_wiring(mat):
     return bool(mat.node_tree) and any(n.get(TAG) for n in mat.node_tree.nodes)
 
 
-def give_back(obj, mat, prefix):
+def give_back(obj, mat, prefix, deleted=False):
     """Free Bake's undo of set_inputs for the effect (role ``prefix``), once none of its
-    nodes is left in ``mat`` (one of ``obj``'s, or None: the object was deleted); and, once
-    no Hydrobake node of any effect is left, of use_nodes and ensure_material: the nodes get
-    their off switch back, and a material made for the object leaves its slot (and the file,
-    with no other user)."""
+    nodes is left in ``mat`` (one of ``obj``'s, or None); and, once no Hydrobake node of any
+    effect is left, of use_nodes and ensure_material: the nodes get their off switch back,
+    and a material made for the object leaves its slot (and the file, with no other user).
+    ``deleted``: the bake's object was deleted and no object records the bake (forget)."""
     tree = mat.node_tree
     if tree and any(str(n.get(TAG, "")).startswith(prefix) for n in tree.nodes):
         return
@@ -124,15 +124,17 @@ def give_back(obj, mat, prefix):
             setattr(mat, k, v)
         del mat[SETTINGS_WERE]
     if MADE in mat:
-        _let_go_made(obj, mat, prefix)
+        _let_go_made(obj, mat, prefix, deleted)
 
 
-def _let_go_made(obj, mat, prefix):
+def _let_go_made(obj, mat, prefix, deleted=False):
     """A material made for a bake, wired by none now, out of the object's slot (``obj``
     may be None: deleted) and out of the file if nothing else uses it. A Shift+D copy that
     holds no bake of the effect and shows it alone: it goes there too (while a copy holds the
     bake's record, the mark stays for its own Free; another effect's Free would never give
-    it back: monkey seed 477)."""
+    it back: monkey seed 477). A deleted object's bake (``deleted``) is recorded by none:
+    the material leaves every slot (a baked Alt+D copy shows its own copy of another made
+    material over it: monkey --more --delete-baked --elsewhere 7147)."""
     # The bake being freed: a copy keeping its record shows the material for its own Free.
     # A bake of another folder is another object's own (a Shift+D copy re-baked, or one made
     # while a shared mesh showed the material): it goes there too (monkey seed 3783).
@@ -141,8 +143,11 @@ def _let_go_made(obj, mat, prefix):
     if obj is not None:
         _take_out(obj, mat)
     for other in bpy.data.objects:
-        if other != obj and not _holds_bake(other, prefix, folder):
+        if other != obj and (deleted or not _holds_bake(other, prefix, folder)):
+            in_mesh = mat in list(getattr(other.data, "materials", None) or ())
             _take_out(other, mat)
+            if in_mesh:  # a Shift+D copy's mesh keeps the original's empty-slot mark (7176)
+                _drop_empty_slot(other)
     if _unused(mat):
         bpy.data.materials.remove(mat)
 
@@ -304,15 +309,15 @@ def forget(name, prefix, image_names, unwire):
     shared materials (own()), used by nothing now, go."""
     for mat in holding(prefix, image_names):
         unwire(mat.node_tree)
-        give_back(None, mat, prefix)
+        give_back(None, mat, prefix, deleted=True)
     for copy in [m.name for m in bpy.data.materials if m.get(COPY_FOR) == name]:
         mat = bpy.data.materials.get(copy)  # (one removed may have taken another with it)
         if mat is not None and not _has_wiring(mat) and _unused(mat):
-            _remove_copy(mat, prefix, None)
+            _remove_copy(mat, prefix, None, deleted=True)
     put_back_others(prefix)  # clean copies that stood for them while they were wired
 
 
-def _remove_copy(mat, prefix, obj):
+def _remove_copy(mat, prefix, obj, deleted=False):
     """Removes ``mat``, used by nothing and wired by no bake. A clean copy own() made of a
     material made for the bake (an Alt+D copy showed it) takes that one with it, as the Free
     of the object the copy was for (``obj``, None if deleted) would have with the copy in its
@@ -322,7 +327,7 @@ def _remove_copy(mat, prefix, obj):
     bpy.data.materials.remove(mat)
     if shared is not None and MADE in shared and not _has_wiring(shared) and \
             SAVED not in shared and not _stood_for(shared, obj):
-        _let_go_made(obj, shared, prefix)
+        _let_go_made(obj, shared, prefix, deleted)
 
 
 COPY_OF = "hydrobake_copy_of"  # on a material own() made: the shared one it stands for
