@@ -281,6 +281,9 @@ def obj_state(o, name_of=slot_name):
     slots = [("DATA" if m is not None and m.get("hydrobake_link_was") == "DATA" and
               name_of(m) == m.get("hydrobake_copy_of") else link, name_of(m))
              for link, m in slots_of(o)]
+    # The mark of a mesh's slot kept for a deleted object's made material stays with it, until
+    # Remove Deleted Objects' Bakes (monkey --more --delete-baked --elsewhere 7147).
+    mark = {"hydrobake_empty_slot"} if any(n is DROPPED for _link, n in slots) else set()
     while slots and slots[-1][1] is DROPPED:
         slots.pop()
     return {
@@ -291,7 +294,7 @@ def obj_state(o, name_of=slot_name):
                 "hidden": o.hide_get()},
         "props": sorted(k for k in o.keys() if k not in SETTINGS_KEYS),
         "mesh": {"uv": sorted(l.name for l in o.data.uv_layers),
-                 "props": sorted(o.data.keys())} if o.type == "MESH" else None,
+                 "props": sorted(set(o.data.keys()) - mark)} if o.type == "MESH" else None,
     }
 
 
