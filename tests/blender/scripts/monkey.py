@@ -249,6 +249,7 @@ def _layer_collection(lc, coll):
 
 
 DROPPED = object()  # Monkey.stands_for: a slot that goes with a deleted object's bake
+EMPTIED = object()  # ... and the artist's empty slot it filled, which stays (7206)
 
 
 def slot_name(mat):
@@ -279,15 +280,16 @@ def obj_state(o, name_of=slot_name):
     # A clean copy standing for the mesh's material (name_of gives that one's name) stands
     # on the object's own slot of a shared mesh: the slot's Link is the mesh's then (1738).
     slots = [("DATA" if m is not None and m.get("hydrobake_link_was") == "DATA" and
-              name_of(m) == m.get("hydrobake_copy_of") else link, name_of(m))
+              name_of(m) in (m.get("hydrobake_copy_of"), EMPTIED) else link, name_of(m))
              for link, m in slots_of(o)]
     # The mark of a mesh's slot kept for a deleted object's made material stays with it, until
     # Remove Deleted Objects' Bakes (monkey --more --delete-baked --elsewhere 7147).
-    mark = {"hydrobake_empty_slot"} if any(n is DROPPED for _link, n in slots) else set()
+    mark = {"hydrobake_empty_slot"} if any(n in (DROPPED, EMPTIED) for _l, n in slots) \
+        else set()
     while slots and slots[-1][1] is DROPPED:
         slots.pop()
     return {
-        "slots": [(link, None if name is DROPPED else name) for link, name in slots],
+        "slots": [(link, None if name in (DROPPED, EMPTIED) else name) for link, name in slots],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,
@@ -495,11 +497,13 @@ class Monkey:
         deleted while baked is that material: by design the copy stands in the slot until
         Remove Deleted Objects' Bakes takes the wiring out (seeds 767, 769). A material made
         for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790),
-        unless another slot follows it (obj_state); so is a clean copy of a material made
+        unless another slot follows it (obj_state), or EMPTIED where it filled the artist's
+        empty slot (7206); so is a clean copy of a material made
         for a bake that only a deleted object's bake wires now (1673). A clean copy whose shared
         material has left the file is that material."""
         if mat is not None and self.of_deleted(mat.get("hydrobake_copy_of", mat.name)):
-            return DROPPED
+            made = mat.get("hydrobake_made", mat.get("hydrobake_copy_of_made"))
+            return EMPTIED if made == "slot" else DROPPED
         if mat is not None and "hydrobake_copy_of" in mat and \
                 bpy.data.materials.get(mat["hydrobake_copy_of"]) is None and \
                 "hydrobake_copy_of_made" not in mat and \
@@ -512,7 +516,9 @@ class Monkey:
             if mat is not None and "hydrobake_copy_of" in mat else None
         if shared is not None and self.shows_deleted(shared) and not (mat.node_tree and any(
                 n.get("hydrobake") for n in mat.node_tree.nodes)):
-            return DROPPED if "hydrobake_made" in shared else shared.name
+            if "hydrobake_made" in shared:
+                return EMPTIED if shared["hydrobake_made"] == "slot" else DROPPED
+            return shared.name
         return slot_name(mat)
 
     def check_clean(self, compare=True):
