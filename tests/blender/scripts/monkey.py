@@ -328,6 +328,7 @@ class Monkey:
         self.all_copies = set()
         self.output_orphans = set()
         self.known_seen = set()
+        self.record = None  # main's record of the run, written before each step
 
     # --- invariants -------------------------------------------------------------------------
     def known(self, kind, item):
@@ -1135,6 +1136,11 @@ class Monkey:
 
     def step(self, a, k):
         self.log.append(dict(a))
+        if self.record is not None:  # a crash (Blender's own) leaves the log up to it
+            path = os.path.join(self.tmp, "actions.json")
+            with open(path + ".tmp", "w") as f:
+                json.dump(dict(self.record, crashed_at=len(self.log)), f)
+            os.replace(path + ".tmp", path)
         try:
             result = self.run_action(a)
         except Skip as s:
@@ -1241,6 +1247,7 @@ def main():
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
               "more": m.more, "elsewhere": m.elsewhere,
               "actions": m.log}
+    m.record = record
     status = "OK"
     try:
         m.start()
