@@ -252,6 +252,12 @@ DROPPED = object()  # Monkey.stands_for: a slot that goes with a deleted object'
 EMPTIED = object()  # ... and the artist's empty slot it filled, which stays (7206)
 
 
+def _gone_with(made):
+    """What a slot holding a deleted object's made material (its MADE value ``made``) becomes
+    once that bake is removed: the artist's slot it filled stays, empty; one appended goes."""
+    return EMPTIED if made == "slot" else DROPPED
+
+
 def slot_name(mat):
     """A material's name, an object's own copy of a shared one (own()) named for what it
     stands for: its name follows the object's renames at its re-bakes (seed 533), not at
@@ -499,12 +505,11 @@ class Monkey:
         Remove Deleted Objects' Bakes takes the wiring out (seeds 767, 769). A material made
         for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790),
         unless another slot follows it (obj_state), or EMPTIED where it filled the artist's
-        empty slot (7206); so is a clean copy of a material made
-        for a bake that only a deleted object's bake wires now (1673). A clean copy whose shared
+        empty slot (7206); so is a clean copy of a material made for a bake that only a
+        deleted object's bake wires now (1673). A clean copy whose shared
         material has left the file is that material."""
         if mat is not None and self.of_deleted(mat.get("hydrobake_copy_of", mat.name)):
-            made = mat.get("hydrobake_made", mat.get("hydrobake_copy_of_made"))
-            return EMPTIED if made == "slot" else DROPPED
+            return _gone_with(mat.get("hydrobake_made", mat.get("hydrobake_copy_of_made")))
         if mat is not None and "hydrobake_copy_of" in mat and \
                 bpy.data.materials.get(mat["hydrobake_copy_of"]) is None and \
                 "hydrobake_copy_of_made" not in mat and \
@@ -517,9 +522,8 @@ class Monkey:
             if mat is not None and "hydrobake_copy_of" in mat else None
         if shared is not None and self.shows_deleted(shared) and not (mat.node_tree and any(
                 n.get("hydrobake") for n in mat.node_tree.nodes)):
-            if "hydrobake_made" in shared:
-                return EMPTIED if shared["hydrobake_made"] == "slot" else DROPPED
-            return shared.name
+            return _gone_with(shared["hydrobake_made"]) if "hydrobake_made" in shared \
+                else shared.name
         return slot_name(mat)
 
     def check_clean(self, compare=True):
