@@ -149,7 +149,47 @@ def _let_go_made(obj, mat, prefix, deleted=False):
             if in_mesh:  # a Shift+D copy's mesh keeps the original's empty-slot mark (7176)
                 _drop_empty_slot(other)
     if _unused(mat):
-        bpy.data.materials.remove(mat)
+        _free(mat, obj)
+
+
+def _free(mat, obj):
+    """Removes ``mat`` from the file, once out of reach of what Blender 3.4 leaves of the
+    object's own materials past its slots. Removing a slot, on any object of the mesh, keeps
+    the object's own material of the last one in the object's list beyond its slots; a slot
+    added later shows it again: freed, a segfault (monkey --more --delete-baked --elsewhere
+    7215). ``obj`` is the object whose own slot may have held it (None: none). Whether it
+    was removed: not while the object is in Edit, Sculpt or a paint mode (it waits)."""
+    if obj is not None and obj.type == "MESH" and obj.data is not None:
+        if obj.mode != "OBJECT":
+            return False
+        _clear_past_slots(obj)
+    bpy.data.materials.remove(mat)
+    return True
+
+
+def _clear_past_slots(obj):
+    """Empties the object's list of own materials past its slots: given an empty mesh for a
+    moment, the object frees the list (Blender keeps it while any slot is left), and its
+    slots' Links and own materials (shown, or behind the mesh's) are put back after. (Taken
+    out first: freeing the list keeps their users.)"""
+    mesh, active = obj.data, obj.active_material_index
+    slots = []
+    for s in obj.material_slots:
+        link = s.link
+        with _hidden(s, "OBJECT"):
+            slots.append((link, s.material))
+            s.material = None
+    empty = bpy.data.meshes.new("HBK empty")
+    try:
+        obj.data = empty
+    finally:
+        obj.data = mesh
+        bpy.data.meshes.remove(empty)
+    for slot, (link, mat) in zip(obj.material_slots, slots):
+        slot.link = "OBJECT"
+        slot.material = mat
+        slot.link = link
+    obj.active_material_index = active
 
 
 def take_out_made(mats, objs):
@@ -324,7 +364,8 @@ def _remove_copy(mat, prefix, obj, deleted=False):
     slot: out of Shift+D copies' slots too, unless a baked object's copy still stands for it
     (monkey --more --delete-baked 1673; the mesh's slot removed since: --elsewhere 7176)."""
     shared = bpy.data.materials.get(mat[COPY_OF]) if COPY_OF_MADE in mat else None
-    bpy.data.materials.remove(mat)
+    if not _free(mat, bpy.data.objects.get(mat[COPY_FOR]) if COPY_FOR in mat else obj):
+        return
     if shared is not None and MADE in shared and not _has_wiring(shared) and \
             SAVED not in shared and not _stood_for(shared, obj):
         _let_go_made(obj, shared, prefix, deleted)
