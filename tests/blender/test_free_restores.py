@@ -19,7 +19,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "linked_copy_deleted_floor_shared", "linked_copy_made_deleted",
          "linked_copies_own_glass", "two_effects_one_shader", "two_effects_one_shader_lifo",
          "made_slot_removed_copy", "linked_copy_own_made_deleted",
-         "made_slot_removed_copy_marked", "linked_copy_slot_removed")
+         "made_slot_removed_copy_marked", "linked_copy_slot_removed",
+         "linked_copy_slot_removed_copied")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -732,27 +732,34 @@ elif case == "made_slot_removed_copy_marked":  # 41: a pool without a material a
                       c.name: []}, f"slots {slots()}")
     check("hydrobake_empty_slot" not in c.data, "the copy's mesh keeps the empty-slot mark")
     clean()
-elif case == "linked_copy_slot_removed":  # 42: a glass of two materials and its Alt+D
+elif case in ("linked_copy_slot_removed", "linked_copy_slot_removed_copied"):  # 42, 43: a glass of two materials and its Alt+D
     # copy; the copy baked (its own copies of both at Link: Object), the second slot removed
     # through the glass: Blender 3.4 keeps the copy's own material of the gone slot past its
     # slots, and the Free removing that copy (used by nothing) left it pointing at freed
     # memory, which a slot added to the copy then showed: a segfault (monkey --more
-    # --delete-baked --elsewhere 7215)
+    # --delete-baked --elsewhere 7215). 43: the baked copy Shift+D copied before, whose Free
+    # (first, by name) removes the copy it shows too
     g = glass()
     g.data.materials.append(in_blender.node_material("FritMat"))
     c = in_blender.duplicate(g, linked=True)
     bake(c.name, "rain")
     check([s.link for s in c.material_slots] == ["OBJECT", "OBJECT"],
           f"the copy's links {[s.link for s in c.material_slots]}")
+    d = in_blender.duplicate(c) if case.endswith("copied") else None
     g.active_material_index = 1
     with bpy.context.temp_override(object=g):
         bpy.ops.object.material_slot_remove()
+    if d is not None:
+        d.name = "Frit first"
+        free(d.name, "rain")
     free(c.name, "rain")
     c.active_material_index = 0
     with bpy.context.temp_override(object=c):
         bpy.ops.object.material_slot_add()
-    check(slots() == {"Glass": ["GlassMat", None], c.name: ["GlassMat", None]},
-          f"slots {slots()}")
+    want = {"Glass": ["GlassMat", None], c.name: ["GlassMat", None]}
+    if d is not None:
+        want[d.name] = ["GlassMat", "FritMat"]
+    check(slots() == want, f"slots {slots()}")
     check([s.link for s in c.material_slots] == ["DATA", "DATA"],
           f"the copy's links {[s.link for s in c.material_slots]}")
     clean()

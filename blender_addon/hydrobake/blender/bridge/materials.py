@@ -157,12 +157,16 @@ def _free(mat, obj):
     object's own materials past its slots. Removing a slot, on any object of the mesh, keeps
     the object's own material of the last one in the object's list beyond its slots; a slot
     added later shows it again: freed, a segfault (monkey --more --delete-baked --elsewhere
-    7215). ``obj`` is the object whose own slot may have held it (None: none). Whether it
-    was removed: not while the object is in Edit, Sculpt or a paint mode (it waits)."""
-    if obj is not None and obj.type == "MESH" and obj.data is not None:
-        if obj.mode != "OBJECT":
-            return False
-        _clear_past_slots(obj)
+    7215). ``obj``, and the object a copy own() made was for (its Shift+D copy shows the
+    copy: 7215 again), may have held it in an own slot. Whether it was removed: not while
+    one is in Edit, Sculpt or a paint mode (it waits, used by nothing)."""
+    held = [o for o in dict.fromkeys((obj, bpy.data.objects.get(mat.get(COPY_FOR, ""))))
+            if o is not None and o.type == "MESH" and o.data is not None and
+            o.library is None]
+    if any(o.mode != "OBJECT" for o in held):
+        return False
+    for o in held:
+        _clear_past_slots(o)
     bpy.data.materials.remove(mat)
     return True
 
@@ -308,7 +312,7 @@ def _drop_slot(obj, index):
         obj.data.materials.pop(index=index)
     for mat in dict.fromkeys(hidden):
         if (COPY_OF in mat or MADE in mat) and mat.users == 0 and not _has_wiring(mat):
-            bpy.data.materials.remove(mat)
+            _free(mat, obj)
 
 
 def holding(prefix, image_names, owner=ANY):
@@ -364,7 +368,7 @@ def _remove_copy(mat, prefix, obj, deleted=False):
     slot: out of Shift+D copies' slots too, unless a baked object's copy still stands for it
     (monkey --more --delete-baked 1673; the mesh's slot removed since: --elsewhere 7176)."""
     shared = bpy.data.materials.get(mat[COPY_OF]) if COPY_OF_MADE in mat else None
-    if not _free(mat, bpy.data.objects.get(mat[COPY_FOR]) if COPY_FOR in mat else obj):
+    if not _free(mat, obj):
         return
     if shared is not None and MADE in shared and not _has_wiring(shared) and \
             SAVED not in shared and not _stood_for(shared, obj):
@@ -408,7 +412,7 @@ def own(obj, index, unwire):
         copy[LINK_WAS] = "DATA"
     slot.material = copy
     if COPY_OF in mat and mat.users == 0:  # this object's copy from before a rename
-        bpy.data.materials.remove(mat)
+        _free(mat, obj)
     return copy
 
 
@@ -493,7 +497,7 @@ def _put_back_hidden(obj):
             else:
                 mat = None
         if mat is not None and mat.users == 0:
-            bpy.data.materials.remove(mat)
+            _free(mat, obj)
 
 
 def _stood_for(mat, obj):
@@ -516,7 +520,7 @@ def _mesh_slot_again(obj, slot):
     slot.material = None
     slot.link = "DATA"
     if mat.users == 0:
-        bpy.data.materials.remove(mat)
+        _free(mat, obj)
     _drop_empty_slot(obj)
     return True
 
@@ -605,7 +609,7 @@ def _take_out_copy(obj, mat):
     mat[MADE] = mat[COPY_OF_MADE]
     _take_out(obj, mat)
     if mat.users == 0:
-        bpy.data.materials.remove(mat)
+        _free(mat, obj)
     else:
         del mat[MADE]
 
@@ -627,7 +631,7 @@ def _put_shared_back(slot, prefix, obj):
     else:
         slot.material = shared
     if mat.users == 0:
-        bpy.data.materials.remove(mat)
+        _free(mat, obj)
     if MADE in shared and not _has_wiring(shared) and SAVED not in shared:
         # Made for a bake and copied by own() at once (the mesh is shared, an Alt+D copy
         # showed it; monkey --more 1017), no bake in it now: it goes as give_back's would,
