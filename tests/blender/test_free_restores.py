@@ -20,7 +20,7 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "linked_copies_own_glass", "two_effects_one_shader", "two_effects_one_shader_lifo",
          "made_slot_removed_copy", "linked_copy_own_made_deleted",
          "made_slot_removed_copy_marked", "linked_copy_slot_removed",
-         "linked_copy_slot_removed_copied")
+         "linked_copy_slot_removed_copied", "linked_copy_own_slots_kept")
 
 
 @pytest.mark.parametrize("case", CASES)

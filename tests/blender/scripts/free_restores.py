@@ -763,6 +763,41 @@ elif case in ("linked_copy_slot_removed", "linked_copy_slot_removed_copied"):  #
     check([s.link for s in c.material_slots] == ["DATA", "DATA"],
           f"the copy's links {[s.link for s in c.material_slots]}")
     clean()
+elif case == "linked_copy_own_slots_kept":  # 44: what the Free's clearing of the copy's
+    # own-material list past its slots (cases 42, 43) must keep: the artist's own materials
+    # shown and behind the mesh's, their users, the Links, the active slot, the shape keys.
+    # The bake's copy went over the one behind (a save then dropped it, used by nothing): it
+    # is held meanwhile, and put back
+    g = glass()
+    for name in ("FritMat", "TintMat"):
+        g.data.materials.append(in_blender.node_material(name))
+    c = in_blender.duplicate(g, linked=True)
+    own, behind = in_blender.node_material("Own"), in_blender.node_material("Behind")
+    c.material_slots[2].link = "OBJECT"
+    c.material_slots[2].material = own
+    c.material_slots[1].link = "OBJECT"
+    c.material_slots[1].material = behind
+    c.material_slots[1].link = "DATA"
+    c.shape_key_add(name="Basis")
+    c.shape_key_add(name="Up")
+    c.active_shape_key_index = 1
+    bake(c.name, "rain")
+    check(behind.users == 1, f"the own material behind the mesh's has {behind.users} users "
+          "while baked")
+    c.active_material_index = 2
+    free(c.name, "rain")
+    check([s.link for s in c.material_slots] == ["DATA", "DATA", "OBJECT"],
+          f"the copy's links {[s.link for s in c.material_slots]}")
+    check(slots()[c.name] == ["GlassMat", "FritMat", "Own"], f"slots {slots()}")
+    c.material_slots[1].link = "OBJECT"
+    check(c.material_slots[1].material == behind, "the own material behind the mesh's is gone")
+    c.material_slots[1].link = "DATA"
+    check((own.users, behind.users) == (1, 1), f"users {own.users}, {behind.users}")
+    check(c.active_material_index == 2 and c.active_shape_key_index == 1,
+          f"active slot {c.active_material_index}, shape key {c.active_shape_key_index}")
+    check(c.data == g.data and not any(m.name.startswith("HBK empty") for m in bpy.data.meshes),
+          f"meshes {[m.name for m in bpy.data.meshes]}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

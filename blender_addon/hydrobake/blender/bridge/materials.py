@@ -380,6 +380,7 @@ COPY_FOR = "hydrobake_copy_for"  # ... and the object it was made for
 LINK_WAS = "hydrobake_link_was"  # ... put on the object's own slot of a shared mesh
 EMPTY_SLOT = "hydrobake_empty_slot"  # on a mesh: the slot a made material left, others using it
 COPY_OF_MADE = "hydrobake_copy_of_made"  # on a copy own() made of a made material: its MADE
+BEHIND = "hydrobake_behind"  # ... over the object's own, the mesh's hid: held till put back
 
 
 def own(obj, index, unwire):
@@ -402,12 +403,18 @@ def own(obj, index, unwire):
     copy[COPY_OF], copy[COPY_FOR] = shared, obj.name
     if MADE in mat:  # gone with its bake, it leaves the copy nothing to go back to
         copy[COPY_OF_MADE] = mat[MADE]
-    for key in (MADE, NODES_WERE_OFF):  # the original's record, not the copy's
+    # The original's record, not the copy's (what another object's copy went over, too:
+    # this object's copy from before a rename keeps it).
+    renamed = COPY_FOR in mat and bpy.data.objects.get(mat[COPY_FOR]) is None
+    for key in (MADE, NODES_WERE_OFF) + (() if renamed else (BEHIND,)):
         if key in copy:
             del copy[key]
     if copy.node_tree:  # (a material without nodes holds no wiring)
         unwire(copy.node_tree)  # another object's, if the shared material had it
     if slot.link == "DATA" and obj.data.users > 1:
+        with _hidden(slot):
+            if slot.material is not None:  # the object's own, kept behind the mesh's
+                copy[BEHIND] = slot.material
         slot.link = "OBJECT"  # the mesh's slot would show it on every object of the mesh
         copy[LINK_WAS] = "DATA"
     slot.material = copy
@@ -482,7 +489,7 @@ def restore(obj, prefix):
 def _put_back_hidden(obj):
     """Clean copies own() made that a slot's Link hides now (switched since the bake; monkey
     --more 1069), wired by no bake: behind the mesh's material, the object's own goes back to
-    none; behind the object's own, the mesh's slot shows the shared material again (none if
+    what own() went over (none, mostly); behind the object's own, the mesh's slot shows the shared material again (none if
     it is gone). A material made for a bake and hidden so, wired by none, goes to none,
     unless a baked object's copy stands for it (that bake's Free gives it back)."""
     for slot in obj.material_slots:
@@ -490,7 +497,8 @@ def _put_back_hidden(obj):
         with _hidden(slot):
             mat = slot.material
             if mat is not None and COPY_OF in mat and not _has_wiring(mat):
-                slot.material = None if behind_mesh else bpy.data.materials.get(mat[COPY_OF])
+                slot.material = mat.get(BEHIND) if behind_mesh else \
+                    bpy.data.materials.get(mat[COPY_OF])
             elif mat is not None and MADE in mat and not _has_wiring(mat) and \
                     not _stood_for(mat, obj):
                 slot.material = None  # (a Shift+D copy's, its Link switched: --more 1075)
@@ -517,7 +525,7 @@ def _mesh_slot_again(obj, slot):
     if mat is None or COPY_OF not in mat or bpy.data.materials.get(mat[COPY_OF]) is not None \
             or _has_wiring(mat) or mat.get(LINK_WAS) != "DATA" or slot.link != "OBJECT":
         return False
-    slot.material = None
+    slot.material = mat.get(BEHIND)
     slot.link = "DATA"
     if mat.users == 0:
         _free(mat, obj)
@@ -626,7 +634,7 @@ def _put_shared_back(slot, prefix, obj):
             _shows_others(shared, obj):
         return  # another effect's bake still in the copy, or another object's in it
     if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
-        slot.material = None
+        slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
     else:
         slot.material = shared
