@@ -8,6 +8,9 @@ To run another seed by hand (the action log lands in TMPDIR/actions.json and rep
 --replay):
     blender -b --factory-startup --python tests/blender/scripts/monkey.py -- TMPDIR SEED
 """
+import json
+import os
+
 import pytest
 
 # Seeds that pass (each a few seconds); 1, 6, 18, 25 and 95 found bugs now fixed (Free of a
@@ -94,3 +97,17 @@ def test_monkey_elsewhere_seed(blender, tmp_path, seed):
 @pytest.mark.parametrize("seed, steps", ((7147, 250), (7176, 250), (7206, 100)))
 def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
     run_seed(blender, tmp_path, seed, steps, "--more", "--delete-baked", "--elsewhere")
+
+
+# Action logs, shrunk, of findings a long run needs hundreds of steps to reach (scripts/
+# replays). linked_copy_slot_removed: a Free removed a clean copy whose slot the artist had
+# removed through the Alt+D copy, and Blender 3.4 then segfaulted on the next slot added
+# (7215). own_behind_mesh: a bake's copy went over the object's own material behind the mesh's,
+# and its Free gave none back (the harness's "behind" check).
+@pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh"))
+def test_monkey_replay(blender, tmp_path, name):
+    log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
+    with open(log) as f:
+        seed = json.load(f)["seed"]
+    run_seed(blender, tmp_path, seed, 0, "--replay", log, "--no-render")
+

@@ -280,6 +280,22 @@ def slots_of(o):
     return have
 
 
+def behind_mesh(o):
+    """The artist's own materials an object keeps behind its mesh's (a slot's Link set back
+    to Data): (slot, name). A bake's copy went over one and its Free gave none back."""
+    if o.type != "MESH":
+        return []
+    out = []
+    for i, s in enumerate(o.material_slots[:len(o.data.materials)]):
+        if s.link == "DATA":
+            s.link = "OBJECT"
+            m = s.material
+            s.link = "DATA"
+            if m is not None and "hydrobake_copy_of" not in m and "hydrobake_made" not in m:
+                out.append((i, m.name))
+    return out
+
+
 def obj_state(o, name_of=slot_name):
     # A DROPPED slot goes only where no other slot follows it; before one it stays, empty:
     # the artist's slots keep their indices, which the faces use (monkey --more 1357).
@@ -296,6 +312,7 @@ def obj_state(o, name_of=slot_name):
         slots.pop()
     return {
         "slots": [(link, None if name in (DROPPED, EMPTIED) else name) for link, name in slots],
+        "behind": behind_mesh(o),
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,
@@ -571,7 +588,8 @@ class Monkey:
                 continue
             have = obj_state(o, self.stands_for)
             for aspect in want:
-                if (name, aspect) in self.dirty:
+                if (name, aspect) in self.dirty or \
+                        (aspect == "behind" and (name, "slots") in self.dirty):
                     continue
                 if have[aspect] != want[aspect] and \
                         not self.known(f"object-{aspect}", (name, have[aspect], want[aspect])):
