@@ -162,7 +162,7 @@ def _free(mat, obj):
     one is in Edit, Sculpt or a paint mode (it waits, used by nothing)."""
     held = [o for o in dict.fromkeys((obj, bpy.data.objects.get(mat.get(COPY_FOR, ""))))
             if o is not None and o.type == "MESH" and o.data is not None and
-            o.library is None]
+            o.library is None and o.override_library is None]  # (their data is not ours)
     if any(o.mode != "OBJECT" for o in held):
         return False
     for o in held:
