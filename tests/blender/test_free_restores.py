@@ -1,7 +1,7 @@
 """Free Bake puts materials back as they were, whatever happened since the bake (the monkey
 test's findings): a hidden object or one in no view layer, a baked material taken out of its
 slot, a material the bake made shown by a Shift+D copy, shared materials (one without nodes,
-one gone from the file before the Free) and their copies."""
+one gone from the file before the Free) and their copies, a material named as a copy would be."""
 import pytest
 
 CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_made_rebaked",
@@ -20,7 +20,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "linked_copies_own_glass", "two_effects_one_shader", "two_effects_one_shader_lifo",
          "made_slot_removed_copy", "linked_copy_own_made_deleted",
          "made_slot_removed_copy_marked", "linked_copy_slot_removed",
-         "linked_copy_slot_removed_copied", "linked_copy_own_slots_kept")
+         "linked_copy_slot_removed_copied", "linked_copy_own_slots_kept",
+         "copy_name_taken")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -798,6 +798,19 @@ elif case == "linked_copy_own_slots_kept":  # 44: what the Free's clearing of th
     check(c.data == g.data and not any(m.name.startswith("HBK empty") for m in bpy.data.meshes),
           f"meshes {[m.name for m in bpy.data.meshes]}")
     clean()
+elif case == "copy_name_taken":  # 45: the artist's material named as a bake's copy would
+    g = glass()                      # be ('<shared> (<object>)') keeps its name
+    c = in_blender.duplicate(g)
+    taken = in_blender.node_material(f"GlassMat ({c.name})")
+    g.data.materials.append(taken)
+    bake(c.name, "rain")
+    check(taken.name == f"GlassMat ({c.name})", f"the artist's material renamed {taken.name!r}")
+    check(c.material_slots[0].material.get("hydrobake_copy_of") == "GlassMat",
+          f"the copy's slot shows {c.material_slots[0].material.name}")
+    free(c.name, "rain")
+    check(slots() == {"Glass": ["GlassMat", f"GlassMat ({c.name})"], c.name: ["GlassMat"]},
+          f"slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

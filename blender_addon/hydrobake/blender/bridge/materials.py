@@ -399,7 +399,7 @@ def own(obj, index, unwire):
         return mat
     shared = mat.get(COPY_OF, mat.name)
     copy = _copy(mat)
-    copy.name = f"{shared} ({obj.name})"
+    copy.name = _free_name(f"{shared} ({obj.name})")
     copy[COPY_OF], copy[COPY_FOR] = shared, obj.name
     if MADE in mat:  # gone with its bake, it leaves the copy nothing to go back to
         copy[COPY_OF_MADE] = mat[MADE]
@@ -421,6 +421,19 @@ def own(obj, index, unwire):
     if COPY_OF in mat and mat.users == 0:  # this object's copy from before a rename
         _free(mat, obj)
     return copy
+
+
+def _free_name(name):
+    """``name``, or with the first free .NNN: Blender 3.4 gives an existing material a new
+    name when a copy (``X.001``) is renamed to its name, and the artist's own material of
+    that name came out of a bake renamed (monkey --moves 2)."""
+    def cut(text, size):  # (a name holds 63 bytes)
+        return text.encode()[:size].decode(errors="ignore")
+    k, free = 0, cut(name, 63)
+    while bpy.data.materials.get(free) is not None:
+        k += 1
+        free = f"{cut(name, 63 - len(f'.{k:03d}'))}.{k:03d}"
+    return free
 
 
 def _used_elsewhere(obj, mat):
