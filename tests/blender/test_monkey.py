@@ -88,6 +88,13 @@ def test_monkey_elsewhere_seed(blender, tmp_path, seed):
 
 
 
+# --moves: slots moved up and down, and Remove Unused Slots. Seed 2 found the artist's material
+# renamed when a bake's copy was given its name ('<shared> (<object>)': materials._free_name).
+@pytest.mark.parametrize("seed", (2,))
+def test_monkey_moves_seed(blender, tmp_path, seed):
+    run_seed(blender, tmp_path, seed, 120, "--more", "--moves", "--delete-baked")
+
+
 # Every flag, long runs: 7176 found a made material left in a Shift+D copy's slot after the
 # mesh's slot was removed (materials._remove_copy), then a Shift+D copy's marked empty slot
 # kept; 7147 a deleted object's made material kept behind an Alt+D copy's own slot after

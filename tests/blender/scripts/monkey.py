@@ -1,8 +1,8 @@
 """A randomized, seeded "monkey" test of the real addon in ``blender -b``: random sequences of
 what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel + Resume,
-re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots, modifiers,
-visibility, save and reopen, undo, the command line in-process and in a subprocess), with the
-invariants checked after every step:
+re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots (moved and
+tidied with --moves), modifiers, visibility, save and reopen, undo, the command line in-process
+and in a subprocess), with the invariants checked after every step:
 
 * no Python exception but the addon's clear refusals (ValueError / RuntimeError naming an
   object or a setting), no traceback printed;
@@ -21,7 +21,7 @@ invariants checked after every step:
 
     blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
         [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked] [--more]
-        [--no-subprocess] [--no-render] [--known] [--trace]
+        [--elsewhere] [--moves] [--no-subprocess] [--no-render] [--known] [--trace]
 
 --known goes on past the violations already reported (KNOWN below), to find others; --trace
 prints every object's state after each step. Prints ``MONKEY OK seed=S steps=N`` on success, else ``MONKEY FAIL seed=S step=K kind=...``
@@ -339,6 +339,7 @@ class Monkey:
         self.used_names = set()
         self.more = False  # --more: Alt+D, slot links, collections
         self.elsewhere = False  # --elsewhere: Save As / Save Copy into other folders
+        self.moves = False  # --moves: slots moved up and down, unused slots removed
         self.left_behind = set()  # bake folders of the files saved elsewhere from
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
@@ -845,6 +846,41 @@ class Monkey:
         setattr(mod, attr, not getattr(mod, attr))
         return "toggled"
 
+    def _slot_op(self, obj, slot, op, **kw):
+        """A slot operator of the Material panel on ``obj`` with slot ``slot`` active; every
+        object of its mesh sees the change (Alt+D)."""
+        self.touched(obj.name, "slots")
+        for o in bpy.data.objects:
+            if o.data == obj.data and o != obj:
+                self.touched(o.name, "slots")
+        obj.active_material_index = slot
+        with bpy.context.temp_override(object=obj, active_object=obj,
+                                       selected_editable_objects=[obj]):
+            return op(**kw)
+
+    def do_slot_move(self, name, slot, direction):
+        """A slot moved up or down the list (Material panel's arrows): the faces follow it."""
+        obj = self.obj(name)
+        if slot >= len(obj.material_slots) or len(obj.material_slots) < 2:
+            raise Skip("no slot to move")
+        done = self._slot_op(obj, slot, bpy.ops.object.material_slot_move, direction=direction)
+        return f"moved {direction}" if done == {"FINISHED"} else "not moved"
+
+    def do_slots_tidy(self, name):
+        """Remove Unused Slots (Material panel's menu): slots no face uses go."""
+        obj = self.obj(name)
+        if not obj.material_slots:
+            raise Skip("no slots")
+        before = len(obj.material_slots)
+        # (it works on the view layer's active and selected objects, whatever the context)
+        if obj.name not in bpy.context.view_layer.objects or not obj.visible_get():
+            raise Skip("not selectable")
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o == obj)
+        bpy.context.view_layer.objects.active = obj
+        self._slot_op(obj, 0, bpy.ops.object.material_slot_remove_unused)
+        return f"{before} -> {len(obj.material_slots)} slots"
+
     def do_slot_link(self, name, slot):
         """A slot switched between the mesh's material and the object's own (Link)."""
         obj = self.obj(name)
@@ -1051,6 +1087,8 @@ class Monkey:
             ops += [("link_copy", 4), ("slot_link", 4), ("collection", 4)]
         if self.elsewhere:
             ops += [("save_as", 4)]
+        if self.moves:
+            ops += [("slot_move", 5), ("slots_tidy", 2)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -1063,6 +1101,23 @@ class Monkey:
         if op == "collection":
             return [{"op": "collection", "name": rng.choice(objs),
                      "kind": rng.choice(("move", "exclude", "hide"))}]
+        if op == "slot_move":  # (an object with one slot gets a second first)
+            several = [o for o in objs if len(bpy.data.objects[o].material_slots) > 1]
+            who = rng.choice(several if several and rng.random() < 0.7 else objs)
+            n = len(bpy.data.objects[who].material_slots)
+            out = []
+            if n < 2:
+                mats = sorted(m.name for m in bpy.data.materials if not m.name.startswith("HBK"))
+                self.counter += 1
+                out.append({"op": "material", "name": who, "kind": "add", "slot": 0,
+                            "material": rng.choice(mats + [f"UserMat{self.counter}", None]),
+                            "nodes": True})
+                n += 1
+            slot = rng.randint(0, n - 1)  # (a move off the list's end does nothing)
+            return out + [{"op": "slot_move", "name": who, "slot": slot, "direction": "DOWN"
+                           if slot == 0 else "UP" if slot == n - 1 else rng.choice(("UP", "DOWN"))}]
+        if op == "slots_tidy":
+            return [{"op": "slots_tidy", "name": rng.choice(objs)}]
         if op == "save_as":
             return [{"op": "save_as", "folder": rng.choice(("", "s1", os.path.join("s2", "deep"))),
                      "copy": rng.random() < 0.4, "remap": self.rng2.random() < 0.6}]
@@ -1243,6 +1298,8 @@ def main():
                    help="also Alt+D copies, slot links and collections (moved, excluded)")
     p.add_argument("--elsewhere", action="store_true",
                    help="also Save As and Save Copy (opened) into other folders")
+    p.add_argument("--moves", action="store_true",
+                   help="also slots moved up and down and Remove Unused Slots")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
@@ -1266,8 +1323,9 @@ def main():
     m.trace = args.trace
     m.more = args.more or bool(replay and replay.get("more"))
     m.elsewhere = args.elsewhere or bool(replay and replay.get("elsewhere"))
+    m.moves = args.moves or bool(replay and replay.get("moves"))
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
-              "more": m.more, "elsewhere": m.elsewhere,
+              "more": m.more, "elsewhere": m.elsewhere, "moves": m.moves,
               "actions": m.log}
     m.record = record
     status = "OK"
