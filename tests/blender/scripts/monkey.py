@@ -210,6 +210,14 @@ def targets(effect=None):
     return out
 
 
+def select_alone(obj):
+    """The object selected alone and active, as the artist's click leaves it (the operators
+    of Duplicate, Delete and Remove Unused Slots read the view layer, not the context)."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+
+
 def baked_pairs():
     return [(o.name, e) for o in bpy.data.objects for e in EFFECTS
             if getattr(o, f"hydrobake_{e}").is_baked]
@@ -636,6 +644,12 @@ class Monkey:
         if baked_pairs():
             self.dirty.add((name, aspect))
 
+    def touched_slots(self, obj):
+        """touched() for the object's slots, which show on every object of its mesh (Alt+D)."""
+        for o in bpy.data.objects:
+            if o == obj or o.data == obj.data:
+                self.touched(o.name, "slots")
+
     # --- running actions --------------------------------------------------------------------
     def run_action(self, a):
         op = a["op"]
@@ -741,9 +755,7 @@ class Monkey:
         obj = self.obj(name)
         if not obj.visible_get():
             raise Skip("hidden: cannot be selected")
-        for o in bpy.context.view_layer.objects:
-            o.select_set(o == obj)
-        bpy.context.view_layer.objects.active = obj
+        select_alone(obj)
         assert bpy.ops.object.duplicate(linked=linked) == {"FINISHED"}
         copy = bpy.context.view_layer.objects.active
         self.all_copies.add(copy.name)
@@ -789,19 +801,14 @@ class Monkey:
             bpy.data.objects.remove(obj)
             bpy.context.view_layer.update()  # as the UI evaluates after every change
             return "removed (hidden)"
-        for o in bpy.context.view_layer.objects:
-            o.select_set(o == obj)
-        bpy.context.view_layer.objects.active = obj
+        select_alone(obj)
         assert bpy.ops.object.delete() == {"FINISHED"}
         bpy.context.view_layer.update()
         return "deleted"
 
     def do_material(self, name, kind, slot, material, nodes=True):
         obj = self.obj(name)
-        self.touched(name, "slots")
-        for o in bpy.data.objects:  # a mesh's slots show on every object of it (Alt+D)
-            if o.data == obj.data and o != obj:
-                self.touched(o.name, "slots")
+        self.touched_slots(obj)
         if kind == "add":
             obj.active_material_index = max(0, len(obj.material_slots) - 1)
             with bpy.context.temp_override(object=obj):
@@ -847,12 +854,8 @@ class Monkey:
         return "toggled"
 
     def _slot_op(self, obj, slot, op, **kw):
-        """A slot operator of the Material panel on ``obj`` with slot ``slot`` active; every
-        object of its mesh sees the change (Alt+D)."""
-        self.touched(obj.name, "slots")
-        for o in bpy.data.objects:
-            if o.data == obj.data and o != obj:
-                self.touched(o.name, "slots")
+        """A slot operator of the Material panel on ``obj`` with slot ``slot`` active."""
+        self.touched_slots(obj)
         obj.active_material_index = slot
         with bpy.context.temp_override(object=obj, active_object=obj,
                                        selected_editable_objects=[obj]):
@@ -875,9 +878,7 @@ class Monkey:
         # (it works on the view layer's active and selected objects, whatever the context)
         if obj.name not in bpy.context.view_layer.objects or not obj.visible_get():
             raise Skip("not selectable")
-        for o in bpy.context.view_layer.objects:
-            o.select_set(o == obj)
-        bpy.context.view_layer.objects.active = obj
+        select_alone(obj)
         self._slot_op(obj, 0, bpy.ops.object.material_slot_remove_unused)
         return f"{before} -> {len(obj.material_slots)} slots"
 
