@@ -304,22 +304,47 @@ def behind_mesh(o):
     return out
 
 
-def obj_state(o, name_of=slot_name):
+def _foreign_copy(o, m):
+    """Whether ``m`` is a copy own() made for another object still in the file (one renamed
+    since is the copy's own object: COPY_FOR names no object then)."""
+    made_for = m.get("hydrobake_copy_for") if m is not None else None
+    return made_for is not None and made_for != o.name and made_for in bpy.data.objects
+
+
+def _slots(o, name_of, foreign_as_own):
     # A DROPPED slot goes only where no other slot follows it; before one it stays, empty:
     # the artist's slots keep their indices, which the faces use (monkey --more 1357).
     # A clean copy standing for the mesh's material (name_of gives that one's name) stands
     # on the object's own slot of a shared mesh: the slot's Link is the mesh's then (1738).
+    # Another object's copy in a slot (put there by the artist) stays as it is, unless a
+    # bake of this object copies it again as its own, which Free puts back (foreign_as_own).
+    def named(m):
+        n = name_of(m)
+        return slot_name(m) if not foreign_as_own and _foreign_copy(o, m) and \
+            n == m.get("hydrobake_copy_of") else n
     slots = [("DATA" if m is not None and m.get("hydrobake_link_was") == "DATA" and
-              name_of(m) in (m.get("hydrobake_copy_of"), EMPTIED) else link, name_of(m))
+              (foreign_as_own or not _foreign_copy(o, m)) and
+              named(m) in (m.get("hydrobake_copy_of"), EMPTIED) else link, named(m))
              for link, m in slots_of(o)]
+    return slots
+
+
+def obj_state(o, name_of=slot_name):
+    """The object's state as Free gives it back. ``slots_alt`` is the slots' other reading
+    where another object's copy is in one (monkey 7262): whether this object was baked since
+    decides which one Free gives back."""
+    slots = _slots(o, name_of, False)
     # The mark of a mesh's slot kept for a deleted object's made material stays with it, until
     # Remove Deleted Objects' Bakes (monkey --more --delete-baked --elsewhere 7147).
     mark = {"hydrobake_empty_slot"} if any(n in (DROPPED, EMPTIED) for _l, n in slots) \
         else set()
-    while slots and slots[-1][1] is DROPPED:
-        slots.pop()
+    def tidy(slots):
+        while slots and slots[-1][1] is DROPPED:
+            slots.pop()
+        return [(link, None if name in (DROPPED, EMPTIED) else name) for link, name in slots]
     return {
-        "slots": [(link, None if name in (DROPPED, EMPTIED) else name) for link, name in slots],
+        "slots": tidy(slots),
+        "slots_alt": tidy(_slots(o, name_of, True)),
         "behind": behind_mesh(o),
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
@@ -597,8 +622,11 @@ class Monkey:
                 continue
             have = obj_state(o, self.stands_for)
             for aspect in want:
-                if (name, aspect) in self.dirty or \
+                if (name, aspect) in self.dirty or aspect == "slots_alt" or \
                         (aspect == "behind" and (name, "slots") in self.dirty):
+                    continue
+                if aspect == "slots" and {repr(have["slots"]), repr(have["slots_alt"])} & \
+                        {repr(want["slots"]), repr(want["slots_alt"])}:
                     continue
                 if have[aspect] != want[aspect] and \
                         not self.known(f"object-{aspect}", (name, have[aspect], want[aspect])):
