@@ -1,7 +1,7 @@
 """A randomized, seeded "monkey" test of the real addon in ``blender -b``: random sequences of
 what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel + Resume,
 re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots (moved and
-tidied with --moves), modifiers, visibility, save and reopen, undo, the command line in-process
+tidied with --moves), Join, Make Single User and Link Materials (--relations), modifiers, visibility, save and reopen, undo, the command line in-process
 and in a subprocess), with the invariants checked after every step:
 
 * no Python exception but the addon's clear refusals (ValueError / RuntimeError naming an
@@ -21,7 +21,7 @@ and in a subprocess), with the invariants checked after every step:
 
     blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
         [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked] [--more]
-        [--elsewhere] [--moves] [--no-subprocess] [--no-render] [--known] [--trace]
+        [--elsewhere] [--moves] [--relations] [--no-subprocess] [--no-render] [--known] [--trace]
 
 --known goes on past the violations already reported (KNOWN below), to find others; --trace
 prints every object's state after each step. Prints ``MONKEY OK seed=S steps=N`` on success, else ``MONKEY FAIL seed=S step=K kind=...``
@@ -373,6 +373,8 @@ class Monkey:
         self.more = False  # --more: Alt+D, slot links, collections
         self.elsewhere = False  # --elsewhere: Save As / Save Copy into other folders
         self.moves = False  # --moves: slots moved up and down, unused slots removed
+        self.relations = False  # --relations: Join, Make Single User, Link Materials
+        self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
         self.left_behind = set()  # bake folders of the files saved elsewhere from
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
@@ -607,6 +609,9 @@ class Monkey:
                 users = bpy.data.user_map(subset=[bpy.data.materials[x[0]] for x in left])
                 left = [x for x in left if not users[bpy.data.materials[x[0]]] or not all(
                     self.of_deleted(u.name, "object") for u in users[bpy.data.materials[x[0]]])]
+            if what == "material":  # given to another object by the artist (Link Materials,
+                # Join): the artist's then, and a bake's copy of one goes back to it
+                left = [x for x in left if not x[0].startswith(tuple(self.given_hbk))]
             left = [x for x in left if not self.known(f"hbk-{what}-left", x)]
             if left:
                 raise Violation(f"hbk-{what}-left", f"with nothing baked: {left}")
@@ -813,6 +818,19 @@ class Monkey:
 
     def do_delete(self, name):
         obj = self.obj(name)
+        self._gone(obj)
+        if not obj.visible_get():
+            bpy.data.objects.remove(obj)
+            bpy.context.view_layer.update()  # as the UI evaluates after every change
+            return "removed (hidden)"
+        select_alone(obj)
+        assert bpy.ops.object.delete() == {"FINISHED"}
+        bpy.context.view_layer.update()
+        return "deleted"
+
+    def _gone(self, obj):
+        """The bookkeeping of an object about to leave the file (deleted, joined)."""
+        name = obj.name
         self.snap_objs.pop(name, None)  # (another object may take the name: seed 643)
         baked = [e for e in EFFECTS if getattr(obj, f"hydrobake_{e}").is_baked]
         if baked and not self.delete_baked:
@@ -825,14 +843,6 @@ class Monkey:
                 self.deleted_bakes.add(s.get("baked_as") or name)
                 # and the bakes it replaced under older names, kept until the next save
                 self.abandoned.update(f for f, _ in jobs._superseded(s))
-        if not obj.visible_get():
-            bpy.data.objects.remove(obj)
-            bpy.context.view_layer.update()  # as the UI evaluates after every change
-            return "removed (hidden)"
-        select_alone(obj)
-        assert bpy.ops.object.delete() == {"FINISHED"}
-        bpy.context.view_layer.update()
-        return "deleted"
 
     def do_material(self, name, kind, slot, material, nodes=True):
         obj = self.obj(name)
@@ -894,6 +904,10 @@ class Monkey:
         obj = self.obj(name)
         if slot >= len(obj.material_slots) or len(obj.material_slots) < 2:
             raise Skip("no slot to move")
+        if obj.type == "MESH" and len(obj.material_slots) != len(obj.data.materials):
+            # Blender 3.4.1 writes past the object's slots then, with or without the addon
+            # (monkey --more --elsewhere --moves 4055; upstream/slot_move_overflow.py)
+            raise Skip("the object's slots lag its mesh's")
         done = self._slot_op(obj, slot, bpy.ops.object.material_slot_move, direction=direction)
         return f"moved {direction}" if done == {"FINISHED"} else "not moved"
 
@@ -909,6 +923,70 @@ class Monkey:
         select_alone(obj)
         self._slot_op(obj, 0, bpy.ops.object.material_slot_remove_unused)
         return f"{before} -> {len(obj.material_slots)} slots"
+
+    def _selectable(self, *objs):
+        for o in objs:
+            if o.name not in bpy.context.view_layer.objects or not o.visible_get():
+                raise Skip(f"{o.name} not selectable")
+            if o.type != "MESH":
+                raise Skip(f"{o.name} is no mesh")
+
+    def do_join(self, name, into):
+        """Ctrl+J: ``name`` joined into ``into`` (active). The artist frees its bakes first,
+        unless --delete-baked: then, as a delete, its bake stays till Remove Deleted Objects'
+        Bakes. ``into`` takes its faces and materials: its slots are the artist's edit."""
+        src, dst = self.obj(name), self.obj(into)
+        if src == dst:
+            raise Skip("joined into itself")
+        self._selectable(src, dst)
+        for o in bpy.data.objects:  # (a mesh's objects all show the new slots)
+            if o.data == dst.data:
+                for aspect in ("slots", "mesh", "behind"):
+                    self.touched(o.name, aspect)
+        self._gone(src)
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o in (src, dst))
+        bpy.context.view_layer.objects.active = dst
+        r = bpy.ops.object.join()
+        bpy.context.view_layer.update()
+        self.given(dst)
+        return f"joined: {r}"
+
+    def do_single_user(self, name):
+        """Object > Relations > Make Single User > Object & Data: an Alt+D copy gets a mesh
+        of its own (and a copy of the object where another scene had it)."""
+        obj = self.obj(name)
+        self._selectable(obj)
+        for o in bpy.data.objects:
+            if o.data == obj.data:
+                for aspect in ("slots", "mesh", "behind"):
+                    self.touched(o.name, aspect)
+        select_alone(obj)
+        r = bpy.ops.object.make_single_user(type="SELECTED_OBJECTS", object=True, obdata=True)
+        return f"{r}: {obj.data.users} user(s)"
+
+    def do_link_materials(self, name, into):
+        """Ctrl+L > Link Materials: ``into`` (selected) takes the slots and materials of
+        ``name`` (active), a bake's copy among them."""
+        src, dst = self.obj(name), self.obj(into)
+        if src == dst:
+            raise Skip("linked to itself")
+        self._selectable(src, dst)
+        self.touched_slots(dst)
+        for o in bpy.data.objects:
+            if o.data == dst.data:
+                self.touched(o.name, "behind")
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o in (src, dst))
+        bpy.context.view_layer.objects.active = src
+        r = bpy.ops.object.make_links_data(type="MATERIAL")
+        self.given(dst)
+        return str(r)
+
+    def given(self, obj):
+        self.given_hbk |= {m.name for m in obj.data.materials if m and m.name.startswith("HBK")}
+        self.given_hbk |= {s.material.name for s in obj.material_slots
+                           if s.material and s.material.name.startswith("HBK")}
 
     def do_slot_link(self, name, slot):
         """A slot switched between the mesh's material and the object's own (Link)."""
@@ -1118,6 +1196,8 @@ class Monkey:
             ops += [("save_as", 4)]
         if self.moves:
             ops += [("slot_move", 5), ("slots_tidy", 2)]
+        if self.relations:
+            ops += [("join", 2), ("single_user", 3), ("link_materials", 3)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -1147,6 +1227,10 @@ class Monkey:
                            if slot == 0 else "UP" if slot == n - 1 else rng.choice(("UP", "DOWN"))}]
         if op == "slots_tidy":
             return [{"op": "slots_tidy", "name": rng.choice(objs)}]
+        if op in ("join", "link_materials"):  # (the first one selected, the second active)
+            return [{"op": op, "name": rng.choice(objs), "into": rng.choice(objs)}]
+        if op == "single_user":
+            return [{"op": op, "name": rng.choice(objs)}]
         if op == "save_as":
             return [{"op": "save_as", "folder": rng.choice(("", "s1", os.path.join("s2", "deep"))),
                      "copy": rng.random() < 0.4, "remap": self.rng2.random() < 0.6}]
@@ -1329,6 +1413,8 @@ def main():
                    help="also Save As and Save Copy (opened) into other folders")
     p.add_argument("--moves", action="store_true",
                    help="also slots moved up and down and Remove Unused Slots")
+    p.add_argument("--relations", action="store_true",
+                   help="also Join, Make Single User and Link Materials")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
@@ -1353,8 +1439,10 @@ def main():
     m.more = args.more or bool(replay and replay.get("more"))
     m.elsewhere = args.elsewhere or bool(replay and replay.get("elsewhere"))
     m.moves = args.moves or bool(replay and replay.get("moves"))
+    m.relations = args.relations or bool(replay and replay.get("relations"))
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
               "more": m.more, "elsewhere": m.elsewhere, "moves": m.moves,
+              "relations": m.relations,
               "actions": m.log}
     m.record = record
     status = "OK"
