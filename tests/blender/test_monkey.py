@@ -95,6 +95,14 @@ def test_monkey_moves_seed(blender, tmp_path, seed):
     run_seed(blender, tmp_path, seed, 120, "--more", "--moves", "--delete-baked")
 
 
+# --relations: Join, Make Single User and Link Materials. Seed 1 gives a bake's made material
+# to other objects (Link Materials from a baked object, a baked object joined in): the
+# artist's then, left where the artist put it.
+@pytest.mark.parametrize("seed", (1, 3))
+def test_monkey_relations_seed(blender, tmp_path, seed):
+    run_seed(blender, tmp_path, seed, 120, "--more", "--relations")
+
+
 # Every flag, long runs: 7176 found a made material left in a Shift+D copy's slot after the
 # mesh's slot was removed (materials._remove_copy), then a Shift+D copy's marked empty slot
 # kept; 7147 a deleted object's made material kept behind an Alt+D copy's own slot after
