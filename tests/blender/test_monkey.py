@@ -118,8 +118,12 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # replays). linked_copy_slot_removed: a Free removed a clean copy whose slot the artist had
 # removed through the Alt+D copy, and Blender 3.4 then segfaulted on the next slot added
 # (7215). own_behind_mesh: a bake's copy went over the object's own material behind the mesh's,
-# and its Free gave none back (the harness's "behind" check).
-@pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh"))
+# and its Free gave none back (the harness's "behind" check). refilled_empty_slot: the mesh's
+# slot a bake appended, kept empty for an Alt+D copy's own material, was filled by the copy's
+# bake as if it were the artist's, and stayed once that bake was gone (every flag + --moves
+# 7284, 800 steps).
+@pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
+                                  "refilled_empty_slot"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

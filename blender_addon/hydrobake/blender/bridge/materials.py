@@ -26,8 +26,11 @@ def ensure_material(obj, name, nodes=True):
     if mat is None:
         mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
         if has_slot:
+            # The mesh's slot another bake appended, kept empty for another object of the
+            # mesh (EMPTY_SLOT), is Hydrobake's: it goes with this material too (monkey 7284).
+            ours = obj.material_slots[0].link == "DATA" and obj.data.get(EMPTY_SLOT) == 0
             obj.material_slots[0].material = mat
-            mat[MADE] = "slot"
+            mat[MADE] = "appended" if ours else "slot"
         else:
             obj.data.materials.append(mat)
             mat[MADE] = "appended"
