@@ -630,6 +630,11 @@ class Monkey:
                 if (name, aspect) in self.dirty or aspect == "slots_alt" or \
                         (aspect == "behind" and (name, "slots") in self.dirty):
                     continue
+                given = tuple(self.given_hbk)
+                if aspect in ("slots", "behind", "mesh") and given and any(
+                        n is not None and n.startswith(given)
+                        for _l, n in want["slots"] + have["slots"]):
+                    continue  # a bake's material the artist gave it: it may go with the bake
                 if aspect == "slots" and {repr(have["slots"]), repr(have["slots_alt"])} & \
                         {repr(want["slots"]), repr(want["slots_alt"])}:
                     continue
@@ -973,9 +978,10 @@ class Monkey:
             raise Skip("linked to itself")
         self._selectable(src, dst)
         self.touched_slots(dst)
-        for o in bpy.data.objects:
-            if o.data == dst.data:
+        for o in bpy.data.objects:  # (the mesh's materials are the artist's now: the mark
+            if o.data == dst.data:  # of a slot kept empty stays for a bake's copy given: 14)
                 self.touched(o.name, "behind")
+                self.touched(o.name, "mesh")
         for o in bpy.context.view_layer.objects:
             o.select_set(o in (src, dst))
         bpy.context.view_layer.objects.active = src
@@ -984,9 +990,11 @@ class Monkey:
         return str(r)
 
     def given(self, obj):
-        self.given_hbk |= {m.name for m in obj.data.materials if m and m.name.startswith("HBK")}
-        self.given_hbk |= {s.material.name for s in obj.material_slots
-                           if s.material and s.material.name.startswith("HBK")}
+        """The HBK materials ``obj`` shows now, and what the copies among them stand for."""
+        mats = [m for m in obj.data.materials if m] + \
+            [s.material for s in obj.material_slots if s.material]
+        self.given_hbk |= {n for m in mats for n in (m.name, m.get("hydrobake_copy_of", ""))
+                           if n.startswith("HBK")}
 
     def do_slot_link(self, name, slot):
         """A slot switched between the mesh's material and the object's own (Link)."""
