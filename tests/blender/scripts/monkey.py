@@ -1,8 +1,9 @@
 """A randomized, seeded "monkey" test of the real addon in ``blender -b``: random sequences of
 what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel + Resume,
 re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots (moved and
-tidied with --moves), Join, Make Single User and Link Materials (--relations), modifiers, visibility, save and reopen, undo, the command line in-process
-and in a subprocess), with the invariants checked after every step:
+tidied with --moves), Join, Make Single User and Link Materials (--relations), modifiers,
+visibility, save and reopen, undo, the command line in-process and in a subprocess), with the
+invariants checked after every step:
 
 * no Python exception but the addon's clear refusals (ValueError / RuntimeError naming an
   object or a setting), no traceback printed;
@@ -210,12 +211,16 @@ def targets(effect=None):
     return out
 
 
-def select_alone(obj):
+def select_alone(obj, also=None):
     """The object selected alone and active, as the artist's click leaves it (the operators
-    of Duplicate, Delete and Remove Unused Slots read the view layer, not the context)."""
+    of Duplicate, Delete and Remove Unused Slots read the view layer, not the context); with
+    ``also`` selected too (Shift+click before: Join, Link Materials)."""
     for o in bpy.context.view_layer.objects:
-        o.select_set(o == obj)
+        o.select_set(o in (obj, also))
     bpy.context.view_layer.objects.active = obj
+
+
+MESH_ASPECTS = ("slots", "mesh", "behind")  # what Join, Link Materials, ... change
 
 
 def baked_pairs():
@@ -322,11 +327,10 @@ def _slots(o, name_of, foreign_as_own):
         n = name_of(m)
         return slot_name(m) if not foreign_as_own and _foreign_copy(o, m) and \
             n == m.get("hydrobake_copy_of") else n
-    slots = [("DATA" if m is not None and m.get("hydrobake_link_was") == "DATA" and
-              (foreign_as_own or not _foreign_copy(o, m)) and
-              named(m) in (m.get("hydrobake_copy_of"), EMPTIED) else link, named(m))
-             for link, m in slots_of(o)]
-    return slots
+    return [("DATA" if m is not None and m.get("hydrobake_link_was") == "DATA" and
+             (foreign_as_own or not _foreign_copy(o, m)) and
+             named(m) in (m.get("hydrobake_copy_of"), EMPTIED) else link, named(m))
+            for link, m in slots_of(o)]
 
 
 def obj_state(o, name_of=slot_name):
@@ -682,11 +686,13 @@ class Monkey:
         if baked_pairs():
             self.dirty.add((name, aspect))
 
-    def touched_slots(self, obj):
-        """touched() for the object's slots, which show on every object of its mesh (Alt+D)."""
+    def touched_slots(self, obj, aspects=("slots",)):
+        """touched() for the object's slots, which show on every object of its mesh (Alt+D);
+        and other ``aspects`` of them (the mesh, what lies behind its slots)."""
         for o in bpy.data.objects:
             if o == obj or o.data == obj.data:
-                self.touched(o.name, "slots")
+                for aspect in aspects:
+                    self.touched(o.name, aspect)
 
     # --- running actions --------------------------------------------------------------------
     def run_action(self, a):
@@ -944,14 +950,9 @@ class Monkey:
         if src == dst:
             raise Skip("joined into itself")
         self._selectable(src, dst)
-        for o in bpy.data.objects:  # (a mesh's objects all show the new slots)
-            if o.data == dst.data:
-                for aspect in ("slots", "mesh", "behind"):
-                    self.touched(o.name, aspect)
+        self.touched_slots(dst, MESH_ASPECTS)
         self._gone(src)
-        for o in bpy.context.view_layer.objects:
-            o.select_set(o in (src, dst))
-        bpy.context.view_layer.objects.active = dst
+        select_alone(dst, also=src)
         r = bpy.ops.object.join()
         bpy.context.view_layer.update()
         self.given(dst)
@@ -962,10 +963,7 @@ class Monkey:
         of its own (and a copy of the object where another scene had it)."""
         obj = self.obj(name)
         self._selectable(obj)
-        for o in bpy.data.objects:
-            if o.data == obj.data:
-                for aspect in ("slots", "mesh", "behind"):
-                    self.touched(o.name, aspect)
+        self.touched_slots(obj, MESH_ASPECTS)
         select_alone(obj)
         r = bpy.ops.object.make_single_user(type="SELECTED_OBJECTS", object=True, obdata=True)
         return f"{r}: {obj.data.users} user(s)"
@@ -977,14 +975,10 @@ class Monkey:
         if src == dst:
             raise Skip("linked to itself")
         self._selectable(src, dst)
-        self.touched_slots(dst)
-        for o in bpy.data.objects:  # (the mesh's materials are the artist's now: the mark
-            if o.data == dst.data:  # of a slot kept empty stays for a bake's copy given: 14)
-                self.touched(o.name, "behind")
-                self.touched(o.name, "mesh")
-        for o in bpy.context.view_layer.objects:
-            o.select_set(o in (src, dst))
-        bpy.context.view_layer.objects.active = src
+        # (the mesh's materials are the artist's now: the mark of a slot kept empty stays
+        # for a bake's copy given, seed 14)
+        self.touched_slots(dst, MESH_ASPECTS)
+        select_alone(src, also=dst)
         r = bpy.ops.object.make_links_data(type="MATERIAL")
         self.given(dst)
         return str(r)
