@@ -121,9 +121,17 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # and its Free gave none back (the harness's "behind" check). refilled_empty_slot: the mesh's
 # slot a bake appended, kept empty for an Alt+D copy's own material, was filled by the copy's
 # bake as if it were the artist's, and stayed once that bake was gone (every flag + --moves
-# 7284, 800 steps).
+# 7284, 800 steps). Two for the harness's model of a deleted object's wiring (every flag +
+# --moves, 800 steps; each fails with the model from before): deleted_copys_made_material,
+# an Alt+D copy deleted while baked leaves its wiring in the mesh's made material, which the
+# object's next bake takes over and its Free takes out with its slot and the artist's
+# material behind it (7281); copy_with_deleted_wiring, a bake's copy of a shared material
+# carries another effect's wiring of a deleted object, so Free keeps it (shared material
+# kept, or gone at a save; the object's own slot of an Alt+D mesh) until Remove Deleted
+# Objects' Bakes (7283).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
-                                  "refilled_empty_slot"))
+                                  "refilled_empty_slot", "deleted_copys_made_material",
+                                  "copy_with_deleted_wiring"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

@@ -58,12 +58,10 @@ REFUSALS = (ValueError, RuntimeError, KeyError, errors.HydrobakeError)
 
 # Violations already reported (--known masks them so that a run goes on to find others):
 # kind -> predicate on the offending item (a name, or the violation's detail).
-KNOWN = {
-    # A Shift+D copy that holds the original's record and re-bakes into its own folder after
-    # the original was freed leaves the original's (not fixed yet).
-    "orphan-folder": lambda m, item: m.folder_object(item) not in {
-        o.name for o in bpy.data.objects},
-}
+# None now: the last one listed (a Shift+D copy that holds the original's record re-baked
+# after the original was freed and left the original's folder) is freed at the next save as
+# a renamed object's old bake is (tests/blender/scripts/shared_records.py).
+KNOWN = {}
 
 
 class Violation(Exception):
@@ -271,6 +269,11 @@ def _gone_with(made):
     return EMPTIED if made == "slot" else DROPPED
 
 
+def wired(mat):
+    """Whether a bake's nodes are in the material (Hydrobake's tag)."""
+    return bool(mat.node_tree) and any(n.get("hydrobake") for n in mat.node_tree.nodes)
+
+
 def slot_name(mat):
     """A material's name, an object's own copy of a shared one (own()) named for what it
     stands for: its name follows the object's renames at its re-bakes (seed 533), not at
@@ -346,10 +349,12 @@ def obj_state(o, name_of=slot_name):
         while slots and slots[-1][1] is DROPPED:
             slots.pop()
         return [(link, None if name in (DROPPED, EMPTIED) else name) for link, name in slots]
+    kept = tidy(slots)
     return {
-        "slots": tidy(slots),
+        "slots": kept,
         "slots_alt": tidy(_slots(o, name_of, True)),
-        "behind": behind_mesh(o),
+        # (the object's own material behind a DROPPED slot goes with it: _drop_slot)
+        "behind": [(i, n) for i, n in behind_mesh(o) if i < len(kept)],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
         "vis": {"hide_render": o.hide_render, "hide_viewport": o.hide_viewport,
                 "visible_shadow": o.visible_shadow, "display_type": o.display_type,
@@ -562,23 +567,29 @@ class Monkey:
         Remove Deleted Objects' Bakes takes the wiring out (seeds 767, 769). A material made
         for a deleted object's bake, or a copy of one, is DROPPED: its slot goes with it (790),
         unless another slot follows it (obj_state), or EMPTIED where it filled the artist's
-        empty slot (7206); so is a clean copy of a material made for a bake that only a
-        deleted object's bake wires now (1673). A clean copy whose shared
+        empty slot (7206); so is a material made for a bake that only a deleted object's bake
+        wires now (an Alt+D copy's: the next bake of the object takes it over and its Free
+        takes it out, 7281), and a clean copy of one (1673). A clean copy whose shared
         material has left the file is that material."""
         if mat is not None and self.of_deleted(mat.get("hydrobake_copy_of", mat.name)):
             return _gone_with(mat.get("hydrobake_made", mat.get("hydrobake_copy_of_made")))
+        if mat is not None and "hydrobake_made" in mat and self.shows_deleted(mat):
+            return _gone_with(mat["hydrobake_made"])
         if mat is not None and "hydrobake_copy_of" in mat and \
                 bpy.data.materials.get(mat["hydrobake_copy_of"]) is None and \
-                "hydrobake_copy_of_made" not in mat and \
-                mat.get("hydrobake_link_was") != "DATA" and not (mat.node_tree and any(
-                    n.get("hydrobake") for n in mat.node_tree.nodes)):
+                "hydrobake_copy_of_made" not in mat and (self.shows_deleted(mat) or (
+                    mat.get("hydrobake_link_was") != "DATA" and not wired(mat))):
             # its shared material left the file (unused at a save): the next put-back makes
-            # it that material again (materials._shared_again; monkey 7148)
+            # it that material again (materials._shared_again; monkey 7148), once a deleted
+            # object's wiring copied into it is taken out (Remove Deleted Objects' Bakes: 7283;
+            # on a shared mesh's slot, the mesh's copy of it shows again: _mesh_slot_again)
             return mat["hydrobake_copy_of"]
         shared = bpy.data.materials.get(mat["hydrobake_copy_of"]) \
             if mat is not None and "hydrobake_copy_of" in mat else None
-        if shared is not None and self.shows_deleted(shared) and not (mat.node_tree and any(
-                n.get("hydrobake") for n in mat.node_tree.nodes)):
+        if shared is not None and self.shows_deleted(shared) and (
+                self.shows_deleted(mat) or not wired(mat)):
+            # (a copy own() made with a deleted object's wiring in it, of another effect's:
+            # its Free keeps it until Remove Deleted Objects' Bakes takes the wiring out, 7283)
             return _gone_with(shared["hydrobake_made"]) if "hydrobake_made" in shared \
                 else shared.name
         return slot_name(mat)
@@ -667,13 +678,6 @@ class Monkey:
                           if not self.shows_deleted(m) and not self.only_orphans_hold(m)}
         self.dirty = set()
         self.copies = {}
-
-    @staticmethod
-    def folder_object(folder):
-        try:
-            return (BakeCache(folder).read_manifest() or {}).get("object")
-        except ValueError:
-            return None
 
     def only_copies_use(self, mat_name):
         users = [o.name for o in bpy.data.objects
@@ -1339,6 +1343,12 @@ class Monkey:
             result = f"skipped: {s}"
         print(f"monkey: step {k}: {json.dumps(a)} -> {result}", flush=True)
         if self.trace:
+            print(f"    deleted bakes {sorted(self.deleted_bakes)}")
+            for o in bpy.data.objects:
+                for e in EFFECTS:
+                    s = getattr(o, f"hydrobake_{e}")
+                    if s.is_baked:
+                        print(f"    record {o.name} {e} as={s.get('baked_as')} {s.bake_folder}")
             for o in scene_objects():
                 print(f"    {o.name}: {obj_state(o)} baked="
                       f"{[e for e in EFFECTS if getattr(o, f'hydrobake_{e}').is_baked]}")

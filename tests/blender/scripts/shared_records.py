@@ -211,4 +211,23 @@ bake(p3, "caustics")
 assert tags(ma) == [] and "caustics.multiply" in tags(mb), (tags(ma), tags(mb))
 free(p3, "caustics")
 assert tags(mb) == []
+# A Shift+D copy re-baked after its original was freed and deleted: the copy was the last to
+# record the original's bake, which its own replaces; the original's folder goes at the next
+# save, as a renamed object's old bake does (once listed as a known monkey finding).
+pane = plane("Pane", loc=(0, -18, 1))
+rain(pane)
+bake(pane, "rain")
+old = bpy.path.abspath(pane.hydrobake_rain.bake_folder)
+copy = in_blender.duplicate(pane)
+free(pane, "rain")
+assert os.path.isdir(old), "the copy's record keeps the files"
+bpy.data.objects.remove(pane)
+bake(copy, "rain")
+new = bpy.path.abspath(copy.hydrobake_rain.bake_folder)
+assert new != old
+bpy.ops.wm.save_mainfile()
+assert not os.path.exists(old), os.listdir(old)
+assert os.path.isfile(os.path.join(new, "manifest.json"))
+free(copy, "rain")
+
 print("SHARED RECORDS OK")
