@@ -235,22 +235,25 @@ def _holds_bake(obj, prefix=None, folder=None):
 
 def _take_out(obj, mat):
     """Takes a material ensure_material made (``mat``) out of the object's slot: the slot
-    empty again, or gone if it was appended for it."""
-    index = next((i for i, s in enumerate(obj.material_slots) if s.material == mat), None)
-    if index is None:
+    empty again, or gone if it was appended for it. Out of every slot showing it: the artist
+    may have moved it down the list, and a resume then filled the first slot with it again
+    (monkey --relations 30); the slots stay then, emptied, as which was appended is unknown."""
+    indices = [i for i, s in enumerate(obj.material_slots) if s.material == mat]
+    if not indices:
         _take_out_of_mesh(obj, mat)
         return
+    appended = mat[MADE] == "appended" and len(indices) == 1
     # A mesh other objects share keeps the slot where one of them shows its own material.
     others = [o for o in bpy.data.objects if o != obj and o.data == obj.data]
+    for index in indices:
+        obj.material_slots[index].material = None
+    index = indices[0]
     kept = any(
         index < len(o.material_slots) and o.material_slots[index].link == "OBJECT" and
         o.material_slots[index].material is not None for o in others)
-    slot = obj.material_slots[index]
-    linked = slot.link == "DATA"
-    slot.material = None
-    if mat[MADE] == "appended" and kept:
+    if appended and kept:
         obj.data[EMPTY_SLOT] = index  # for the last object showing it (restore)
-    if mat[MADE] == "appended" and linked and not kept and \
+    if appended and obj.material_slots[index].link == "DATA" and not kept and \
             index == len(obj.data.materials) - 1:
         _drop_slot(obj, index)
     _take_out_of_mesh(obj, mat)  # also where a Link hides it (both, monkey --more 1011)
