@@ -306,6 +306,7 @@ class Job:
                 bpy.data.filepath else self.recorded
             settings.is_baked = True
             settings.bake_folder = recorded
+            superseded_no_more(self.folder, self.effect_name)
             scene = bpy.data.scenes.get(self.scene_name) or context.scene
             try:
                 with scene_context(context, scene):
@@ -372,6 +373,23 @@ def supersede(settings, folder, name):
     if not any(_same_folder(f, folder) for f, _ in pending):
         pending.append((folder, name))
     settings[SUPERSEDED] = json.dumps(pending)
+
+
+def superseded_no_more(folder, effect_name):
+    """A bake just recorded in ``folder`` is not the one another object's re-bake replaced
+    there: no object's record may free it as replaced any more (a copy re-baked elsewhere,
+    then its original baked there again and was deleted while baked: the save freed the
+    deleted object's files, which Undo brings back; monkey --relations 27)."""
+    where = bpy.path.abspath(folder)
+    for obj in bpy.data.objects:
+        settings = settings_of(obj, effect_name)
+        pending = _superseded(settings)
+        kept = [(f, n) for f, n in pending if not _same_folder(bpy.path.abspath(f), where)]
+        if len(kept) < len(pending):
+            if kept:
+                settings[SUPERSEDED] = json.dumps(kept)
+            else:
+                del settings[SUPERSEDED]
 
 
 def free_superseded():

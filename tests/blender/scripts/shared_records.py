@@ -230,4 +230,21 @@ assert not os.path.exists(old), os.listdir(old)
 assert os.path.isfile(os.path.join(new, "manifest.json"))
 free(copy, "rain")
 
+# The same copy re-baked elsewhere, then its original baked again in its old folder and
+# deleted while baked: that bake is the deleted object's now (Undo brings it back), not the
+# one the copy replaced, and the save keeps its files.
+pane = plane("Pane2", loc=(0, -21, 1))
+rain(pane)
+bake(pane, "rain")
+old = bpy.path.abspath(pane.hydrobake_rain.bake_folder)
+copy = in_blender.duplicate(pane)
+free(pane, "rain")
+bake(copy, "rain")
+bake(pane, "rain")
+assert bpy.path.abspath(pane.hydrobake_rain.bake_folder) == old
+bpy.data.objects.remove(pane)
+bpy.ops.wm.save_mainfile()
+assert os.path.isfile(os.path.join(old, "manifest.json")), "the deleted object's bake was freed"
+free(copy, "rain")
+
 print("SHARED RECORDS OK")
