@@ -353,6 +353,7 @@ def obj_state(o, name_of=slot_name):
     return {
         "slots": kept,
         "slots_alt": tidy(_slots(o, name_of, True)),
+        "shows": sorted({m.name for _l, m in slots_of(o) if m is not None}),  # (as they are)
         # (the object's own material behind a DROPPED slot goes with it: _drop_slot)
         "behind": [(i, n) for i, n in behind_mesh(o) if i < len(kept)],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
@@ -384,6 +385,7 @@ class Monkey:
         self.moves = False  # --moves: slots moved up and down, unused slots removed
         self.relations = False  # --relations: Join, Make Single User, Link Materials
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
+        self.given_wired = set()  # ... and other materials with a bake's wiring in them
         self.left_behind = set()  # bake folders of the files saved elsewhere from
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
@@ -642,7 +644,7 @@ class Monkey:
                 continue
             have = obj_state(o, self.stands_for)
             for aspect in want:
-                if (name, aspect) in self.dirty or aspect == "slots_alt" or \
+                if (name, aspect) in self.dirty or aspect in ("slots_alt", "shows") or \
                         (aspect == "behind" and (name, "slots") in self.dirty):
                     continue
                 given = tuple(self.given_hbk)
@@ -650,6 +652,12 @@ class Monkey:
                         n is not None and n.startswith(given)
                         for _l, n in want["slots"] + have["slots"]):
                     continue  # a bake's material the artist gave it: it may go with the bake
+                if aspect in ("slots", "behind", "mesh") and \
+                        self.given_wired & set(want["shows"] + have["shows"]):
+                    # a material with a bake's wiring the artist gave another object: that
+                    # object's Free takes the wiring out of its slots (a deleted object's
+                    # too), and the copy it was in goes back to its material (seed 36)
+                    continue
                 if aspect == "slots" and {repr(have["slots"]), repr(have["slots_alt"])} & \
                         {repr(want["slots"]), repr(want["slots_alt"])}:
                     continue
@@ -988,11 +996,13 @@ class Monkey:
         return str(r)
 
     def given(self, obj):
-        """The HBK materials ``obj`` shows now, and what the copies among them stand for."""
+        """The HBK materials ``obj`` shows now, and what the copies among them stand for; the
+        others with a bake's wiring in them."""
         mats = [m for m in obj.data.materials if m] + \
             [s.material for s in obj.material_slots if s.material]
         self.given_hbk |= {n for m in mats for n in (m.name, m.get("hydrobake_copy_of", ""))
                            if n.startswith("HBK")}
+        self.given_wired |= {m.name for m in mats if wired(m) and not m.name.startswith("HBK")}
 
     def do_slot_link(self, name, slot):
         """A slot switched between the mesh's material and the object's own (Link)."""
@@ -1348,7 +1358,8 @@ class Monkey:
                 for e in EFFECTS:
                     s = getattr(o, f"hydrobake_{e}")
                     if s.is_baked:
-                        print(f"    record {o.name} {e} as={s.get('baked_as')} {s.bake_folder}")
+                        print(f"    record {o.name} {e} as={s.get('baked_as')} "
+                              f"{s.bake_folder} superseded={s.get('superseded')}")
             for o in scene_objects():
                 print(f"    {o.name}: {obj_state(o)} baked="
                       f"{[e for e in EFFECTS if getattr(o, f'hydrobake_{e}').is_baked]}")
