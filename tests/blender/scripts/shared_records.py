@@ -211,16 +211,25 @@ bake(p3, "caustics")
 assert tags(ma) == [] and "caustics.multiply" in tags(mb), (tags(ma), tags(mb))
 free(p3, "caustics")
 assert tags(mb) == []
-# A Shift+D copy re-baked after its original was freed and deleted: the copy was the last to
-# record the original's bake, which its own replaces; the original's folder goes at the next
-# save, as a renamed object's old bake does (once listed as a known monkey finding).
-pane = plane("Pane", loc=(0, -18, 1))
-rain(pane)
-bake(pane, "rain")
-old = bpy.path.abspath(pane.hydrobake_rain.bake_folder)
-copy = in_blender.duplicate(pane)
-free(pane, "rain")
-assert os.path.isdir(old), "the copy's record keeps the files"
+
+
+def freed_original(name, y):
+    """A glass baked, Shift+D copied (the copy keeps the record) and freed: the copy is the
+    last to record its bake. Returns the glass, its bake's folder and the copy."""
+    glass = plane(name, loc=(0, y, 1))
+    rain(glass)
+    bake(glass, "rain")
+    folder = bpy.path.abspath(glass.hydrobake_rain.bake_folder)
+    copy = in_blender.duplicate(glass)
+    free(glass, "rain")
+    assert os.path.isdir(folder), "the copy's record keeps the files"
+    return glass, folder, copy
+
+
+# The copy re-baked after its original was deleted: its own bake replaces the original's,
+# whose folder goes at the next save, as a renamed object's old bake does (once listed as a
+# known monkey finding).
+pane, old, copy = freed_original("Pane", -18)
 bpy.data.objects.remove(pane)
 bake(copy, "rain")
 new = bpy.path.abspath(copy.hydrobake_rain.bake_folder)
@@ -230,15 +239,10 @@ assert not os.path.exists(old), os.listdir(old)
 assert os.path.isfile(os.path.join(new, "manifest.json"))
 free(copy, "rain")
 
-# The same copy re-baked elsewhere, then its original baked again in its old folder and
-# deleted while baked: that bake is the deleted object's now (Undo brings it back), not the
-# one the copy replaced, and the save keeps its files.
-pane = plane("Pane2", loc=(0, -21, 1))
-rain(pane)
-bake(pane, "rain")
-old = bpy.path.abspath(pane.hydrobake_rain.bake_folder)
-copy = in_blender.duplicate(pane)
-free(pane, "rain")
+# The copy re-baked, then its original baked again in its old folder and deleted while
+# baked: that bake is the deleted object's now (Undo brings it back), not the one the copy
+# replaced, and the save keeps its files (monkey --relations 27).
+pane, old, copy = freed_original("Pane2", -21)
 bake(copy, "rain")
 bake(pane, "rain")
 assert bpy.path.abspath(pane.hydrobake_rain.bake_folder) == old
