@@ -2,7 +2,9 @@
 two effects in one material (freeing one leaves the other's values, node switch and made
 material), linked duplicates with no material, a Glass BSDF's values, a copy made for another
 bake keeping its effect's wiring, a Shift+D copy of a renamed pool, a newcomer's Free on a
-taken name, a renamed pool resumed under its old folder, and a ground changed between bakes."""
+taken name, a renamed pool resumed under its old folder, a ground changed between bakes, and
+a Shift+D copy re-baked after its original was freed (the original's folder goes at the save,
+unless the original baked there again)."""
 import os
 
 import bpy
