@@ -130,10 +130,13 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # kept, or gone at a save; the object's own slot of an Alt+D mesh) until Remove Deleted
 # Objects' Bakes (7283). moved_made_material_resumed: the artist moved the slot a bake's
 # made material filled down the list, a resume filled the first slot with it again, and
-# Free took it out of the first only (all flags + --relations 30).
+# Free took it out of the first only (all flags + --relations 30). deleted_objects_copy_
+# rebaked: the harness's model of a deleted object's copy on a mesh an Alt+D copy shares, which
+# the copy's bake and Free give back as its shared material (--relations 35).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
-                                  "copy_with_deleted_wiring", "moved_made_material_resumed"))
+                                  "copy_with_deleted_wiring", "moved_made_material_resumed",
+                                  "deleted_objects_copy_rebaked"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

@@ -588,10 +588,12 @@ class Monkey:
             return mat["hydrobake_copy_of"]
         shared = bpy.data.materials.get(mat["hydrobake_copy_of"]) \
             if mat is not None and "hydrobake_copy_of" in mat else None
-        if shared is not None and self.shows_deleted(shared) and (
-                self.shows_deleted(mat) or not wired(mat)):
-            # (a copy own() made with a deleted object's wiring in it, of another effect's:
-            # its Free keeps it until Remove Deleted Objects' Bakes takes the wiring out, 7283)
+        if shared is not None and (self.shows_deleted(mat) or (
+                self.shows_deleted(shared) and not wired(mat))):
+            # (a copy with only a deleted object's wiring in it, another effect's copied with
+            # it or the copy that object's bake made: Remove Deleted Objects' Bakes takes the
+            # wiring out and gives the shared one back, as a bake of this object's does,
+            # 7283, --relations 35)
             return _gone_with(shared["hydrobake_made"]) if "hydrobake_made" in shared \
                 else shared.name
         return slot_name(mat)
