@@ -243,11 +243,11 @@ def _take_out(obj, mat):
         _take_out_of_mesh(obj, mat)
         return
     appended = mat[MADE] == "appended" and len(indices) == 1
-    # A mesh other objects share keeps the slot where one of them shows its own material.
-    others = [o for o in bpy.data.objects if o != obj and o.data == obj.data]
     for index in indices:
         obj.material_slots[index].material = None
     index = indices[0]
+    # A mesh other objects share keeps the slot where one of them shows its own material.
+    others = [o for o in bpy.data.objects if o != obj and o.data == obj.data]
     kept = any(
         index < len(o.material_slots) and o.material_slots[index].link == "OBJECT" and
         o.material_slots[index].material is not None for o in others)
