@@ -55,6 +55,11 @@ def test_a_file_saved_elsewhere_or_appended_still_finds_its_bakes(blender, tmp_p
     assert "SAVED ELSEWHERE OK" in r.stdout
 
 
+def test_saved_without_remap_over_an_older_bake_still_shows_its_own(blender, tmp_path):
+    r = blender.run("saved_over_older_bake.py", tmp_path)
+    assert "SAVED OVER OLDER BAKE OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

@@ -113,6 +113,7 @@ def _records(obj):
 
 
 _saving_from = []  # the .blend's folder when the save in progress began
+_shown_before = []  # (block, the file it showed) of the bakes' data when the save began
 DATA_BASE = "hydrobake_base"  # on a bake's image or volume: the folder its '//' path is from
 
 
@@ -142,9 +143,11 @@ def before_save():
     _rebase(found)
     # A bake's data records its base too: a deleted object's bake, still shown, has no
     # record left to give repoint_data a base.
+    _shown_before.clear()
     for block in _bake_data():
         if block.get(DATA_BASE) != here():
             block[DATA_BASE] = here()
+        _shown_before.append((block, os.path.normpath(bpy.path.abspath(block.filepath))))
 
 
 def after_save():
@@ -153,8 +156,16 @@ def after_save():
     leaves the session's file where it was)."""
     old = _saving_from[0] if _saving_from else ""
     _saving_from.clear()
+    shown, _shown_before[:] = list(_shown_before), []
     if old and here() and os.path.normcase(old) != os.path.normcase(here()):
         _rebase(lambda folder, _base: os.path.normpath(os.path.join(old, folder[2:])))
+        # With Remap Relative off a bake's relative path can lead, from the new folder, to
+        # another bake of the same name (an older version of the shot saved there): it
+        # keeps showing the file it showed (monkey --more --elsewhere --relations 204).
+        for block, full in shown:
+            if os.path.normpath(bpy.path.abspath(block.filepath)) != full and \
+                    os.path.exists(full):
+                _point(block, full)
         repoint_data([old])
 
 
@@ -188,11 +199,16 @@ def repoint_data(bases=None):
             there = os.path.normpath(os.path.join(base, path[2:]))
             if os.path.exists(there) and (_inside(there, folders) or
                                           (own and _in_bake_folder(there))):
-                try:
-                    block.filepath = bpy.path.relpath(there)
-                except ValueError:  # another drive (Windows): absolute
-                    block.filepath = there
+                _point(block, there)
                 break
+
+
+def _point(block, path):
+    """An image or volume pointed at the file ``path``, relative to the .blend if it can be."""
+    try:
+        block.filepath = bpy.path.relpath(path)
+    except ValueError:  # another drive (Windows): absolute
+        block.filepath = path
 
 
 def _rebase(full_of):
