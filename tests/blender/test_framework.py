@@ -60,6 +60,11 @@ def test_saved_without_remap_over_an_older_bake_still_shows_its_own(blender, tmp
     assert "SAVED OVER OLDER BAKE OK" in r.stdout
 
 
+def test_a_rebake_after_pack_resources_shows_the_new_bake_not_the_packed_one(blender, tmp_path):
+    r = blender.run("packed_rebake.py", tmp_path)
+    assert "PACKED REBAKE OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

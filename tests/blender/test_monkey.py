@@ -103,6 +103,14 @@ def test_monkey_relations_seed(blender, tmp_path, seed):
     run_seed(blender, tmp_path, seed, 120, "--more", "--relations")
 
 
+# --external: paths made absolute and relative, Pack / Unpack Resources, Purge Unused Data.
+# Seed 4 found a fluid's volume packed by Pack Resources showing the old bake after a re-bake
+# from the command line in the session (bridge.volumes.drop_packed).
+@pytest.mark.parametrize("seed", (4,))
+def test_monkey_external_seed(blender, tmp_path, seed):
+    run_seed(blender, tmp_path, seed, 90, "--external")
+
+
 # Every flag, long runs: 7176 found a made material left in a Shift+D copy's slot after the
 # mesh's slot was removed (materials._remove_copy), then a Shift+D copy's marked empty slot
 # kept; 7147 a deleted object's made material kept behind an Alt+D copy's own slot after

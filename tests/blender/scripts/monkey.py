@@ -1,7 +1,9 @@
 """A randomized, seeded "monkey" test of the real addon in ``blender -b``: random sequences of
 what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel + Resume,
 re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots (moved and
-tidied with --moves), Join, Make Single User and Link Materials (--relations), modifiers,
+tidied with --moves), Join, Make Single User and Link Materials (--relations), File >
+External Data's absolute and relative paths, Pack and Unpack, and Purge Unused Data
+(--external), modifiers,
 visibility, save and reopen, undo, the command line in-process and in a subprocess), with the
 invariants checked after every step:
 
@@ -22,7 +24,7 @@ invariants checked after every step:
 
     blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
         [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked] [--more]
-        [--elsewhere] [--moves] [--relations] [--no-subprocess] [--no-render] [--known] [--trace]
+        [--elsewhere] [--moves] [--relations] [--external] [--no-subprocess] [--no-render] [--known] [--trace]
 
 --known goes on past the violations already reported (KNOWN below), to find others; --trace
 prints every object's state after each step. Prints ``MONKEY OK seed=S steps=N`` on success, else ``MONKEY FAIL seed=S step=K kind=...``
@@ -384,6 +386,7 @@ class Monkey:
         self.elsewhere = False  # --elsewhere: Save As / Save Copy into other folders
         self.moves = False  # --moves: slots moved up and down, unused slots removed
         self.relations = False  # --relations: Join, Make Single User, Link Materials
+        self.external = False  # --external: paths absolute / relative, pack, unpack, purge
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
         self.given_wired = set()  # ... and other materials with a bake's wiring in them
         self.left_behind = set()  # bake folders of the files saved elsewhere from
@@ -431,9 +434,17 @@ class Monkey:
                     raise Violation("panel", f"{o.name} {e} panel: {type(exc).__name__}: "
                                              f"{exc}") from exc
         for block in (*bpy.data.images, *bpy.data.volumes):  # (a bake's, shown: its file)
-            if block.name.startswith("HBK") and block.filepath and block.users and \
-                    block.library is None and \
-                    not os.path.exists(bpy.path.abspath(block.filepath)):
+            if not (block.name.startswith("HBK") and block.filepath and block.users and
+                    block.library is None):
+                continue
+            path = bpy.path.abspath(block.filepath)
+            if block.packed_file is not None:  # (--external) it shows what it packed
+                if os.path.exists(path):
+                    with open(path, "rb") as f:
+                        if f.read() != block.packed_file.data:
+                            raise Violation("stale-pack", f"{block.name} shows what it packed, "
+                                                          f"not {block.filepath}")
+            elif not os.path.exists(path):
                 raise Violation("missing-file", f"{block.name} reads {block.filepath}, "
                                                 "which leads nowhere")
         allowed = {os.path.realpath(f) for f in self.abandoned}
@@ -1088,6 +1099,23 @@ class Monkey:
         self.blend = path
         return f"saved {'a copy ' if copy else ''}in {folder or '.'}"
 
+    def do_paths(self, kind):
+        """File > External Data > Make Paths Absolute / Relative."""
+        return str(getattr(bpy.ops.file, f"make_paths_{kind}")())
+
+    def do_pack(self, kind):
+        """File > External Data > Pack Resources, or Unpack Resources with ``kind``'s method."""
+        if kind == "pack":
+            return str(bpy.ops.file.pack_all())
+        if not any(b.packed_file for b in (*bpy.data.images, *bpy.data.volumes)):
+            raise Skip("nothing packed")
+        return str(bpy.ops.file.unpack_all(method=kind))
+
+    def do_purge(self):
+        """File > Clean Up > Purge Unused Data (recursive)."""
+        return str(bpy.ops.outliner.orphans_purge(do_local_ids=True, do_linked_ids=True,
+                                                  do_recursive=True))
+
     def do_undo(self):
         if self.undo_works is False:
             raise Skip("undo does not work in background")
@@ -1185,6 +1213,8 @@ class Monkey:
                       ("frame_end", rng.choice((2, 3)))],
         }[effect]
         key, value = rng.choice(choices)
+        if self.external and key == "frame_end" and self.rng2.random() < 0.4:
+            value = 1  # one frame: a file, not a sequence, which Pack All packs
         if key == "texture_size":
             key = "snow.texture_size"
         if key == "texture_scale0":
@@ -1221,6 +1251,8 @@ class Monkey:
             ops += [("slot_move", 5), ("slots_tidy", 2)]
         if self.relations:
             ops += [("join", 2), ("single_user", 3), ("link_materials", 3)]
+        if self.external:
+            ops += [("paths", 3), ("pack", 4), ("purge", 2)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -1254,6 +1286,11 @@ class Monkey:
             return [{"op": op, "name": rng.choice(objs), "into": rng.choice(objs)}]
         if op == "single_user":
             return [{"op": op, "name": rng.choice(objs)}]
+        if op == "paths":
+            return [{"op": op, "kind": rng.choice(("absolute", "relative"))}]
+        if op == "pack":  # (unpacked beside the file: an original's place is a bake folder)
+            return [{"op": op, "kind": rng.choice(("pack", "pack", "USE_LOCAL", "WRITE_LOCAL",
+                                                   "REMOVE", "KEEP"))}]
         if op == "save_as":
             return [{"op": "save_as", "folder": rng.choice(("", "s1", os.path.join("s2", "deep"))),
                      "copy": rng.random() < 0.4, "remap": self.rng2.random() < 0.6}]
@@ -1447,6 +1484,8 @@ def main():
                    help="also slots moved up and down and Remove Unused Slots")
     p.add_argument("--relations", action="store_true",
                    help="also Join, Make Single User and Link Materials")
+    p.add_argument("--external", action="store_true",
+                   help="also paths made absolute / relative, Pack / Unpack, Purge Unused")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
@@ -1472,9 +1511,10 @@ def main():
     m.elsewhere = args.elsewhere or bool(replay and replay.get("elsewhere"))
     m.moves = args.moves or bool(replay and replay.get("moves"))
     m.relations = args.relations or bool(replay and replay.get("relations"))
+    m.external = args.external or bool(replay and replay.get("external"))
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
               "more": m.more, "elsewhere": m.elsewhere, "moves": m.moves,
-              "relations": m.relations,
+              "relations": m.relations, "external": m.external,
               "actions": m.log}
     m.record = record
     status = "OK"

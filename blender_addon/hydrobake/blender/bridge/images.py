@@ -15,6 +15,8 @@ def load_sequence(folder, stream, frame_start, frame_count, name=None, colorspac
         img = bpy.data.images.load(first, check_existing=False)
         img.name = name
     else:
+        if img.packed_file is not None:  # (Pack Resources) dropped first: a reload re-packs
+            img.unpack(method="REMOVE")  # the old path's file, or keeps the old bake's
         img.filepath = first
     img.source = "SEQUENCE" if frame_count > 1 else "FILE"  # one frame: every frame shows it
     img.colorspace_settings.name = colorspace

@@ -22,6 +22,8 @@ def load_volume_sequence(folder, stream, frame_start, frame_count, name, collect
         if vol is None or vol.library is not None:
             vol = bpy.data.volumes.new(name)
     vol.filepath = path
+    if vol.packed_file is not None and os.path.exists(path):
+        drop_packed(vol)
     vol.is_sequence = frame_count > 1
     vol.frame_start = frame_start
     vol.frame_duration = frame_count
@@ -31,6 +33,14 @@ def load_volume_sequence(folder, stream, frame_start, frame_count, name, collect
         obj = bpy.data.objects.new(name, vol)
         (collection or bpy.context.scene.collection).objects.link(obj)
     return obj
+
+
+def drop_packed(vol):
+    """Lets a volume packed by Pack Resources read its file again (it would go on showing the
+    old bake). Volumes have no unpack of their own; the operator's Use Original File takes the
+    file at the volume's path, which must exist: else it writes the packed copy there."""
+    id_type = ord("V") | ord("O") << 8  # Blender's ID code of volumes, "VO"
+    bpy.ops.file.unpack_item(method="USE_ORIGINAL", id_name=vol.name, id_type=id_type)
 
 
 def grid_names(obj, depsgraph=None):
