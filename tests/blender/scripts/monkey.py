@@ -374,6 +374,7 @@ class Monkey:
         self.rng = random.Random(seed)
         # Draws added since: their own generator, so that the fixed seeds' sequences stay.
         self.rng2 = random.Random(seed + 100003)
+        self.rng3 = random.Random(seed + 200003)  # (and --external's Cache Folder changes)
         self.subprocess_ok, self.delete_baked = subprocess_ok, delete_baked
         self.log = []
         self.blend = None
@@ -400,6 +401,7 @@ class Monkey:
         self.had_bake = False
         self.all_copies = set()
         self.output_orphans = set()
+        self.roots_seen = set()  # every cache folder a setting named (--external)
         self.known_seen = set()
         self.record = None  # main's record of the run, written before each step
 
@@ -520,7 +522,8 @@ class Monkey:
                 s = getattr(o, f"hydrobake_{e}", None)
                 if s is not None:
                     roots.add(bpy.path.abspath(s.cache_dir or "//hydrobake_cache/"))
-        return roots
+        self.roots_seen |= roots
+        return set(self.roots_seen)
 
     def bake_folders_on_disk(self):
         out = []
@@ -811,6 +814,10 @@ class Monkey:
         if attr == "texture_scale0":
             target.texture_scale[0] = value
             return "ok"
+        if attr == "cache_dir":  # a bake sent to another folder on purpose replaces nothing
+            value = os.path.join(self.tmp, "abs_cache", "") if value == "ABS" else value
+            if target.is_baked:
+                self.output_orphans.add(os.path.realpath(target.bake_folder))
         setattr(target, attr, value)
         return "ok"
 
@@ -1213,6 +1220,9 @@ class Monkey:
                       ("frame_end", rng.choice((2, 3)))],
         }[effect]
         key, value = rng.choice(choices)
+        if self.external and self.rng3.random() < 0.3:  # another Cache Folder
+            return {"op": "set", "name": name, "effect": effect, "key": "cache_dir",
+                    "value": self.rng3.choice(("", "//other_cache/", "ABS"))}
         if self.external and key == "frame_end" and self.rng2.random() < 0.4:
             value = 1  # one frame: a file, not a sequence, which Pack All packs
         if key == "texture_size":
