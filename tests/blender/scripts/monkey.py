@@ -195,6 +195,12 @@ def build_scene(seed, effects, tmp):
     return blend
 
 
+def paths_inside(path, roots):
+    """Whether the absolute ``path`` is in one of the folders ``roots``."""
+    real = os.path.realpath(path)
+    return any(real.startswith(os.path.join(os.path.realpath(r), "")) for r in roots)
+
+
 # --- what the scene holds now --------------------------------------------------------------
 def scene_objects():
     return sorted((o for o in bpy.data.objects if o.type == "MESH" and
@@ -446,9 +452,10 @@ class Monkey:
                         if f.read() != block.packed_file.data:
                             raise Violation("stale-pack", f"{block.name} shows what it packed, "
                                                           f"not {block.filepath}")
-            elif not os.path.exists(path):
+            elif not os.path.exists(path) and (not self.external or paths_inside(
+                    path, self.bake_folder_roots())):  # (else unpacked into the artist's
                 raise Violation("missing-file", f"{block.name} reads {block.filepath}, "
-                                                "which leads nowhere")
+                                                "which leads nowhere")  # folder, //textures)
         allowed = {os.path.realpath(f) for f in self.abandoned}
         # By design a bake sent to another folder on purpose (the command line's --output, all
         # under the farm folder) replaces nothing and is replaced by nothing: the bake it took
