@@ -230,9 +230,13 @@ class Job:
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         self.scene_name = scene.name
         effect = self.beffect.core_class()(params, inputs)
-        if resume and settings.bake_folder and not folder_override:
-            self.folder = settings.bake_folder  # continue where the bake actually is
         self.recorded = paths.stored(self.folder, settings, folder_override)  # in the file
+        if resume and settings.bake_folder and not folder_override:
+            self.folder = settings.bake_folder  # continue where the bake actually is,
+            # recorded as it was: the Cache Folder may have changed to or from an absolute
+            # one since, and a relative record made absolute is lost when the project moves
+            self.recorded = bpy.path.relpath(self.folder) if settings.get(
+                "bake_folder", "").startswith("//") and bpy.data.filepath else self.folder
         self.runner = BakeRunner(effect, self.folder, start, end, resume=resume, header={
             "object": obj.name, "blend": bpy.data.filepath, "folder": self.folder})
         # The object is marked, so that the bake finds it again if it is renamed meanwhile

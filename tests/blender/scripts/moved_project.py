@@ -1,7 +1,9 @@
 """A project moved with its bakes (another machine, a farm's mount) still finds them: phase
 "bake" bakes a fluid into the default relative cache, and the fixture effect into an absolute
-one made relative afterwards as the farm's wiring step does (paths.make_relative), and saves;
-phase "check", on the moved copy, finds every frame, volume and image sequence there."""
+one made relative afterwards as the farm's wiring step does (paths.make_relative), and a second
+plane "Pane" into the relative cache, resumed after its Cache Folder was set to an absolute one
+(the resume continues where the bake is, and keeps its record relative), and saves; phase
+"check", on the moved copy, finds every frame, volume and image sequence there."""
 import os
 
 import bpy
@@ -20,9 +22,18 @@ if phase == "bake":
     wave = in_blender.new_plane("Glass").hydrobake_testwave
     farm_cache = os.path.join(where, "farm_cache")
     wave.enabled, wave.cache_dir = True, farm_cache
+    pane_obj = in_blender.new_plane("Pane")
+    pane_obj.data.materials.append(bpy.data.materials.new("PaneMat"))  # (not Glass's)
+    pane = pane_obj.hydrobake_testwave
+    pane.enabled = True
     bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 3
-    for name, effect in (("Domain", "fluid"), ("Glass", "testwave")):
+    for name, effect in (("Domain", "fluid"), ("Glass", "testwave"), ("Pane", "testwave")):
         assert bpy.ops.hydrobake.bake(effect=effect, object_name=name) == {"FINISHED"}
+    pane.cache_dir = os.path.join(where, "elsewhere_cache", "")
+    assert bpy.ops.hydrobake.bake(effect="testwave", object_name="Pane", resume=True) == \
+        {"FINISHED"}
+    assert pane["bake_folder"].startswith("//"), pane["bake_folder"]  # (it was absolute)
+    assert bpy.data.images["HBK_Pane_wave"].filepath.startswith("//")
     assert s["bake_folder"].startswith("//"), s["bake_folder"]  # stored relative
     assert wave["bake_folder"].startswith(farm_cache)  # absolute, as set
     paths.make_relative(farm_cache)
@@ -32,7 +43,7 @@ if phase == "bake":
 else:
     assert bpy.data.filepath.startswith(where)
     bpy.context.scene.frame_set(2)
-    for name, effect in (("Domain", "fluid"), ("Glass", "testwave")):
+    for name, effect in (("Domain", "fluid"), ("Glass", "testwave"), ("Pane", "testwave")):
         settings = getattr(bpy.data.objects[name], f"hydrobake_{effect}")
         assert settings.bake_folder.startswith(where), settings.bake_folder
         assert jobs.bake_state(bpy.data.objects[name], effect) == "COMPLETE"
