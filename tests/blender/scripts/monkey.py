@@ -36,6 +36,7 @@ import io
 import json
 import os
 import random
+import re
 import subprocess
 import sys
 import traceback
@@ -1120,7 +1121,14 @@ class Monkey:
     def do_pack(self, kind):
         """File > External Data > Pack Resources, or Unpack Resources with ``kind``'s method."""
         if kind == "pack":
-            return str(bpy.ops.file.pack_all())
+            try:
+                return str(bpy.ops.file.pack_all())
+            except RuntimeError as exc:  # Blender's: a file missing; the artist's, it may be
+                missing = re.findall(r"source path '(.*?)' not found", str(exc))
+                if missing and not any(paths_inside(p, self.bake_folder_roots())
+                                       for p in missing):  # (unpacked here, then saved
+                    return f"not packed: {sorted(set(missing))}"  # elsewhere unremapped)
+                raise Violation("pack", f"Pack Resources: {exc}") from exc
         if not any(b.packed_file for b in (*bpy.data.images, *bpy.data.volumes)):
             raise Skip("nothing packed")
         return str(bpy.ops.file.unpack_all(method=kind))
