@@ -2,10 +2,9 @@
 what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel + Resume,
 re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots (moved and
 tidied with --moves), Join, Make Single User and Link Materials (--relations), File >
-External Data's absolute and relative paths, Pack and Unpack, and Purge Unused Data
-(--external), modifiers,
-visibility, save and reopen, undo, the command line in-process and in a subprocess), with the
-invariants checked after every step:
+External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
+Cache Folder (--external), modifiers, visibility, save and reopen, undo, the command line
+in-process and in a subprocess), with the invariants checked after every step:
 
 * no Python exception but the addon's clear refusals (ValueError / RuntimeError naming an
   object or a setting), no traceback printed;
