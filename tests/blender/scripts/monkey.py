@@ -12,7 +12,8 @@ in-process and in a subprocess), with the invariants checked after every step:
   manifest whose listed files (frames and checkpoints) exist and match their SHA-256, and
   nothing else but the manifest in it (no temporaries, no lock, no unlisted frame);
 * every image and volume of a bake that something uses reads a file that exists (a Save As
-  with Remap Relative off left them relative to the folder the file was in);
+  with Remap Relative off left them relative to the folder the file was in), and one packed
+  holds what its file holds (a re-bake kept the old bake's packed copy);
 * no bake folder on disk that no object records, unless it was freed on purpose (a
   superseded folder of a renamed object waits for the save; a deleted object's stays);
 * whenever nothing is baked: every object and material is as it was before its first bake
