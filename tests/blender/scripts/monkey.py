@@ -3,7 +3,7 @@ what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel
 re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots (moved and
 tidied with --moves), Join, Make Single User and Link Materials (--relations), File >
 External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
-Cache Folder (--external), modifiers, visibility, save and reopen, undo, the command line
+Cache Folder (--external), the scene's frame rate and range (--scene), modifiers, visibility, save and reopen, undo, the command line
 in-process and in a subprocess), with the invariants checked after every step:
 
 * no Python exception but the addon's clear refusals (ValueError / RuntimeError naming an
@@ -24,7 +24,7 @@ in-process and in a subprocess), with the invariants checked after every step:
 
     blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
         [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked] [--more]
-        [--elsewhere] [--moves] [--relations] [--external] [--no-subprocess] [--no-render] [--known] [--trace]
+        [--elsewhere] [--moves] [--relations] [--external] [--scene] [--no-subprocess] [--no-render] [--known] [--trace]
 
 --known goes on past the violations already reported (KNOWN below), to find others; --trace
 prints every object's state after each step. Prints ``MONKEY OK seed=S steps=N`` on success, else ``MONKEY FAIL seed=S step=K kind=...``
@@ -395,6 +395,7 @@ class Monkey:
         self.moves = False  # --moves: slots moved up and down, unused slots removed
         self.relations = False  # --relations: Join, Make Single User, Link Materials
         self.external = False  # --external: paths absolute / relative, pack, unpack, purge
+        self.scene_ops = False  # --scene: the scene's frame rate and range
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
         self.given_wired = set()  # ... and other materials with a bake's wiring in them
         self.left_behind = set()  # bake folders of the files saved elsewhere from
@@ -1114,6 +1115,17 @@ class Monkey:
         self.blend = path
         return f"saved {'a copy ' if copy else ''}in {folder or '.'}"
 
+    def do_fps(self, fps):
+        """Output Properties > Frame Rate."""
+        bpy.context.scene.render.fps = fps
+        return "ok"
+
+    def do_scene_range(self, name, effect, use, end):
+        """The scene's End frame, and whether the object's effect bakes the scene's range."""
+        bpy.context.scene.frame_end = end
+        getattr(self.obj(name), f"hydrobake_{effect}").use_scene_range = use
+        return "ok"
+
     def do_paths(self, kind):
         """File > External Data > Make Paths Absolute / Relative."""
         return str(getattr(bpy.ops.file, f"make_paths_{kind}")())
@@ -1278,6 +1290,8 @@ class Monkey:
             ops += [("join", 2), ("single_user", 3), ("link_materials", 3)]
         if self.external:
             ops += [("paths", 3), ("pack", 4), ("purge", 2)]
+        if self.scene_ops:
+            ops += [("fps", 2), ("scene_range", 4)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -1311,6 +1325,15 @@ class Monkey:
             return [{"op": op, "name": rng.choice(objs), "into": rng.choice(objs)}]
         if op == "single_user":
             return [{"op": op, "name": rng.choice(objs)}]
+        if op == "fps":
+            return [{"op": op, "fps": rng.choice((24, 25, 30))}]
+        if op == "scene_range":  # (then a bake or resume of the object, at times)
+            out = [{"op": op, "name": name, "effect": effect, "use": rng.random() < 0.6,
+                    "end": rng.choice((1, 2, 3, 4))}]
+            if rng.random() < 0.5:
+                out.append({"op": "bake", "name": name, "effect": effect,
+                            "resume": rng.random() < 0.4})
+            return out
         if op == "paths":
             return [{"op": op, "kind": rng.choice(("absolute", "relative"))}]
         if op == "pack":  # (unpacked beside the file: an original's place is a bake folder)
@@ -1511,6 +1534,8 @@ def main():
                    help="also Join, Make Single User and Link Materials")
     p.add_argument("--external", action="store_true",
                    help="also paths made absolute / relative, Pack / Unpack, Purge Unused")
+    p.add_argument("--scene", action="store_true",
+                   help="also the scene's frame rate and End frame, and Use Scene Range")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
@@ -1537,9 +1562,10 @@ def main():
     m.moves = args.moves or bool(replay and replay.get("moves"))
     m.relations = args.relations or bool(replay and replay.get("relations"))
     m.external = args.external or bool(replay and replay.get("external"))
+    m.scene_ops = args.scene or bool(replay and replay.get("scene"))
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
               "more": m.more, "elsewhere": m.elsewhere, "moves": m.moves,
-              "relations": m.relations, "external": m.external,
+              "relations": m.relations, "external": m.external, "scene": m.scene_ops,
               "actions": m.log}
     m.record = record
     status = "OK"
