@@ -3,8 +3,9 @@ what an artist does to small scenes of the four effects (Bake, Free Bake, Cancel
 re-bakes with a changed setting, Shift+D copies, renames, deletes, material slots (moved and
 tidied with --moves), Join, Make Single User and Link Materials (--relations), File >
 External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
-Cache Folder (--external), the scene's frame rate and range (--scene), modifiers, visibility, save and reopen, undo, the command line
-in-process and in a subprocess), with the invariants checked after every step:
+Cache Folder (--external), the scene's frame rate and range (--scene), modifiers, visibility,
+save and reopen, undo, the command line in-process and in a subprocess), with the invariants
+checked after every step:
 
 * no Python exception but the addon's clear refusals (ValueError / RuntimeError naming an
   object or a setting), no traceback printed;
@@ -24,7 +25,8 @@ in-process and in a subprocess), with the invariants checked after every step:
 
     blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
         [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked] [--more]
-        [--elsewhere] [--moves] [--relations] [--external] [--scene] [--no-subprocess] [--no-render] [--known] [--trace]
+        [--elsewhere] [--moves] [--relations] [--external] [--scene] [--no-subprocess]
+        [--no-render] [--known] [--trace]
 
 --known goes on past the violations already reported (KNOWN below), to find others; --trace
 prints every object's state after each step. Prints ``MONKEY OK seed=S steps=N`` on success, else ``MONKEY FAIL seed=S step=K kind=...``
