@@ -54,7 +54,8 @@ shown = board.data.materials[0].node_tree.nodes.new("ShaderNodeTexImage")
 shown.image = bpy.data.images["HBK_Glass_rain_normal"]
 # A change each bake shows, then Bake again over the bake: its files are new.
 rain.rain.drop_mass *= 2.0
-rain.frame_start = rain.frame_end = 2  # another file name: Blender's reload re-packs a same-named one
+# Another file name: Blender's reload re-packs a same-named one from its path.
+rain.frame_start = rain.frame_end = 2
 caustics.water.width, caustics.map_resolution = 20, 48
 snowy.hydrobake_snow.snow.texture_width = snowy.hydrobake_snow.snow.texture_height = 24
 fluid.fluid.substeps = 2
