@@ -235,8 +235,8 @@ class Job:
             self.folder = settings.bake_folder  # continue where the bake actually is,
             # recorded as it was: the Cache Folder may have changed to or from an absolute
             # one since, and a relative record made absolute is lost when the project moves
-            self.recorded = bpy.path.relpath(self.folder) if settings.get(
-                "bake_folder", "").startswith("//") and bpy.data.filepath else self.folder
+            raw = settings.get("bake_folder", "")
+            self.recorded = raw if raw.startswith("//") else self.folder
         self.runner = BakeRunner(effect, self.folder, start, end, resume=resume, header={
             "object": obj.name, "blend": bpy.data.filepath, "folder": self.folder})
         # The object is marked, so that the bake finds it again if it is renamed meanwhile

@@ -40,9 +40,9 @@ def blocks():
 
 
 assert bpy.ops.file.pack_all() == {"FINISHED"}
-packed = sorted(b.name for b in blocks() if b.packed_file is not None)
-kinds = {type(b).__name__ for b in blocks() if b.packed_file is not None}
 old = {b.name: b.packed_file.data for b in blocks() if b.packed_file is not None}
+packed = sorted(old)
+kinds = {type(b).__name__ for b in blocks() if b.name in old}
 assert kinds == {"Image", "Volume"}, (kinds, packed)
 # The artist shows the glass's drops in a material of their own too: the image outlives the
 # bake's wiring, so the re-bake takes it up again by name.
@@ -61,24 +61,20 @@ snowy.hydrobake_snow.snow.texture_width = snowy.hydrobake_snow.snow.texture_heig
 fluid.fluid.substeps = 2
 for name, effect in bakes.items():
     assert bpy.ops.hydrobake.bake(effect=effect, object_name=name) == {"FINISHED"}, name
-stale = []
+stale, same = [], []
 for b in blocks():
     path = bpy.path.abspath(b.filepath)
     assert os.path.isfile(path), (b.name, b.filepath)
-    if b.packed_file is not None:
-        with open(path, "rb") as f:
-            if f.read() != b.packed_file.data:
-                stale.append(b.name)
+    with open(path, "rb") as f:
+        data = f.read()
+    if b.packed_file is not None and data != b.packed_file.data:
+        stale.append(b.name)
+    if old.get(b.name) == data:
+        same.append(b.name)
 assert not stale, f"still showing the packed copy of the old bake: {stale} (packed: {packed})"
 for b in blocks():
-    if b.name in packed:
-        assert b.packed_file is None, b.name  # it reads its file again
-same = []
-for b in blocks():
     if b.name in old:
-        with open(bpy.path.abspath(b.filepath), "rb") as f:
-            if f.read() == old[b.name]:
-                same.append(b.name)
+        assert b.packed_file is None, b.name  # it reads its file again
 assert not same, f"the re-bake wrote the same {same}: the test shows nothing there"
 print("packed:", packed)
 print("PACKED REBAKE OK")
