@@ -65,6 +65,11 @@ def test_a_rebake_after_pack_resources_shows_the_new_bake_not_the_packed_one(ble
     assert "PACKED REBAKE OK" in r.stdout
 
 
+def test_a_free_leaves_another_bakes_material_the_artist_gave_the_object(blender, tmp_path):
+    r = blender.run("given_wiring.py", tmp_path)
+    assert "GIVEN WIRING OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

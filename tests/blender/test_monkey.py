@@ -141,10 +141,13 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # Free took it out of the first only (all flags + --relations 30). deleted_objects_copy_
 # rebaked: the harness's model of a deleted object's copy on a mesh an Alt+D copy shares, which
 # the copy's bake and Free give back as its shared material (--relations 35).
+# given_deleted_wiring: a baked object joined with an object showing a deleted object's wired
+# material took that wiring out at its Free, and the slot another object had it in was left
+# empty (every flag + --scene --external 900; effects.base.slot_materials).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
-                                  "deleted_objects_copy_rebaked"))
+                                  "deleted_objects_copy_rebaked", "given_deleted_wiring"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

@@ -775,14 +775,29 @@ class Monkey:
 
     def do_free(self, name, effect):
         self.obj(name)
-        return str(bpy.ops.hydrobake.free_bake(effect=effect, object_name=name))
+        return self.free(name, effect)
 
     def do_free_all(self):
         for name, effect in sorted(baked_pairs()):
             if bpy.data.objects.get(name) is not None and \
                     getattr(bpy.data.objects[name], f"hydrobake_{effect}").is_baked:
-                bpy.ops.hydrobake.free_bake(effect=effect, object_name=name)
+                self.free(name, effect)
         return "ok"
+
+    def free(self, name, effect):
+        """Free Bake; it takes out its own bake's wiring (and that of the bakes it replaced),
+        no other: a bake shown before shows after (a baked object's material the artist gave
+        this one, through Link Materials or Join: --scene --external 900)."""
+        s = getattr(bpy.data.objects[name], f"hydrobake_{effect}")
+        mine = {s.get("baked_as") or name} | {n for _f, n in jobs._superseded(s)}
+        cls = hb_effects.get(effect)
+        before = cls.shown_in()
+        r = bpy.ops.hydrobake.free_bake(effect=effect, object_name=name)
+        lost = sorted(before - cls.shown_in() - mine)
+        if lost and not self.known("free-took-others", (name, effect, lost)):
+            raise Violation("free-took-others", f"Free of {name}/{effect} took the wiring of "
+                                                f"{lost} out (its own: {sorted(mine)})")
+        return str(r)
 
     def do_cancel(self, name, effect, after):
         """A bake cancelled after ``after`` frames (0: before it began), as Esc does: the

@@ -139,6 +139,16 @@ class BlenderEffect:
             if cls.wired_streams else set()
 
     @classmethod
+    def slot_materials(cls, obj, settings):
+        """The materials in the object's slots this bake may have wired: not one whose nodes
+        show only other bakes' images (a baked object's material the artist gave this one:
+        Link Materials, Join). That bake's own Free takes its wiring out, or Remove Deleted
+        Objects' Bakes (monkey --scene --external 900)."""
+        name = cls.baked_name(obj, settings)
+        mats = {s.material for s in obj.material_slots if s.material is not None}
+        return {m for m in mats if name in cls.shown_in([m]) or not cls.shown_in([m])}
+
+    @classmethod
     def wired_names(cls):
         """The baked_names whose wiring (or helper objects) apply left in the file."""
         return cls.shown_in()

@@ -573,7 +573,7 @@ class CausticsBlender(BlenderEffect):
     @classmethod
     def let_go(cls, context, obj, settings, keep):
         cls._remove_modifiers(obj)
-        for mat in {s.material for s in obj.material_slots if s.material} - set(keep):
+        for mat in cls.slot_materials(obj, settings) - set(keep):
             if mat.node_tree:
                 materials.remove_tagged(mat.node_tree, "caustics.")
             materials.give_back(obj, mat, "caustics.")
@@ -678,7 +678,7 @@ class CausticsBlender(BlenderEffect):
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
         # The water's wiring wherever it is: in the pool's slots, and in materials taken out
         # of them since (or a shared one a re-bake made a copy of), known by its images.
-        for mat in {s.material for s in obj.material_slots if s.material}:
+        for mat in cls.slot_materials(obj, settings):
             if mat.node_tree:
                 materials.remove_tagged(mat.node_tree, "caustics.")
             materials.give_back(obj, mat, "caustics.")

@@ -279,7 +279,7 @@ class RainBlender(BlenderEffect):
         mod = obj.modifiers.get(THICKNESS)
         if mod is not None:
             obj.modifiers.remove(mod)
-        for mat in {s.material for s in obj.material_slots if s.material} - set(keep):
+        for mat in cls.slot_materials(obj, settings) - set(keep):
             if mat.node_tree:
                 cls._unwire(mat.node_tree)
             materials.give_back(obj, mat, "rain.")
@@ -293,7 +293,7 @@ class RainBlender(BlenderEffect):
         # The bake's wiring wherever it is: in the object's slots, and in materials taken
         # out of them since (or a shared one a re-bake made a copy of), known by its images.
         name = cls.baked_name(obj, settings)
-        mats = {s.material for s in obj.material_slots if s.material}
+        mats = cls.slot_materials(obj, settings)
         mats |= set(materials.holding("rain.", {f"HBK_{name}_rain_normal"}))
         for mat in mats:
             if mat.node_tree:

@@ -574,8 +574,7 @@ class SnowBlender(BlenderEffect):
     @classmethod
     def let_go(cls, context, obj, settings, keep):
         cls._remove_box(obj)
-        for mat in {s.material for s in obj.material_slots if s.material is not None} - \
-                set(keep):
+        for mat in cls.slot_materials(obj, settings) - set(keep):
             if mat.node_tree:
                 _unwire(mat.node_tree)
             materials.give_back(obj, mat, "snow.")
@@ -588,7 +587,7 @@ class SnowBlender(BlenderEffect):
         # The bake's wiring wherever it is: in the object's slots, and in materials taken
         # out of them since (or a shared one a re-bake made a copy of), known by its images.
         name = cls.baked_name(obj, settings)
-        mats = {s.material for s in obj.material_slots if s.material is not None}
+        mats = cls.slot_materials(obj, settings)
         mats |= set(materials.holding("snow.", {f"HBK_{name}_{s}" for s in STREAMS}))
         for mat in mats:
             if mat.node_tree:
