@@ -2,7 +2,8 @@
 other object's Free Bake leaves the first bake's wiring where it is, since that object still
 records the bake; its own Free takes it out. Before, the second Free unwired every material in
 its slots, and the first object, still baked, showed no drops, snow or water (monkey
---scene --external seed 900 found it with a deleted object's wiring given through Join)."""
+--scene --external seed 900 found it with a deleted object's wiring given through Join); a
+pool's Free took the water's nodes out of its ground's materials (--relations 41)."""
 import bpy
 
 import in_blender
@@ -96,4 +97,30 @@ assert a.hydrobake_rain.is_baked and not c.hydrobake_rain.is_baked
 assert shows(mat_e, "rain.", image) == [image], \
     f"{c.name}'s Free took {e.name}'s wiring out of {mat_e.name}"
 assert shows(a.material_slots[0].material, "rain.", "HBK_CopiedA_rain_normal")
+
+# A baked pool's material given to another pool's ground: that pool's Free takes its caustics
+# out of the ground's materials, and before owners were recorded, every owner-less node of
+# theirs with them. A water's surface nodes have no owner either (every flag + --relations 41,
+# where a Join put them on the ground).
+p, q = pool("PoolP", 30.0), pool("PoolQ", 33.0)
+for obj in (p, q):
+    assert bpy.ops.hydrobake.bake(effect="caustics", object_name=obj.name) == {"FINISHED"}
+mat_q, image = q.material_slots[0].material, "HBK_PoolQ_surface"
+link_materials(q, p.hydrobake_caustics.ground_object)
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=p.name) == {"FINISHED"}
+assert shows(mat_q, "caustics.", image) == [image], \
+    f"{p.name}'s Free took {q.name}'s surface out of {mat_q.name}, given to its ground"
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=q.name) == {"FINISHED"}
+assert not [n.name for n in mat_q.node_tree.nodes if n.get("hydrobake")]
+# ... while a floor's nodes from before owners (a file of then) still go with the pool's Free.
+r = pool("PoolR", 36.0)
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name=r.name) == {"FINISHED"}
+floor = r.hydrobake_caustics.ground_object.material_slots[0].material
+old = [n for n in floor.node_tree.nodes if n.get("hydrobake_owner") == r.name]
+assert old
+for n in old:
+    del n["hydrobake_owner"]
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=r.name) == {"FINISHED"}
+left = [n.name for n in floor.node_tree.nodes if n.get("hydrobake")]
+assert not left, f"{r.name}'s Free left its owner-less floor nodes {left}"
 print("GIVEN WIRING OK")

@@ -399,7 +399,6 @@ class Monkey:
         self.external = False  # --external: paths absolute / relative, pack, unpack, purge
         self.scene_ops = False  # --scene: the scene's frame rate and range
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
-        self.given_wired = set()  # ... and other materials with a bake's wiring in them
         self.left_behind = set()  # bake folders of the files saved elsewhere from
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
@@ -679,12 +678,6 @@ class Monkey:
                         n is not None and n.startswith(given)
                         for _l, n in want["slots"] + have["slots"]):
                     continue  # a bake's material the artist gave it: it may go with the bake
-                if aspect in ("slots", "behind", "mesh") and \
-                        self.given_wired & set(want["shows"] + have["shows"]):
-                    # a material with a bake's wiring the artist gave another object: that
-                    # object's Free takes the wiring out of its slots (a deleted object's
-                    # too), and the copy it was in goes back to its material (seed 36)
-                    continue
                 if aspect == "slots" and {repr(have["slots"]), repr(have["slots_alt"])} & \
                         {repr(want["slots"]), repr(want["slots_alt"])}:
                     continue
@@ -1047,13 +1040,12 @@ class Monkey:
         return str(r)
 
     def given(self, obj):
-        """The HBK materials ``obj`` shows now, and what the copies among them stand for; the
-        others with a bake's wiring in them."""
+        """The HBK materials ``obj`` shows now, and what the copies among them stand for. (A
+        material with another bake's wiring keeps it through ``obj``'s Free: free().)"""
         mats = [m for m in obj.data.materials if m] + \
             [s.material for s in obj.material_slots if s.material]
         self.given_hbk |= {n for m in mats for n in (m.name, m.get("hydrobake_copy_of", ""))
                            if n.startswith("HBK")}
-        self.given_wired |= {m.name for m in mats if wired(m) and not m.name.startswith("HBK")}
 
     def do_slot_link(self, name, slot):
         """A slot switched between the mesh's material and the object's own (Link)."""

@@ -43,6 +43,7 @@ OWN_MODIFIERS = ("HBK Subdivision", "HBK Displace")
 
 
 STREAM_IMAGES = ("view", "caustics", "surface", "height")  # HBK_<pool>_<stream>
+FLOOR_ROLES = ("caustics.map", "caustics.multiply")  # (prefixes) of a floor's nodes
 
 
 @offers("a mesh other than the water itself")
@@ -426,7 +427,11 @@ class CausticsBlender(BlenderEffect):
                 mix = materials.tagged(tree, "caustics.multiply", owner)
                 if mix is not None:
                     cls._unwire_multiply(tree, mix)
-                if materials.remove_tagged(tree, "caustics.", owner=owner):
+                # Of the nodes without an owner, the floor's only: a water's surface has none
+                # either, and a baked pool's material given to the ground keeps its bake
+                # (Join, Link Materials: monkey every flag + --relations 41).
+                roles = ("caustics.",) if owner is not None else FLOOR_ROLES
+                if sum(materials.remove_tagged(tree, r, owner=owner) for r in roles):
                     unwired.append(mat)
         for g in dict.fromkeys(grounds):
             for mat in {s.material for s in g.material_slots if s.material} - set(keep):
