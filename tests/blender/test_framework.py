@@ -70,6 +70,11 @@ def test_a_free_leaves_another_bakes_material_the_artist_gave_the_object(blender
     assert "GIVEN WIRING OK" in r.stdout
 
 
+def test_a_free_leaves_what_an_alt_d_copy_shows_in_the_mesh_slot_its_link_hid(blender, tmp_path):
+    r = blender.run("hidden_copy_shown.py", tmp_path)
+    assert "HIDDEN COPY SHOWN OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

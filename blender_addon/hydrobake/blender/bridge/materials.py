@@ -508,11 +508,16 @@ def restore(obj, prefix):
 def _put_back_hidden(obj):
     """Clean copies own() made that a slot's Link hides now (switched since the bake; monkey
     --more 1069), wired by no bake: behind the mesh's material, the object's own goes back to
-    what own() went over (none, mostly); behind the object's own, the mesh's slot shows the shared material again (none if
-    it is gone). A material made for a bake and hidden so, wired by none, goes to none,
-    unless a baked object's copy stands for it (that bake's Free gives it back)."""
-    for slot in obj.material_slots:
+    what own() went over (none, mostly); behind the object's own, the mesh's slot shows the
+    shared material again (none if it is gone). A material made for a bake and hidden so,
+    wired by none, goes to none, unless a baked object's copy stands for it (that bake's Free
+    gives it back). A mesh's slot another object of the mesh shows is not hidden: what it
+    shows goes back as that object's visible slots do (every flag + --relations 41, where
+    an unrelated Free emptied an Alt+D copy's slot)."""
+    for index, slot in enumerate(obj.material_slots):
         behind_mesh = slot.link == "DATA"
+        if not behind_mesh and _mesh_slot_shown(obj, index):
+            continue
         with _hidden(slot):
             mat = slot.material
             if mat is not None and COPY_OF in mat and not _has_wiring(mat):
@@ -525,6 +530,13 @@ def _put_back_hidden(obj):
                 mat = None
         if mat is not None and mat.users == 0:
             _free(mat, obj)
+
+
+def _mesh_slot_shown(obj, index):
+    """Whether another object of the object's mesh shows the mesh's material in slot
+    ``index`` (its Link: Data)."""
+    return any(o != obj and o.data == obj.data and index < len(o.material_slots) and
+               o.material_slots[index].link == "DATA" for o in bpy.data.objects)
 
 
 def _stood_for(mat, obj):
