@@ -143,11 +143,14 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # the copy's bake and Free give back as its shared material (--relations 35).
 # given_deleted_wiring: a baked object joined with an object showing a deleted object's wired
 # material took that wiring out at its Free, and the slot another object had it in was left
-# empty (every flag + --scene --external 900; effects.base.slot_materials).
+# empty (every flag + --scene --external 900; effects.base.slot_materials). lagging_slots:
+# Remove Unused Slots through an Alt+D copy left the other with fewer slots than its mesh's
+# list, and its bake found no material in the first (918; materials._sync_slots).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
-                                  "deleted_objects_copy_rebaked", "given_deleted_wiring"))
+                                  "deleted_objects_copy_rebaked", "given_deleted_wiring",
+                                  "lagging_slots"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

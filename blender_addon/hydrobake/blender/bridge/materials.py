@@ -20,7 +20,11 @@ def ensure_material(obj, name, nodes=True):
     """The material the object's first slot renders with (its mesh's or, linked to the
     object, its own), or a new node material ``name`` given to it; with its nodes on, unless
     ``nodes`` is False (a caller that gives the object its own copy first: own())."""
-    # The mesh's list says whether there is a slot: the object's slots can lag behind it.
+    # The mesh's list says whether there is a slot: the object's slots can lag behind it,
+    # more (a slot removed through another object of the mesh) or fewer (monkey --scene
+    # --external 918, after slots tidied through another): those it lacks are given it.
+    if len(obj.material_slots) < len(obj.data.materials):
+        _sync_slots(obj)
     has_slot = len(obj.data.materials) > 0 and len(obj.material_slots) > 0
     mat = obj.material_slots[0].material if has_slot else None
     if mat is None:
@@ -37,6 +41,13 @@ def ensure_material(obj, name, nodes=True):
     if nodes:
         use_nodes(mat)
     return mat
+
+
+def _sync_slots(obj):
+    """Gives the object the slots of its mesh it lacks: Blender resizes every object of a
+    mesh whose list of materials grows or shrinks (and only then)."""
+    obj.data.materials.append(None)
+    obj.data.materials.pop()
 
 
 def use_nodes(mat):
