@@ -146,7 +146,8 @@ class BlenderEffect:
         Objects' Bakes (monkey --scene --external 900)."""
         name = cls.baked_name(obj, settings)
         mats = {s.material for s in obj.material_slots if s.material is not None}
-        return {m for m in mats if name in cls.shown_in([m]) or not cls.shown_in([m])}
+        shown = {m: cls.shown_in([m]) for m in mats}
+        return {m for m in mats if not shown[m] or name in shown[m]}
 
     @classmethod
     def wired_names(cls):
