@@ -56,10 +56,8 @@ def shows(mat, prefix, image):
 
 def link_materials(src, dst):
     """Ctrl+L > Link Materials from ``src`` (active) to ``dst`` (selected)."""
-    bpy.context.view_layer.update()
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o in (src, dst))
-    bpy.context.view_layer.objects.active = src
+    bpy.context.view_layer.update()  # (objects just linked are not the view layer's before)
+    in_blender.select_alone(src, also=dst)
     assert bpy.ops.object.make_links_data(type="MATERIAL") == {"FINISHED"}
 
 

@@ -120,13 +120,20 @@ def snow(obj, frames, density, texture=64):
     return s
 
 
+def select_alone(obj, also=None):
+    """The object selected alone and active, as the artist's click leaves it (the operators
+    of Duplicate, Delete and Remove Unused Slots read the view layer, not the context); with
+    ``also`` selected too (Shift+click before: Join, Link Materials)."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, also))
+    bpy.context.view_layer.objects.active = obj
+
+
 def duplicate(obj, linked=False):
     """Shift+D on ``obj`` alone, as the artist does it (the copy keeps every property, a bake
     record too), or Alt+D (``linked``: the copy shares the mesh); returns the copy."""
     bpy.context.view_layer.update()  # objects just linked are not the view layer's before
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == obj)
-    bpy.context.view_layer.objects.active = obj
+    select_alone(obj)
     assert bpy.ops.object.duplicate(linked=linked) == {"FINISHED"}
     return bpy.context.view_layer.objects.active
 

@@ -220,13 +220,7 @@ def targets(effect=None):
     return out
 
 
-def select_alone(obj, also=None):
-    """The object selected alone and active, as the artist's click leaves it (the operators
-    of Duplicate, Delete and Remove Unused Slots read the view layer, not the context); with
-    ``also`` selected too (Shift+click before: Join, Link Materials)."""
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o in (obj, also))
-    bpy.context.view_layer.objects.active = obj
+select_alone = in_blender.select_alone
 
 
 MESH_ASPECTS = ("slots", "mesh", "behind")  # what Join, Link Materials, ... change
@@ -364,7 +358,6 @@ def obj_state(o, name_of=slot_name):
     return {
         "slots": kept,
         "slots_alt": tidy(_slots(o, name_of, True)),
-        "shows": sorted({m.name for _l, m in slots_of(o) if m is not None}),  # (as they are)
         # (the object's own material behind a DROPPED slot goes with it: _drop_slot)
         "behind": [(i, n) for i, n in behind_mesh(o) if i < len(kept)],
         "mods": [(m.name, m.type, m.show_viewport, m.show_render) for m in o.modifiers],
@@ -670,7 +663,7 @@ class Monkey:
                 continue
             have = obj_state(o, self.stands_for)
             for aspect in want:
-                if (name, aspect) in self.dirty or aspect in ("slots_alt", "shows") or \
+                if (name, aspect) in self.dirty or aspect == "slots_alt" or \
                         (aspect == "behind" and (name, "slots") in self.dirty):
                     continue
                 given = tuple(self.given_hbk)
@@ -1464,7 +1457,8 @@ class Monkey:
             for o in scene_objects():
                 data = (f" data={o.data.name} mats={len(o.data.materials)}"
                         if o.type == "MESH" else "")
-                print(f"    {o.name}: {obj_state(o)} baked="
+                shows = sorted({m.name for _l, m in slots_of(o) if m is not None})
+                print(f"    {o.name}: {obj_state(o)} shows={shows} baked="
                       f"{[e for e in EFFECTS if getattr(o, f'hydrobake_{e}').is_baked]}{data}")
             for mat in bpy.data.materials:
                 print(f"    mat {mat.name!r} users={mat.users} {dict(mat.items()) if 0 else sorted(mat.keys())}"
