@@ -341,14 +341,20 @@ def _slots(o, name_of, foreign_as_own):
             for link, m in slots_of(o)]
 
 
-def obj_state(o, name_of=slot_name):
+def obj_state(o, name_of=slot_name, pending=None):
     """The object's state as Free gives it back. ``slots_alt`` is the slots' other reading
     where another object's copy is in one (monkey 7262): whether this object was baked since
-    decides which one Free gives back."""
+    decides which one Free gives back. ``pending(material)``: whether it waits for a deleted
+    object's bake to be removed (Monkey.waits_for_deleted)."""
     slots = _slots(o, name_of, False)
     # The mark of a mesh's slot kept for a deleted object's made material stays with it, until
-    # Remove Deleted Objects' Bakes (monkey --more --delete-baked --elsewhere 7147).
-    mark = {"hydrobake_empty_slot"} if any(n in (DROPPED, EMPTIED) for _l, n in slots) \
+    # Remove Deleted Objects' Bakes (monkey --more --delete-baked --elsewhere 7147); so does
+    # one kept while an object of the mesh shows a copy waiting for that (materials.
+    # _drop_empty_slot keeps it while a copy is shown: every flag + --scene --external 922,
+    # a snapshot with nothing baked taken while a clean copy waited for its shared one).
+    users = [u for u in bpy.data.objects if u.data == o.data] if o.type == "MESH" else []
+    mark = {"hydrobake_empty_slot"} if any(n in (DROPPED, EMPTIED) for _l, n in slots) or (
+        pending is not None and any(pending(m) for u in users for _l, m in slots_of(u))) \
         else set()
     def tidy(slots):
         while slots and slots[-1][1] is DROPPED:
@@ -580,6 +586,14 @@ class Monkey:
                   if n.get("hydrobake") and getattr(n, "image", None) is not None]
         return bool(images) and all(self.of_deleted(i) for i in images)
 
+    def waits_for_deleted(self, mat):
+        """Whether a deleted object's bake shows in the material, or it is a clean copy whose
+        shared material shows one: Remove Deleted Objects' Bakes puts it back (stands_for)."""
+        shared = bpy.data.materials.get(mat.get("hydrobake_copy_of", "")) \
+            if mat is not None else None
+        return self.shows_deleted(mat) or (shared is not None and self.shows_deleted(shared)
+                                           and not wired(mat))
+
     def stands_for(self, mat):
         """slot_name(), but a clean copy whose shared material shows a bake of an object
         deleted while baked is that material: by design the copy stands in the slot until
@@ -661,7 +675,7 @@ class Monkey:
             o = bpy.data.objects.get(name)
             if o is None:
                 continue
-            have = obj_state(o, self.stands_for)
+            have = obj_state(o, self.stands_for, self.waits_for_deleted)
             for aspect in want:
                 if (name, aspect) in self.dirty or aspect == "slots_alt" or \
                         (aspect == "behind" and (name, "slots") in self.dirty):
@@ -693,7 +707,8 @@ class Monkey:
                                 f"before the bakes: (now, before) {diff}")
 
     def take_snapshot(self):
-        self.snap_objs = {o.name: obj_state(o, self.stands_for) for o in scene_objects()}
+        self.snap_objs = {o.name: obj_state(o, self.stands_for, self.waits_for_deleted)
+                          for o in scene_objects()}
         # (not one a deleted object's bake is in: not the artist's state, seeds 783, 787)
         self.snap_mats = {m.name: mat_state(m) for m in bpy.data.materials
                           if not self.shows_deleted(m) and not self.only_orphans_hold(m)}
