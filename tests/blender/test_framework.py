@@ -75,6 +75,11 @@ def test_a_free_leaves_what_an_alt_d_copy_shows_in_the_mesh_slot_its_link_hid(bl
     assert "HIDDEN COPY SHOWN OK" in r.stdout
 
 
+def test_free_puts_back_a_shared_material_the_artist_renamed_meanwhile(blender, tmp_path):
+    r = blender.run("renamed_shared.py", tmp_path)
+    assert "RENAMED SHARED OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

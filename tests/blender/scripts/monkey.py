@@ -241,8 +241,14 @@ def _round(v):
 
 
 def mat_state(m):
+    # The mark by which a bake's copies find their shared material again after a rename
+    # (materials.follow_renames) stays while a copy records it: a deleted object's, until
+    # Remove Deleted Objects' Bakes.
+    recorded = m.get("hydrobake_shared_as") in {
+        c.get("hydrobake_copy_of") for c in bpy.data.materials if c != m}
     st = {"use_nodes": m.use_nodes, "eevee": (m.blend_method, m.use_screen_refraction),
-          "props": sorted(k for k in m.keys() if k != "hydrobake_snow")}
+          "props": sorted(k for k in m.keys() if k != "hydrobake_snow" and
+                          (k != "hydrobake_shared_as" or not recorded))}
     if m.node_tree and m.use_nodes:  # nodes switched off: what they hold does not show
         tree = m.node_tree
         st["nodes"] = sorted(n.name for n in tree.nodes)

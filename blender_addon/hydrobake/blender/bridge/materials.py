@@ -1,6 +1,7 @@
 """Small helpers for wiring baked maps into node materials non-destructively: every node
 Hydrobake adds is labelled, so it can be found again and removed by Free Bake."""
 import contextlib
+import functools
 import re
 
 import bpy
@@ -14,6 +15,62 @@ MADE = "hydrobake_made"  # on a material ensure_material made and gave the objec
 SAVED = "hydrobake_saved"  # on a material: the values set_inputs replaced, by input name
 NODES_WERE_OFF = "hydrobake_nodes_were_off"  # use_nodes() turned its nodes on
 SETTINGS_WERE = "hydrobake_settings_were"  # the material settings see_through() changed
+SHARED_AS = "hydrobake_shared_as"  # on a shared material own() copied: its copies' COPY_OF
+# (COPY_OF and the rest of own()'s records: below, with own())
+
+
+def follow_renames():
+    """The copies' COPY_OF follow their shared material's new name when the artist renames
+    it while a bake's copy stands for it (before, Free took it for gone and left the copy in
+    its place under the old name, cut off from the artist's). A material marked SHARED_AS
+    that no longer has that name is the renamed one, unless another marked alike keeps it:
+    those are the artist's duplicates of it (Blender copies custom properties), whose mark
+    goes; where none keeps it and several could be it, nothing is guessed. A mark no copy
+    records goes."""
+    marked, recorded = {}, {}
+    for m in bpy.data.materials:
+        if COPY_OF in m:
+            recorded.setdefault(m[COPY_OF], []).append(m)
+        elif SHARED_AS in m:
+            marked.setdefault(m[SHARED_AS], []).append(m)
+    for was, mats in marked.items():
+        copies = recorded.get(was, [])
+        shared = _shared_renamed(was, mats) if copies else None
+        if copies and shared is None:
+            continue  # (several could be it)
+        for m in mats:
+            if m != shared:
+                del m[SHARED_AS]
+        if shared is not None and shared.name != was:
+            shared[SHARED_AS] = shared.name
+            for copy in copies:
+                copy[COPY_OF] = shared.name
+                if copy.name == f"{was} ({copy.get(COPY_FOR)})":  # (own()'s name for it)
+                    copy.name = _free_name(f"{shared.name} ({copy[COPY_FOR]})")
+
+
+def _shared_renamed(was, mats):
+    """Which of the materials marked SHARED_AS ``was`` is the one own() copied: the one
+    still named so, else the only one, else the only one not named as Blender names a
+    duplicate of it (``was.001``); None if several could be."""
+    named = bpy.data.materials.get(was)
+    if named in mats:
+        return named
+    fresh = [m for m in mats if not re.fullmatch(re.escape(was) + r"\.\d{3}", m.name)]
+    return mats[0] if len(mats) == 1 else fresh[0] if len(fresh) == 1 else None
+
+
+def _following_renames(func):
+    """follow_renames() before ``func`` reads the copies' COPY_OF, and after it, for the
+    marks of the copies it removed."""
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        follow_renames()
+        try:
+            return func(*args, **kwargs)
+        finally:
+            follow_renames()
+    return wrapper
 
 
 def ensure_material(obj, name, nodes=True):
@@ -363,6 +420,7 @@ def shown_bakes(prefix, streams, mats=None):
     return found
 
 
+@_following_renames
 def forget(name, prefix, image_names, unwire):
     """Takes the wiring of a deleted object's bake (wired under ``name``; the materials
     showing one of ``image_names`` in nodes of role ``prefix``) out of the file's materials,
@@ -400,6 +458,7 @@ COPY_OF_MADE = "hydrobake_copy_of_made"  # on a copy own() made of a made materi
 BEHIND = "hydrobake_behind"  # ... over the object's own, the mesh's hid: held till put back
 
 
+@_following_renames
 def own(obj, index, unwire):
     """The material in the object's slot ``index``, made the object's own first if another
     object uses it too: a bake wires the object's own images into it, and two objects'
@@ -415,7 +474,12 @@ def own(obj, index, unwire):
     if COPY_OF not in mat and not _used_elsewhere(obj, mat):
         return mat
     shared = mat.get(COPY_OF, mat.name)
+    original = bpy.data.materials.get(shared)
+    if original is not None and COPY_OF not in original and original.library is None:
+        original[SHARED_AS] = shared  # found again if the artist renames it (follow_renames)
     copy = _copy(mat)
+    if SHARED_AS in copy:
+        del copy[SHARED_AS]
     copy.name = _free_name(f"{shared} ({obj.name})")
     copy[COPY_OF], copy[COPY_FOR] = shared, obj.name
     if MADE in mat:  # gone with its bake, it leaves the copy nothing to go back to
@@ -489,6 +553,7 @@ def _copy(mat):
     return copy
 
 
+@_following_renames
 def restore(obj, prefix):
     """Undoes own() in the object's slots (Free Bake), unless the shared material holds
     another object's wiring of the same effect (then the object keeps its clean copy); and
@@ -609,6 +674,7 @@ def drop_left_empty_slots():
                 _drop_empty_slot(obj)
 
 
+@_following_renames
 def put_back_others(prefix, but=None):
     """The clean copies in the slots of objects other than ``but`` that waited for their
     shared material to be free of another object's wiring: the shared one back in its place,

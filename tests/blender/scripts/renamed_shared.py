@@ -1,0 +1,97 @@
+"""A shared material renamed by the artist while a bake's copy stands for it (the copy records
+the name it had): Free puts the renamed material back. Before, Free took it for gone and left
+the copy in its place under the old name, cut off from the artist's; or, with a new material
+given the old name, put that one in the slot."""
+import bpy
+
+import in_blender
+
+in_blender.enable()
+in_blender.empty_file("renamed.blend")
+
+
+def glasses(mat_name, names, x):
+    """Planes sharing a new material ``mat_name``, each with a one-frame rain."""
+    mat = in_blender.node_material(mat_name)
+    out = []
+    for k, name in enumerate(names):
+        obj = in_blender.uv_plane(name)
+        obj.location.x = x + 3.0 * k
+        obj.data.materials.append(mat)
+        s = obj.hydrobake_rain
+        s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
+        s.rain.cell_size = 0.05
+        out.append(obj)
+    return mat, out
+
+
+def bake(obj):
+    assert bpy.ops.hydrobake.bake(effect="rain", object_name=obj.name) == {"FINISHED"}
+
+
+def free(name):
+    assert bpy.ops.hydrobake.free_bake(effect="rain", object_name=name) == {"FINISHED"}
+
+
+def shows(name):
+    return bpy.data.objects[name].material_slots[0].material
+
+
+def reopen():
+    bpy.ops.wm.save_mainfile()
+    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
+
+
+def no_copies():
+    return [m.name for m in bpy.data.materials if "hydrobake_copy_of" in m]
+
+
+# Renamed, then Free.
+mat, (a, b) = glasses("GlassMat", ("A", "B"), 0.0)
+bake(a)
+assert shows("A") != mat and shows("A")["hydrobake_copy_of"] == "GlassMat"
+mat.name = "Windshield"
+free("A")
+assert shows("A") == mat and shows("B") == mat, (shows("A").name, shows("B").name)
+assert not no_copies(), no_copies()
+assert bpy.data.materials.get("GlassMat") is None
+assert "hydrobake_shared_as" not in mat, "the mark outlived the bake"
+
+# Renamed, saved and opened, a new material given the old name, then Free: the renamed one
+# goes back, not the new one.
+mat, (c, d) = glasses("SideMat", ("C", "D"), 10.0)
+bake(c)
+mat.name = "Side Window"
+reopen()
+other = in_blender.node_material("SideMat")
+free("C")
+mat = bpy.data.materials["Side Window"]
+assert shows("C") == mat, shows("C").name
+assert other.users == 0 and not no_copies(), no_copies()
+
+# Duplicated by the artist (its custom properties with it, as the material's New button
+# does), then the original renamed: the original goes back, and the duplicate keeps no mark.
+mat, (e, f) = glasses("RearMat", ("E", "F"), 20.0)
+bake(e)
+dup = mat.copy()
+assert dup.name == "RearMat.001"
+mat.name = "Rear Window"
+free("E")
+assert shows("E") == mat, shows("E").name
+assert "hydrobake_shared_as" not in dup and "hydrobake_shared_as" not in mat
+
+# Renamed between two objects' bakes: the second copy records the new name; each Free puts
+# the renamed one back.
+mat, (g, h, k) = glasses("RoofMat", ("G", "H", "K"), 30.0)
+bake(g)
+mat.name = "Roof"
+bake(h)
+assert shows("H")["hydrobake_copy_of"] == "Roof" == shows("G")["hydrobake_copy_of"]
+assert (shows("G").name, shows("H").name) == ("Roof (G)", "Roof (H)")  # (named anew too)
+mat.name = "Sunroof"
+free("G")
+free("H")
+assert [shows(n) for n in "GHK"] == [mat] * 3, [shows(n).name for n in "GHK"]
+assert not no_copies(), no_copies()
+assert "hydrobake_shared_as" not in mat
+print("RENAMED SHARED OK")
