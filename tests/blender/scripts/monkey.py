@@ -715,9 +715,11 @@ class Monkey:
     def take_snapshot(self):
         self.snap_objs = {o.name: obj_state(o, self.stands_for, self.waits_for_deleted)
                           for o in scene_objects()}
-        # (not one a deleted object's bake is in: not the artist's state, seeds 783, 787)
+        # (not one a deleted object's bake is in: not the artist's state, seeds 783, 787; nor
+        # a clean copy waiting for that bake's removal, whose name a later copy may take once
+        # it is gone: every flag + --relations 106)
         self.snap_mats = {m.name: mat_state(m) for m in bpy.data.materials
-                          if not self.shows_deleted(m) and not self.only_orphans_hold(m)}
+                          if not self.waits_for_deleted(m) and not self.only_orphans_hold(m)}
         self.dirty = set()
         self.copies = {}
 
