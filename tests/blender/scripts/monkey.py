@@ -1490,7 +1490,8 @@ class Monkey:
                 if img.name.startswith("HBK"):
                     shown = [m.name for m in bpy.data.materials if m.node_tree and any(
                         getattr(n, "image", None) == img for n in m.node_tree.nodes)]
-                    print(f"    image {img.name!r} users={img.users} in {shown}")
+                    print(f"    image {img.name!r} users={img.users} in {shown} "
+                          f"path={img.filepath!r} packed={img.packed_file is not None}")
         self.check(f"step {k} {a['op']}")
 
     def finish(self, render=True):
