@@ -244,8 +244,9 @@ def mat_state(m):
     # The mark by which a bake's copies find their shared material again after a rename
     # (materials.follow_renames) stays while a copy records it: a deleted object's, until
     # Remove Deleted Objects' Bakes.
-    recorded = m.get("hydrobake_shared_as") in {
-        c.get("hydrobake_copy_of") for c in bpy.data.materials if c != m}
+    was = m.get("hydrobake_shared_as")
+    recorded = was is not None and any(c.get("hydrobake_copy_of") == was
+                                       for c in bpy.data.materials)
     st = {"use_nodes": m.use_nodes, "eevee": (m.blend_method, m.use_screen_refraction),
           "props": sorted(k for k in m.keys() if k != "hydrobake_snow" and
                           (k != "hydrobake_shared_as" or not recorded))}
@@ -625,8 +626,7 @@ class Monkey:
             return mat["hydrobake_copy_of"]
         shared = bpy.data.materials.get(mat["hydrobake_copy_of"]) \
             if mat is not None and "hydrobake_copy_of" in mat else None
-        if shared is not None and (self.shows_deleted(mat) or (
-                self.shows_deleted(shared) and not wired(mat))):
+        if shared is not None and self.waits_for_deleted(mat):
             # (a copy with only a deleted object's wiring in it, another effect's copied with
             # it or the copy that object's bake made: Remove Deleted Objects' Bakes takes the
             # wiring out and gives the shared one back, as a bake of this object's does,
