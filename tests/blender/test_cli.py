@@ -44,7 +44,7 @@ def test_bake_all_enabled_with_output_override(blender, tmp_path):
     assert "manifest.json: unreadable manifest (frame 2: not a list of files): its files are " \
         "kept (delete the folder by hand)" in r.stderr, r.stderr
     assert sorted(p.name for p in folder.iterdir()) == ["manifest.json"] + [
-        f"wave_{i:04d}.exr" for i in (2, 3, 4, 5)]
+        f"shot_Rear_testwave_wave_{i:04d}.exr" for i in (2, 3, 4, 5)]
 
 
 def test_errors_exit_non_zero_with_the_message_on_stderr(blender, tmp_path):

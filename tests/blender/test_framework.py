@@ -65,6 +65,11 @@ def test_a_rebake_after_pack_resources_shows_the_new_bake_not_the_packed_one(ble
     assert "PACKED REBAKE OK" in r.stdout
 
 
+def test_unpack_resources_gives_each_bake_its_own_file(blender, tmp_path):
+    r = blender.run("packed_unpack.py", tmp_path)
+    assert "PACKED UNPACK OK" in r.stdout
+
+
 def test_a_free_leaves_another_bakes_material_the_artist_gave_the_object(blender, tmp_path):
     r = blender.run("given_wiring.py", tmp_path)
     assert "GIVEN WIRING OK" in r.stdout

@@ -150,3 +150,53 @@ def test_npz_bytes_do_not_depend_on_when_they_are_written(tmp_path, monkeypatch)
     assert set(back.files) == set(arrays)
     for k, v in arrays.items():
         np.testing.assert_array_equal(back[k], v)
+
+
+def test_a_file_tag_begins_every_frame_file_and_is_recorded(tmp_path):
+    folder = tmp_path / "bake"
+    BakeRunner(WaveEffect(), folder, 1, 2, header={"file_tag": "shot_Plane_testwave_"}).run()
+    m = BakeCache(folder).read_manifest()
+    assert m["file_tag"] == "shot_Plane_testwave_"
+    assert sorted(os.listdir(folder)) == sorted(["manifest.json"] + [
+        f"shot_Plane_testwave_wave_000{i}.exr" for i in (1, 2)])
+    assert cache.stream_stem(m, "wave") == "shot_Plane_testwave_wave"
+    assert cache.stem_in(folder, "wave") == "shot_Plane_testwave_wave"
+    assert cache.untagged(m, "shot_Plane_testwave_wave_0002.exr") == "wave_0002.exr"
+    assert BakeCache(folder).verify() == []
+    # A bake from before tags: its names are the streams' own.
+    BakeRunner(WaveEffect(), tmp_path / "old", 1, 1).run()
+    assert cache.stem_in(tmp_path / "old", "wave") == "wave"
+    assert cache.stem_in(tmp_path / "none", "wave") == "wave"
+
+
+def test_a_resume_keeps_the_tag_its_bake_began_with(tmp_path):
+    folder = tmp_path / "bake"
+    r = BakeRunner(WaveEffect(), folder, 1, 4, header={"file_tag": "a_"})
+    r.run()
+    m = BakeCache(folder).read_manifest()
+    del m["frames"]["4"]  # as if killed before frame 4 was recorded
+    m["complete"] = False
+    BakeCache(folder).write_manifest(m)
+    os.remove(folder / "a_wave_0004.exr")
+    BakeRunner(WaveEffect(), folder, 1, 4, header={"file_tag": "b_"}, resume=True).run()
+    m = BakeCache(folder).read_manifest()
+    assert m["file_tag"] == "a_" and m["complete"]
+    assert sorted(os.listdir(folder)) == sorted(["manifest.json"] + [f"a_wave_000{i}.exr"
+                                                                     for i in range(1, 5)])
+
+
+@pytest.mark.parametrize("tag", [".hidden_", "sub/dir_", 7])
+def test_a_bad_file_tag_is_refused_by_name(tmp_path, tag):
+    with pytest.raises(errors.InvalidArgument, match="file_tag"):
+        BakeRunner(WaveEffect(), tmp_path / "bake", 1, 1, header={"file_tag": tag})
+    assert not (tmp_path / "bake").exists()
+
+
+def test_a_manifest_whose_tag_is_a_path_is_not_acted_on(tmp_path):
+    folder = tmp_path / "bake"
+    BakeRunner(WaveEffect(), folder, 1, 1, header={"file_tag": "a_"}).run()
+    m = json.loads((folder / "manifest.json").read_text())
+    m["file_tag"] = "../a_"
+    (folder / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(ValueError, match="file_tag"):
+        BakeCache(folder).read_manifest()

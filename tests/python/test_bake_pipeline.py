@@ -68,11 +68,11 @@ def test_a_frame_is_written_while_the_next_is_stepped(tmp_path, monkeypatch):
     overlapped = {}
     write = runner_mod.write_output
 
-    def waiting_write(folder, stream, frame, output):
+    def waiting_write(folder, stream, frame, output, tag=""):
         nxt = e.step_started.setdefault(frame + 1, threading.Event())
         if frame == 2:
             overlapped[frame] = nxt.wait(WAIT)
-        return write(folder, stream, frame, output)
+        return write(folder, stream, frame, output, tag)
     monkeypatch.setattr(runner_mod, "write_output", waiting_write)
     BakeRunner(e, tmp_path / "bake", 1, 4).run()
     assert overlapped == {2: True}
@@ -108,10 +108,10 @@ def test_cancel_during_the_next_step_keeps_the_frame_being_written(tmp_path):
 def test_a_write_that_fails_stops_the_bake_with_its_error(tmp_path, monkeypatch):
     write = runner_mod.write_output
 
-    def failing(folder, stream, frame, output):
+    def failing(folder, stream, frame, output, tag=""):
         if frame == 3:
             raise OSError(28, "No space left on device")
-        return write(folder, stream, frame, output)
+        return write(folder, stream, frame, output, tag)
     monkeypatch.setattr(runner_mod, "write_output", failing)
     folder = tmp_path / "bake"
     r = BakeRunner(Detached(), folder, 1, 6)

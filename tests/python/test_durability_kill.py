@@ -42,8 +42,8 @@ KILLS = {
     # frame 4's files renamed into place, the manifest not yet told
     "frame-renamed": """
         orig = runner.write_output
-        def write_output(folder, stream, frame, output):
-            name = orig(folder, stream, frame, output)
+        def write_output(folder, stream, frame, output, tag=""):
+            name = orig(folder, stream, frame, output, tag)
             if frame == 4:
                 die()
             return name

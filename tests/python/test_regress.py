@@ -170,3 +170,23 @@ def test_empty_vdb_grids_compare_cleanly(tmp_path):
         c.add_frame(m, 1, ["fluid_0001.vdb"])
     rep = regress.compare(tmp_path / "new", tmp_path / "golden")
     assert rep["passed"] and rep["files"][0]["channels"]["density"]["voxels"] == 0
+
+
+def test_files_are_matched_without_their_bakes_tags(golden, tmp_path, capsys):
+    # The golden bake has no tag (from before tags); the new one names its folder. A new
+    # bake's frame changed must still be found and fail.
+    new = tmp_path / "new" / "shot" / "Plane_testwave"
+    BakeRunner(WaveEffect(), new, 1, 3, header={"file_tag": "shot_Plane_testwave_"}).run()
+    assert regress.main([str(tmp_path / "new"), str(golden), "--report",
+                         str(tmp_path / "rep")]) == 0
+    assert "3 files match, 0 regressions" in capsys.readouterr().out
+    p = new / "shot_Plane_testwave_wave_0002.exr"
+    ch = exr.read(p)
+    ch["height"] = ch["height"] + 0.01
+    exr.write(p, ch, half=("R", "G", "B"))
+    assert regress.main([str(tmp_path / "new"), str(golden), "--report",
+                         str(tmp_path / "rep")]) == 1
+    assert "FAIL shot/Plane_testwave/wave_0002.exr" in capsys.readouterr().out
+    rep = json.loads((tmp_path / "rep" / "report.json").read_text())
+    assert any(n.endswith("_diff.png") for n in os.listdir(tmp_path / "rep"))
+    assert [e["paths"]["new"] for e in rep["files"] if e["problems"]] == [str(p)]

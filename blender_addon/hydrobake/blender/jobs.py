@@ -238,7 +238,8 @@ class Job:
             raw = settings.get("bake_folder", "")
             self.recorded = raw if raw.startswith("//") else self.folder
         self.runner = BakeRunner(effect, self.folder, start, end, resume=resume, header={
-            "object": obj.name, "blend": bpy.data.filepath, "folder": self.folder})
+            "object": obj.name, "blend": bpy.data.filepath, "folder": self.folder,
+            "file_tag": paths.file_tag(self.folder)})
         # The object is marked, so that the bake finds it again if it is renamed meanwhile
         # (and never takes another object given its old name).
         self.token, self.pointer = uuid.uuid4().hex, obj.as_pointer()

@@ -40,6 +40,15 @@ def bake_folder(obj, effect_name, settings, override=None):
     return os.path.normpath(os.path.join(root, folder_name(stem), leaf))
 
 
+def file_tag(folder):
+    """What begins the names of a bake's files in ``folder`` (``<blend>/<object>_<effect>``):
+    ``shot_Car_snow_``. Blender's Unpack into the current folder writes each packed image to
+    ``//textures/<its file name>`` and each volume to ``//volumes/...``; with one name for
+    every bake, the second object's bake would take the first's file, or replace it."""
+    parent, leaf = os.path.split(os.path.normpath(folder))
+    return f"{os.path.basename(parent)}_{leaf}_".lstrip(".")  # (a dot would hide them)
+
+
 def stored(folder, settings, override=None):
     """How the file records a bake folder: relative to the .blend ('//...') when the cache
     folder setting is, so a project moved or opened elsewhere (a farm's mount) with its

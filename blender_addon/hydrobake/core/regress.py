@@ -20,7 +20,7 @@ import zipfile
 import numpy as np
 
 from . import errors, jsonfile
-from .bake.cache import MANIFEST, BakeCache, write_bytes_atomic
+from .bake.cache import MANIFEST, BakeCache, untagged, write_bytes_atomic
 
 # Per stream: max_abs (largest allowed |new - golden|), mean_abs, min_psnr (dB), and for VDB
 # max_voxel_delta (active voxel count change) — any missing key is not checked. "*" applies
@@ -193,11 +193,17 @@ def compare(new_root, golden_root, tolerances=None, only=None):
             report["problems"].append(f"{rel}: no bake in the new folder")
             continue
         for frame in sorted(g["frames"], key=int):
-            for name in sorted(g["frames"][frame]):
+            # Files are matched by name without their bake's file tag: the tag names the
+            # folder a bake was made in, which a golden copied elsewhere keeps.
+            new_names = {untagged(n, x): x for x in n["frames"].get(frame, {})}
+            for golden_name in sorted(g["frames"][frame], key=lambda x: untagged(g, x)):
+                name = untagged(g, golden_name)
                 entry = {"bake": rel, "effect": g["effect"], "frame": int(frame), "file": name,
                          "stream": name.rsplit("_", 1)[0], "channels": {}, "problems": []}
-                new_path = n_cache.path(name)
-                if name not in n["frames"].get(frame, {}) or not os.path.isfile(new_path):
+                new_path = n_cache.path(new_names.get(name, name))
+                entry["paths"] = {"new": new_path,
+                                  "golden": os.path.join(golden_root, rel, golden_name)}
+                if name not in new_names or not os.path.isfile(new_path):
                     entry["problems"].append("missing in the new bake")
                 else:
                     ext = os.path.splitext(name)[1]
@@ -207,8 +213,8 @@ def compare(new_root, golden_root, tolerances=None, only=None):
                         report["files"].append(entry)
                         continue
                     try:
-                        entry["channels"] = COMPARERS[ext](new_path, os.path.join(
-                            golden_root, rel, name))
+                        entry["channels"] = COMPARERS[ext](new_path,
+                                                           entry["paths"]["golden"])
                     except (errors.HydrobakeError, OSError, ValueError, EOFError,
                             zipfile.BadZipFile) as exc:  # a damaged file, new or golden
                         entry["problems"].append(f"unreadable: {exc}")
@@ -273,8 +279,7 @@ def write_report(report, folder, max_images=24):
     for e in ranked:
         cells = ""
         if e["file"].endswith(".exr") and e["channels"] and shown < max_images:
-            new = exr.read(os.path.join(report["new"], e["bake"], e["file"]))
-            gold = exr.read(os.path.join(report["golden"], e["bake"], e["file"]))
+            new, gold = exr.read(e["paths"]["new"]), exr.read(e["paths"]["golden"])
             ch = max((c for c in e["channels"] if "max_abs" in e["channels"][c]),
                      key=lambda c: e["channels"][c]["max_abs"], default=None)
             if ch is not None:

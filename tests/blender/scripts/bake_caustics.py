@@ -37,7 +37,7 @@ assert m["complete"] and sorted(map(int, m["frames"])) == [1, 2, 3]
 assert m["params"]["water"]["width"] == 64 and m["params"]["water"]["height"] == 64
 names = sorted(os.listdir(folder))
 assert names == sorted(["manifest.json", "checkpoint_0001.bin", "checkpoint_0003.bin"] +
-                      [f"{st}_{i:04d}.exr" for i in (1, 2, 3)
+                      [f"{m['file_tag']}{st}_{i:04d}.exr" for i in (1, 2, 3)
                        for st in ("caustics", "surface", "height", "water", "view")]), names
 assert bpy.data.images["HBK_Water_view"].source == "SEQUENCE"  # the paper's own rendering
 assert bpy.data.images["HBK_Water_view"].use_fake_user  # no node shows it: kept when saved

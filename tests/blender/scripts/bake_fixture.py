@@ -12,6 +12,7 @@ in_blender.enable()
 fixture_wave.install()
 from hydrobake.blender import jobs  # noqa: E402
 from hydrobake.core.bake import BakeCache  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 obj = in_blender.new_plane("Glass")
@@ -35,7 +36,11 @@ assert settings.is_baked and os.path.samefile(settings.bake_folder, folder)
 m = json.load(open(os.path.join(folder, "manifest.json")))
 assert m["complete"] and sorted(map(int, m["frames"])) == [1, 2, 3, 4, 5, 6]
 assert m["object"] == "Glass" and m["blend"] == blend
-assert sorted(os.listdir(folder)) == ["manifest.json"] + [f"wave_{i:04d}.exr" for i in range(1, 7)]
+# Every file named after its bake (.blend, object and effect): unpacked by Blender into
+# //textures, two bakes' images never share a name.
+assert m["file_tag"] == "shot_Glass_testwave_"
+assert sorted(os.listdir(folder)) == ["manifest.json"] + [
+    f"shot_Glass_testwave_wave_{i:04d}.exr" for i in range(1, 7)]
 
 # Wired: an image sequence that Blender itself reads, frame by frame.
 mat = obj.data.materials[0]
@@ -43,7 +48,7 @@ tex = next(n for n in mat.node_tree.nodes if n.get("hydrobake") == "testwave.nor
 assert tex.image.source == "SEQUENCE"
 scene.frame_set(4)
 tex.image_user.frame_current = 4
-img = bpy.data.images.load(os.path.join(folder, "wave_0004.exr"))
+img = bpy.data.images.load(frame_path(folder, "wave", 4, "exr"))
 assert tuple(img.size) == (32, 32) and img.channels == 4
 
 # Free removes the bake's files and unwires, nothing else.
@@ -72,7 +77,8 @@ cache = BakeCache(folder)
 done = cache.frames()
 assert done == list(range(1, len(done) + 1)) and 3 <= len(done) < 40, done
 assert cache.verify() == []
-assert sorted(os.listdir(folder)) == ["manifest.json"] + [f"wave_{i:04d}.exr" for i in done]
+assert sorted(os.listdir(folder)) == ["manifest.json"] + [
+    os.path.basename(frame_path(folder, "wave", i, "exr")) for i in done]
 assert settings.is_baked  # the kept frames are a bake: settings stay locked until freed
 
 # Resume of a bake whose manifest was edited by hand: refused as a resume is, nothing

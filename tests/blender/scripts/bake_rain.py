@@ -9,6 +9,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "rain.blend"))
@@ -28,10 +29,10 @@ p = m["params"]["rain"]
 # The glass is 1.4 m across and about 0.75 m up its (curved) surface: 1 cm cells.
 assert 138 <= p["width"] <= 146 and 73 <= p["height"] <= 80, (p["width"], p["height"])
 assert p["map_width"] == 2 * p["width"]
-data = exr.read(os.path.join(s.bake_folder, "rain_0003.exr"))
+data = exr.read(frame_path(s.bake_folder, "rain", 3, "exr"))
 assert set(data) == {"height", "normal.x", "normal.y", "normal.z", "wetness"}
 assert data["height"].max() > 0  # drops landed and were drawn
-assert os.path.isfile(os.path.join(s.bake_folder, "preview_0003.exr"))  # cheap refraction
+assert os.path.isfile(frame_path(s.bake_folder, "preview", 3, "exr"))  # cheap refraction
 assert bpy.data.images["HBK_Windshield_rain_preview"].source == "SEQUENCE"
 assert bpy.data.images["HBK_Windshield_rain_preview"].use_fake_user  # kept when saved
 
@@ -79,5 +80,5 @@ with bpy.context.temp_override(scene=scene):
         msg = str(exc)
 assert "Cell Size = 0.0001 m: gives 1" in msg and "16777216 allowed; use at least 0.00025" \
     in msg, msg
-assert not os.path.isfile(os.path.join(s.bake_folder, "rain_0001.exr"))
+assert not os.path.isfile(frame_path(s.bake_folder, "rain", 1, "exr"))
 print("RAIN BLENDER OK")

@@ -10,6 +10,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "snow.blend"))
@@ -23,7 +24,7 @@ s.snow.texture_width = s.snow.texture_height = 256
 s.write_flakes = True
 with bpy.context.temp_override(scene=scene):
     assert bpy.ops.hydrobake.bake(effect="snow", object_name="Person") == {"FINISHED"}
-cov = exr.read(os.path.join(s.bake_folder, "coverage_0004.exr"))["A"]
+cov = exr.read(frame_path(s.bake_folder, "coverage", 4, "exr"))["A"]
 # Per material: coverage inside each part's UV cell (parts are packed 3x3 in UV space).
 mesh = person.data
 uv = np.array([d.uv[:] for d in mesh.uv_layers.active.data])

@@ -17,6 +17,7 @@ import in_blender
 in_blender.enable()
 from hydrobake.blender.bridge import materials  # noqa: E402
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.empty_file("free.blend")
 scene = bpy.context.scene
@@ -88,7 +89,7 @@ assert abs(bsdf.inputs["IOR"].default_value - 1.333) < 1e-6
 
 # Displace Surface: the dent under the stone goes below the level, as baked.
 scene.frame_set(3)
-height = exr.read(os.path.join(s.bake_folder, "height_0003.exr"))["Y"]
+height = exr.read(frame_path(s.bake_folder, "height", 3, "exr"))["Y"]
 dg = bpy.context.evaluated_depsgraph_get()
 zs = np.array([v.co.z for v in pool.evaluated_get(dg).to_mesh().vertices])
 pool.evaluated_get(dg).to_mesh_clear()
@@ -96,11 +97,11 @@ assert height.min() < -0.02 and zs.min() < 0.5 * height.min(), (height.min(), zs
 
 # A re-bake over its own Subdivision and Displace sees the same grid and the same level.
 first = json.load(open(os.path.join(s.bake_folder, "manifest.json")))
-h1 = exr.read(os.path.join(s.bake_folder, "water_0001.exr"))["height"]
+h1 = exr.read(frame_path(s.bake_folder, "water", 1, "exr"))["height"]
 bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool")
 again = json.load(open(os.path.join(s.bake_folder, "manifest.json")))
 assert again["params"] == first["params"], (again["params"]["water"], first["params"]["water"])
-assert np.array_equal(exr.read(os.path.join(s.bake_folder, "water_0001.exr"))["height"], h1)
+assert np.array_equal(exr.read(frame_path(s.bake_folder, "water", 1, "exr"))["height"], h1)
 
 # The floor's colour along the pool's edge: the map is 1 there (flat water at the edge),
 # so the floor shows its own 0.8 right up to the edge, no darker line (a probe of the base
@@ -131,7 +132,7 @@ r.filepath = os.path.join(tmp, "edge.exr")
 scene.frame_set(1)
 bpy.ops.render.render(write_still=True)
 px = np.array(bpy.data.images.load(r.filepath).pixels[:]).reshape(128, 128, 4)
-cmap = exr.read(os.path.join(s.bake_folder, "caustics_0001.exr"))["R"]
+cmap = exr.read(frame_path(s.bake_folder, "caustics", 1, "exr"))["R"]
 assert abs(cmap[:, 0].mean() - 1.0) < 0.02 and abs(cmap[:, -1].mean() - 1.0) < 0.02
 row = px[64, :, 0]  # across both edges of the pool (x = -1.5 and 1.5 m: columns 16 and 112)
 assert np.abs(row - 0.8).max() < 0.03, (np.round(row, 3), cmap.min(), cmap.max())
@@ -218,7 +219,7 @@ b.disturber_object, b.disturber_depth = rock, 0.1
 for z, dented in ((-0.2, False), (0.0, True)):
     rock.location.z = z
     bake(bare)
-    h = exr.read(os.path.join(b.bake_folder, "water_0002.exr"))["height"]
+    h = exr.read(frame_path(b.bake_folder, "water", 2, "exr"))["height"]
     assert (h.min() < -0.01) == dented, (z, h.min())
 b.disturber_object = None
 

@@ -9,6 +9,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "pond.blend"))
@@ -26,10 +27,10 @@ s.use_scene_range, s.frame_start, s.frame_end = False, 1, 4
 s.water.width, s.map_resolution, s.water.rain_rate = 32, 64, 0.0
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pond") == {"FINISHED"}
 cell = 2.0 / 32
-vol = [float(exr.read(os.path.join(s.bake_folder, f"water_{f:04d}.exr"))["depth"].sum()) * cell**2
+vol = [float(exr.read(frame_path(s.bake_folder, "water", f, "exr"))["depth"].sum()) * cell**2
        for f in (1, 4)]
 # 0.1 m/s over the 0.25 m^2 under the tap for 3 frames at 24 fps: 0.003125 m^3.
 assert abs((vol[1] - vol[0]) - 0.1 * 0.25 * 3 / 24) < 0.1 * 0.1 * 0.25 * 3 / 24, vol
-depth = exr.read(os.path.join(s.bake_folder, "water_0001.exr"))["depth"]
+depth = exr.read(frame_path(s.bake_folder, "water", 1, "exr"))["depth"]
 assert depth[:, 0].mean() < depth[:, -1].mean()  # the image's ramp: deeper towards +x
 print("CAUSTICS SOURCES OK", vol)

@@ -13,6 +13,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.empty_file("turned.blend")
 scene = bpy.context.scene
@@ -79,7 +80,7 @@ assert abs(proj.rotation_euler.z - ANGLE) < 1e-6
 proj.hide_render = True
 # The pool's 2 x 1 m in 64 columns: 32 rows of 1/32 m (its bounding box would be 2.23 x 1.87).
 assert p["height"] == 32 and abs(p["cell_size"] - 2.0 / 64) < 1e-6, p
-height = exr.read(os.path.join(folder, "water_0001.exr"))["height"]
+height = exr.read(frame_path(folder, "water", 1, "exr"))["height"]
 jj, ii = np.nonzero(height < 0.5 * height.min())  # the dent: centred under the stone
 assert abs(ii.mean() - 47.5) < 1 and abs(jj.mean() - 23.5) < 1, (ii.mean(), jj.mean())
 stone.hide_render = True
@@ -136,7 +137,7 @@ pool.hide_render = False
 
 # The water's normals: the map's (in the grid's frame) turned by 30 degrees into the world.
 px, x, y = probe(pool, "caustics.normal_turn", "water.exr")
-surface = exr.read(os.path.join(folder, "surface_0001.exr"))
+surface = exr.read(frame_path(folder, "surface", 1, "exr"))
 n_grid = np.stack([surface[k] for k in ("R", "G", "B")], -1) * 2.0 - 1.0
 u = c * (x - world(0, 0)[0]) + s * (y - world(0, 0)[1])
 v = -s * (x - world(0, 0)[0]) + c * (y - world(0, 0)[1])

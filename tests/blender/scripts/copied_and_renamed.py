@@ -12,6 +12,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.blender.bridge import materials  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 in_blender.empty_file("copies.blend")
 floor = in_blender.new_plane("Floor")
@@ -45,7 +46,7 @@ except RuntimeError as exc:
 # Free on the copy forgets its record only.
 assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=copy.name) == {"FINISHED"}
 assert not c.is_baked and c.bake_folder == "" and "baked_as" not in c
-assert s.is_baked and os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
+assert s.is_baked and os.path.isfile(frame_path(folder, "caustics", 1, "exr"))
 assert owners() == ["Pool"] and materials.tagged(pool.active_material.node_tree,
                                                  "caustics.surface") is not None
 # A re-bake of a fresh copy (record still copied) makes its own bake beside the original's.
@@ -54,7 +55,7 @@ second.location.x = -3.0
 assert second.hydrobake_caustics.is_baked
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name=second.name) == {"FINISHED"}
 assert second.hydrobake_caustics.bake_folder != folder
-assert os.path.isfile(os.path.join(folder, "caustics_0001.exr")) and s.is_baked
+assert os.path.isfile(frame_path(folder, "caustics", 1, "exr")) and s.is_baked
 assert owners() == sorted(["Pool", second.name]), owners()
 
 # Renamed, then a newcomer takes the old name: its bake is refused, naming the holder.
@@ -69,7 +70,7 @@ try:
     raise AssertionError("a newcomer with a baked object's old name was not refused")
 except RuntimeError as exc:
     assert "PoolA records a caustics bake made under this name" in str(exc), str(exc)
-assert os.path.isfile(os.path.join(folder, "caustics_0001.exr")) and owners().count("Pool") == 1
+assert os.path.isfile(frame_path(folder, "caustics", 1, "exr")) and owners().count("Pool") == 1
 # Re-baking PoolA moves its bake to its new name; then the newcomer may bake.
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="PoolA") == {"FINISHED"}
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool") == {"FINISHED"}
@@ -96,7 +97,7 @@ orig.name = "Renamed"
 o.frame_end = 3
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Renamed", resume=True) == \
     {"FINISHED"}
-assert os.path.isfile(os.path.join(ofolder, "caustics_0003.exr"))
+assert os.path.isfile(frame_path(ofolder, "caustics", 3, "exr"))
 assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Renamed") == {"FINISHED"}
 assert not any(n.get("hydrobake") for n in water.node_tree.nodes)
 assert os.path.isdir(ofolder) and twin.hydrobake_caustics.is_baked

@@ -13,6 +13,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.blender.bridge import materials  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.empty_file("deleted_baked.blend")
 
@@ -112,7 +113,7 @@ lens_folder = bake(glass("Lens", in_blender.node_material("LensMat")).name, "rai
 delete("Lens")
 newcomer = glass("Lens", None)
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Lens") == {"FINISHED"}
-assert os.path.isfile(os.path.join(lens_folder, "normal_0001.exr")), \
+assert os.path.isfile(frame_path(lens_folder, "normal", 1, "exr")), \
     "a Free of an object of the same name removed the deleted glass's files"
 assert remove("rain") == {"FINISHED"}
 assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Lens") == {"FINISHED"}

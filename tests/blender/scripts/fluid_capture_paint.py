@@ -11,6 +11,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import vdb  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "capture.blend"))
@@ -19,7 +20,7 @@ bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "capture.blend"))
 
 def blend1(frame):
     """(grid of blend_1, its index -> world transform)."""
-    g = vdb.read(os.path.join(s.bake_folder, f"fluid_{frame:04d}.vdb"))["blend_1"]
+    g = vdb.read(frame_path(s.bake_folder, "fluid", frame, "vdb"))["blend_1"]
     return g, g.transform
 
 
@@ -40,7 +41,7 @@ for items in (surf.data.edges, surf.data.polygons):  # else Edit Mode selects th
 bpy.ops.object.mode_set(mode="EDIT")
 bpy.context.scene.frame_set(3)
 assert bpy.ops.hydrobake.fluid_capture_paint(texture=1, source="SELECTION") == {"FINISHED"}
-with np.load(os.path.join(s.bake_folder, "surface_0003.npz")) as f3:
+with np.load(frame_path(s.bake_folder, "surface", 3, "npz")) as f3:
     assert len(surf.data.vertices) == len(f3["positions"]) != len(top)  # frame 3 shown again
 bpy.context.scene.frame_set(2)
 stroke = bpy.data.objects["HBK_Domain_paint_2"]

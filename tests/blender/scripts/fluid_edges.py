@@ -12,6 +12,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.blender.bridge import frame_meshes  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 from hydrobake.core import vdb  # noqa: E402
 
 tmp = in_blender.args()[0]
@@ -46,12 +47,12 @@ for frame, wet in ((1, False), (2, False), (4, True)):
     mesh = surf.data
     assert (len(mesh.vertices) > 0) == wet, (frame, len(mesh.vertices))
     assert "blend_0" in mesh.attributes and "features_0" in mesh.attributes, frame
-    density = vdb.read(os.path.join(s.bake_folder, f"fluid_{frame:04d}.vdb"))["density"]
+    density = vdb.read(frame_path(s.bake_folder, "fluid", frame, "vdb"))["density"]
     assert (density.evalMinMax()[1] > 0) == wet, frame
 # A damaged file in one sequence (listed first) does not stop the others following the frame.
 broken = os.path.join(tmp, "broken")
 os.makedirs(broken)
-with open(os.path.join(broken, "surface_0004.npz"), "wb") as f:
+with open(frame_path(broken, "surface", 4, "npz"), "wb") as f:
     f.write(b"not a zip")
 bpy.context.scene.frame_set(1)
 frame_meshes.attach("AAA broken", "surface", broken, "surface")

@@ -12,6 +12,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import vdb  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 # An optional time scale: a slowed simulation moves the textures by what a frame moves.
@@ -38,7 +39,7 @@ assert m["params"]["fluid"]["box_min"] == [-1.0, -1.0, 0.0], m["params"]["fluid"
 # Slowed by the time scale, the ball has fallen for f / 24 * time_scale simulated seconds,
 # and a frame moves it by that speed times the time scale.
 for f in (2, 4):
-    g = vdb.read_grid(os.path.join(s.bake_folder, f"fluid_{f:04d}.vdb"), "velocity")
+    g = vdb.read_grid(frame_path(s.bake_folder, "fluid", f, "vdb"), "velocity")
     vz, want = g[..., 2], -9.81 * f / 24 * time_scale * time_scale
     assert abs(vz.min() - want) < 0.1 * abs(want), (f, vz.min(), want)
 if time_scale != 1.0:
@@ -46,8 +47,8 @@ if time_scale != 1.0:
     raise SystemExit(0)
 # The textures move with the liquid: uvw changed where it flows, not at rest far from it.
 # (The grids hold values only where there is liquid: read them over one common box.)
-uvw1 = vdb.read_grid(os.path.join(s.bake_folder, "fluid_0001.vdb"), "uvw")
-uvw5 = vdb.read_grid(os.path.join(s.bake_folder, "fluid_0005.vdb"), "uvw")
+uvw1 = vdb.read_grid(frame_path(s.bake_folder, "fluid", 1, "vdb"), "uvw")
+uvw5 = vdb.read_grid(frame_path(s.bake_folder, "fluid", 5, "vdb"), "uvw")
 box = np.maximum(uvw1.shape, uvw5.shape)
 uvw1, uvw5 = (np.pad(u, [(0, b - n) for b, n in zip(box, u.shape)]) for u in (uvw1, uvw5))
 moved = np.abs(uvw5 - uvw1).max(axis=-1) > 1e-3
@@ -57,7 +58,7 @@ scene.frame_set(5)
 ev = dom.evaluated_get(bpy.context.evaluated_depsgraph_get())
 liquid_z = min((dom.matrix_world @ v.co).z for v in ev.to_mesh().vertices)
 ev.to_mesh_clear()
-surf = np.load(os.path.join(s.bake_folder, "surface_0005.npz"))
+surf = np.load(frame_path(s.bake_folder, "surface", 5, "npz"))
 assert len(surf["triangles"]) > 100
 ours = surf["positions"][:, 2].min()
 assert abs(ours - liquid_z) < 2.5 * 2.0 / 16, (ours, liquid_z)  # within the grid's resolution

@@ -9,6 +9,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import vdb  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "paint.blend"))
@@ -29,7 +30,7 @@ s.enabled, s.fill_object, s.paint_collection = True, fill, strokes
 s.fluid.resolution, s.fluid.substeps, s.fluid.textures = (16, 8, 8), 4, 2
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 3
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
-b1 = [vdb.read(os.path.join(s.bake_folder, f"fluid_{f:04d}.vdb"))["blend_1"] for f in (1, 3)]
+b1 = [vdb.read(frame_path(s.bake_folder, "fluid", f, "vdb"))["blend_1"] for f in (1, 3)]
 assert b1[0].activeVoxelCount() == 0 or b1[0].evalMinMax()[1] < 1e-6  # nothing before frame 2
 assert b1[1].evalMinMax()[1] > 0.5  # painted at frame 2, still there at frame 3
 
@@ -57,7 +58,7 @@ assert abs(rule.low - vals[sel].min()) < 1e-3 and abs(rule.high - vals[sel].max(
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 brush.hydrobake_fluid_paint.enabled = False
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
-first = vdb.read(os.path.join(s.bake_folder, "fluid_0001.vdb"))["blend_1"]
+first = vdb.read(frame_path(s.bake_folder, "fluid", 1, "vdb"))["blend_1"]
 assert first.evalMinMax()[1] > 0.5
 assert abs(roughness().default_value - 0.9) < 1e-6  # the same textures: the edit is kept
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}

@@ -13,6 +13,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import vdb  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.empty_file("strokes.blend")
 scene = bpy.context.scene
@@ -65,7 +66,7 @@ scene.frame_set(1)
 assert brush.matrix_world.translation.x > 0.8
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 assert scene.frame_current == 1  # the scene is back on its frame
-blend = vdb.read_grid(os.path.join(s.bake_folder, "fluid_0002.vdb"), "blend_1")
+blend = vdb.read_grid(frame_path(s.bake_folder, "fluid", 2, "vdb"), "blend_1")
 cell = 1.0 / 16
 at = tuple(int(round(c / cell)) for c in (0.12, 0.25, 0.1))
 assert blend[at] > 0.5, blend[at]  # painted where the Empty is at frame 2
@@ -97,7 +98,7 @@ hbk = sorted(o.name for o in bpy.data.objects if o.type in ("VOLUME",) or
              "hydrobake_domain" in o)
 assert hbk == ["Water", "Water volume"], hbk
 assert not vol.hide_render
-assert vol.data.filepath.endswith("fluid_0001.vdb") and vol.data.materials[0] is not None
+assert vol.data.filepath.endswith("_Domain_fluid_fluid_0001.vdb") and vol.data.materials[0] is not None
 scene.frame_set(2)
 assert len(bpy.data.objects["Water"].data.vertices) > 0
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}

@@ -11,6 +11,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import vdb  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "turned.blend"))
@@ -45,7 +46,7 @@ s.fluid.textures = 2
 s.use_scene_range, s.frame_start, s.frame_end = False, 1, 5
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Tank") == {"FINISHED"}
 for f in (3, 5):
-    path = os.path.join(s.bake_folder, f"fluid_{f:04d}.vdb")
+    path = frame_path(s.bake_folder, "fluid", f, "vdb")
     v = vdb.read_grid(path, "velocity")
     dens = vdb.read_grid(path, "density")
     wet = np.zeros(v.shape[:3], bool)

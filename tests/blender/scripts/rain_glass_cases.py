@@ -16,6 +16,7 @@ in_blender.enable()
 from hydrobake.blender import jobs  # noqa: E402
 from hydrobake.blender.bridge import materials  # noqa: E402
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.empty_file("glass.blend")
 scene = bpy.context.scene
@@ -172,7 +173,7 @@ src.save()
 w.background_image = bpy.data.images.load(os.path.join(tmp, "street.png"))
 w.frame_end = 1
 bake(ws)
-v = float(np.median(exr.read(os.path.join(w.bake_folder, "preview_0001.exr"))["R"]))
+v = float(np.median(exr.read(frame_path(w.bake_folder, "preview", 1, "exr"))["R"]))
 assert abs(v - 0.214) < 0.01, v
 free(ws)
 w.background_image.filepath = os.path.join(tmp, "moved_away.png")

@@ -13,6 +13,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.blender.bridge import materials as M  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 in_blender.empty_file("records.blend")
 
@@ -176,7 +177,7 @@ folder = ps.bake_folder
 pool.name = "Pool2"
 copy = in_blender.duplicate(pool)
 free(copy, "caustics")
-assert ps.is_baked and os.path.isfile(os.path.join(folder, "caustics_0001.exr"))
+assert ps.is_baked and os.path.isfile(frame_path(folder, "caustics", 1, "exr"))
 assert "caustics.multiply" in tags(fm) and not copy.hydrobake_caustics.is_baked
 free(pool, "caustics")  # now the only holder: the files go
 assert not os.path.exists(folder) and tags(fm) == []
@@ -194,7 +195,7 @@ assert ps.bake_folder == folder
 newcomer = plane("Pool", 1.0, (2.5, -6, 0))
 caustics(newcomer, floor)
 free(newcomer, "caustics")
-assert ps.is_baked and os.path.isfile(os.path.join(folder, "caustics_0003.exr"))
+assert ps.is_baked and os.path.isfile(frame_path(folder, "caustics", 3, "exr"))
 try:
     bake(newcomer, "caustics")
     raise AssertionError("the newcomer baked into Big's folder")

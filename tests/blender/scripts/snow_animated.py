@@ -13,6 +13,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "animated.blend"))
@@ -29,7 +30,7 @@ s.snow.flutter_amplitude = 0.0
 
 def face(nz):
     """Mean coverage of the last frame on the face with local normal (0, 0, nz)."""
-    cov = exr.read(os.path.join(s.bake_folder, "coverage_0005.exr"))["A"]
+    cov = exr.read(frame_path(s.bake_folder, "coverage", 5, "exr"))["A"]
     p = next(p for p in cube.data.polygons if round(p.normal.z) == nz)
     us = np.array([cube.data.uv_layers.active.data[i].uv[:] for i in p.loop_indices])
     lo, hi = (us.min(0) * 64).astype(int), np.ceil(us.max(0) * 64).astype(int)

@@ -10,6 +10,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "box.blend"))
@@ -22,7 +23,7 @@ s.flake_density = 3000.0  # about 200 000 flakes
 s.snow.texture_width = s.snow.texture_height = 96
 with bpy.context.temp_override(scene=scene):
     assert bpy.ops.hydrobake.bake(effect="snow", object_name="Person") == {"FINISHED"}
-cov = exr.read(os.path.join(s.bake_folder, "coverage_0003.exr"))["A"]
+cov = exr.read(frame_path(s.bake_folder, "coverage", 3, "exr"))["A"]
 assert cov.shape == (96 * 4, 96), cov.shape  # one block per material slot
 assert person.modifiers[-1].name == "HBK Snow Box"
 with bpy.context.temp_override(scene=scene):  # the Snow scene's evaluated person

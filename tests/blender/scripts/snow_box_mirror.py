@@ -10,6 +10,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.data.objects.remove(bpy.data.objects["Cube"])
@@ -32,7 +33,7 @@ s.snow.fall_speed = 3.0
 s.colliders = shelter
 s.snow.contact_mode = "BOX"
 assert bpy.ops.hydrobake.bake(effect="snow", object_name="Block") == {"FINISHED"}
-cov = exr.read(os.path.join(s.bake_folder, "coverage_0004.exr"))["A"]
+cov = exr.read(frame_path(s.bake_folder, "coverage", 4, "exr"))["A"]
 H, W = cov.shape
 ev = block.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
 uv = np.empty(len(ev.loops) * 3, np.float32)

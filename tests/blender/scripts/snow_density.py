@@ -11,6 +11,7 @@ import in_blender
 
 in_blender.enable()
 from hydrobake.core import exr  # noqa: E402
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
 
 tmp = in_blender.args()[0]
 bpy.data.objects.remove(bpy.data.objects["Cube"])
@@ -24,7 +25,7 @@ for name, size, x in (("Small", 1.0, -20.0), ("Large", 8.0, 20.0)):
     s.snow.wind = (0.0, 0.0, 0.0)
     s.snow.depth_per_flake = 0.01
     assert bpy.ops.hydrobake.bake(effect="snow", object_name=name) == {"FINISHED"}
-    depth[name] = float(exr.read(os.path.join(s.bake_folder, "depth_0008.exr"))["Y"].mean())
+    depth[name] = float(exr.read(frame_path(s.bake_folder, "depth", 8, "exr"))["Y"].mean())
     with open(os.path.join(s.bake_folder, "manifest.json")) as f:
         counts[name] = json.load(f)["params"]["snow"]["flake_count"]
 print("mean depth (m)", depth, "flakes", counts)

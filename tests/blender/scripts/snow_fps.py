@@ -12,6 +12,8 @@ import in_blender
 
 in_blender.enable()
 
+from hydrobake.core.bake.cache import frame_path  # noqa: E402
+
 tmp = in_blender.args()[0]
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(tmp, "fps.blend"))
 scene = bpy.context.scene
@@ -31,7 +33,7 @@ def manifest():
 for fps, substeps in ((60, 1), (12, 2)):
     scene.render.fps = fps
     assert bpy.ops.hydrobake.bake(effect="snow", object_name="Cube") == {"FINISHED"}
-    z = [np.load(os.path.join(s.bake_folder, f"flakes_{f:04d}.npz"))["positions"][:, 2]
+    z = [np.load(frame_path(s.bake_folder, "flakes", f, "npz"))["positions"][:, 2]
          for f in (2, 3)]
     d = z[0] - z[1]
     d = d[(d > 0) & (d < 0.5)]  # falling, not respawned at the top

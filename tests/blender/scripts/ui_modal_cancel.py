@@ -66,7 +66,8 @@ def step():
               done == list(range(1, len(done) + 1)) and cache.verify() == [] and
               settings.is_baked and
               sorted(os.listdir(settings.bake_folder)) ==
-              ["manifest.json"] + [f"wave_{i:04d}.exr" for i in done])
+              ["manifest.json"] + [f"{cache.read_manifest()['file_tag']}wave_{i:04d}.exr"
+                                   for i in done])
         if not ok:
             fail(f"took={took} gaps={max(gaps)} done={done} files={os.listdir(settings.bake_folder)}")
         print("UI MODAL CANCEL OK", flush=True)

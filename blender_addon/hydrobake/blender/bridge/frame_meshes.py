@@ -1,13 +1,14 @@
-"""Mesh objects rebuilt on every frame change from a baked ``<stream>_####.npz`` sequence:
+"""Mesh objects rebuilt on every frame change from a baked ``<tag><stream>_####.npz`` sequence:
 points (falling flakes) and surfaces (the fluid's mesh with its attributes)."""
 import os
 
 import bpy
 import numpy as np
 
+from ...core.bake.cache import stem_in
 from .. import paths
 
-PROP = "hydrobake_sequence"  # on the object: "kind|folder|stream"
+PROP = "hydrobake_sequence"  # on the object: "kind|folder|stem" (the files' <tag><stream>)
 PROP_BASE = "hydrobake_sequence_base"  # the folder a relative one is relative to (paths)
 FRAME = "hydrobake_frame"  # on the object: the frame its mesh holds
 
@@ -119,7 +120,7 @@ def ensure_handler():
 
 
 def attach(name, kind, folder, stream, collection=None, material=None):
-    """The object ``name`` (made or reused, linked to ``collection``) showing
+    """The object ``name`` (made or reused, linked to ``collection``) showing the bake's
     ``folder``/``stream`` at every frame, starting with its scene's current one."""
     if kind not in LOADERS:
         raise ValueError(f"kind = {kind!r}: must be one of {', '.join(LOADERS)}")
@@ -127,7 +128,7 @@ def attach(name, kind, folder, stream, collection=None, material=None):
     if obj is None:
         obj = bpy.data.objects.new(name, bpy.data.meshes.new(name))
         (collection or bpy.context.scene.collection).objects.link(obj)
-    paths.record(obj, PROP, f"{kind}|{folder}|{stream}", PROP_BASE, folder)
+    paths.record(obj, PROP, f"{kind}|{folder}|{stem_in(folder, stream)}", PROP_BASE, folder)
     if material is not None and not obj.data.materials:
         obj.data.materials.append(material)
     load(obj, _frame_of(obj, bpy.context.scene))

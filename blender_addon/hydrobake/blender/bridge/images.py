@@ -4,11 +4,14 @@ import os
 import bpy
 import numpy as np
 
+from ...core.bake.cache import frame_path
+
 
 def load_sequence(folder, stream, frame_start, frame_count, name=None, colorspace="Non-Color"):
-    """An image datablock reading ``<folder>/<stream>_####.exr`` as a sequence. Reuses an
-    image of the same name, so re-baking refreshes rather than duplicates."""
-    first = os.path.join(folder, f"{stream}_{frame_start:04d}.exr")
+    """An image datablock reading the bake's ``<folder>/<tag><stream>_####.exr`` as a
+    sequence. Reuses an image of the same name, so re-baking refreshes rather than
+    duplicates."""
+    first = frame_path(folder, stream, frame_start, "exr")
     name = name or f"HBK_{stream}"
     img = bpy.data.images.get(name)
     if img is None:

@@ -4,7 +4,9 @@ Layout of a cache folder (one per .blend, object and effect):
     manifest.json          what was baked: version, effect, parameters, seed, frame range,
                            for every completed frame its files with their SHA-256, and the
                            checkpoints a resume can start from
-    <stream>_0001.exr      one file per output stream and frame
+    <tag><stream>_0001.exr one file per output stream and frame; the tag (manifest's
+                           file_tag, "" if none) makes the names unique among bakes: Blender
+                           unpacks a packed image into //textures/<its file name>
     checkpoint_0010.bin    simulation state after a frame (every N frames and the latest)
     .hydrobake.lock        while a bake or free works here: locked, so that a second one in
                            another process is refused (left by a killed bake; the next one
@@ -35,11 +37,39 @@ _tmp_counter = iter(range(1 << 62))
 _tmp_lock = threading.Lock()
 
 
-def frame_name(stream, frame, ext):
-    """``caustics_0001.exr``: Blender's image-sequence naming (frame digits last)."""
+def frame_name(stream, frame, ext, tag=""):
+    """``caustics_0001.exr`` (``<tag>caustics_0001.exr`` with a tag): Blender's image-sequence
+    naming (frame digits last)."""
     if frame < 0:
         raise ValueError(f"frame = {frame}: must be >= 0")
-    return f"{stream}_{frame:04d}.{ext}"
+    return f"{tag}{stream}_{frame:04d}.{ext}"
+
+
+def stream_stem(manifest, stream):
+    """What a bake's files of ``stream`` are called before their frame numbers: the stream
+    after the bake's file tag (the stream alone for a bake from before tags)."""
+    return (manifest or {}).get("file_tag", "") + stream
+
+
+def stem_in(folder, stream):
+    """stream_stem of the bake in ``folder`` (the stream alone where none can be read)."""
+    try:
+        manifest = BakeCache(folder).read_manifest()
+    except ValueError:
+        manifest = None
+    return stream_stem(manifest, stream)
+
+
+def frame_path(folder, stream, frame, ext):
+    """The path of the file of ``stream`` and ``frame`` of the bake in ``folder``."""
+    return os.path.join(folder, frame_name(stem_in(folder, stream), frame, ext))
+
+
+def untagged(manifest, name):
+    """A bake's file name without its tag (``caustics_0001.exr``): what a golden bake of
+    another folder, whose tag differs, calls the same file."""
+    tag = (manifest or {}).get("file_tag", "")
+    return name[len(tag):] if tag and name.startswith(tag) else name
 
 
 def temp_name(final_path):
@@ -302,7 +332,7 @@ class BakeCache:
         return removed
 
 
-def _plain_name(name):
+def plain_name(name):
     """A file name in the folder itself: not a path, not hidden (temporaries are)."""
     return (isinstance(name, str) and name not in ("", ".", "..") and not name.startswith(".")
             and "/" not in name and os.sep not in name and (os.altsep or "/") not in name)
@@ -318,6 +348,9 @@ def _manifest_problem(m):
     streams = m.get("streams", [])
     if not isinstance(streams, list) or not all(isinstance(x, str) for x in streams):
         return "streams: not a list of names"
+    tag = m.get("file_tag", "")
+    if not isinstance(tag, str) or (tag and not plain_name(tag)):
+        return "file_tag: not a file name's beginning"
     frames = m.get("frames")
     if not isinstance(frames, dict):
         return "no frame list"
@@ -327,15 +360,15 @@ def _manifest_problem(m):
         if not isinstance(files, dict):
             return f"frame {frame}: not a list of files"
         for name, digest in files.items():
-            if not _plain_name(name) or not isinstance(digest, str) or \
-                    ("streams" in m and _stream_of(name) not in streams):
+            if not plain_name(name) or not isinstance(digest, str) or \
+                    ("streams" in m and _stream_of(untagged(m, name)) not in streams):
                 return f"frame {frame}: file {name!r} is not a file of the bake"
     checkpoints = m.get("checkpoints", {})
     if not isinstance(checkpoints, dict):
         return "checkpoints: not a list of checkpoints"
     for frame, entry in checkpoints.items():
         if not _number(frame) or not isinstance(entry, dict) or \
-                not _plain_name(entry.get("file")) or \
+                not plain_name(entry.get("file")) or \
                 _stream_of(entry["file"]) != "checkpoint" or \
                 not isinstance(entry.get("sha256"), str):
             return f"checkpoint {frame!r}: not a checkpoint of the bake"

@@ -52,19 +52,20 @@ class BakeState:
         return per * (self.total - self.done)
 
 
-def write_output(folder, stream, frame, output):
-    """Writes one output atomically; returns its file name. ``output`` is (kind, payload, opts)."""
+def write_output(folder, stream, frame, output, tag=""):
+    """Writes one output atomically; returns its file name (``tag`` before the stream).
+    ``output`` is (kind, payload, opts)."""
     kind, payload, opts = output
     if kind == "exr":
-        name = cache_mod.frame_name(stream, frame, "exr")
+        name = cache_mod.frame_name(stream, frame, "exr", tag)
         exr.write(os.path.join(folder, name), payload, half=opts.get("half", ()),
                   compression=opts.get("compression", "ZIP"))
     elif kind == "vdb":
         from .. import vdb  # pyopenvdb is only needed by effects that write volumes
-        name = cache_mod.frame_name(stream, frame, "vdb")
+        name = cache_mod.frame_name(stream, frame, "vdb", tag)
         vdb.write(os.path.join(folder, name), payload)
     elif kind == "npz":
-        name = cache_mod.frame_name(stream, frame, "npz")
+        name = cache_mod.frame_name(stream, frame, "npz", tag)
         with cache_mod.atomic_path(os.path.join(folder, name)) as tmp:
             write_npz(tmp, payload)
     else:
@@ -97,7 +98,8 @@ class BakeRunner:
 
     ``run()`` blocks; ``start()`` runs it in a thread; ``cancel()`` may be called from any
     thread and takes effect within one C progress poll (before ``run()``, it leaves the
-    folder as it was)."""
+    folder as it was). ``header`` goes into the manifest; its ``file_tag`` begins every
+    frame file's name (a resume keeps the tag of the bake it continues)."""
 
     def __init__(self, effect, folder, frame_start, frame_end, header=None, on_frame=None,
                  resume=False, checkpoint_every=10):
@@ -110,6 +112,11 @@ class BakeRunner:
         self.cache = cache_mod.BakeCache(folder)
         self.state = BakeState(frame_start, frame_end)
         self.header = dict(header or {})
+        tag = self.header.get("file_tag", "")
+        if not isinstance(tag, str) or (tag and not cache_mod.plain_name(tag)):
+            raise errors.InvalidArgument(f"file_tag = {tag!r}: must be a plain file name's "
+                                         "beginning (no folder, not hidden) or empty")
+        self._tag = tag
         self.on_frame = on_frame
         self.resume = resume
         if checkpoint_every < 1:
@@ -169,7 +176,7 @@ class BakeRunner:
         file is hashed by its own thread right after it is written. Returns ({name: sha256},
         what ``checkpoint`` returned, or None without one)."""
         def write(stream, output):
-            name = write_output(self.cache.folder, stream, frame, output)
+            name = write_output(self.cache.folder, stream, frame, output, self._tag)
             return name, cache_mod.file_checksum(self.cache.path(name))
         items = list(outputs.items())
         if (os.cpu_count() or 1) < 2:
@@ -331,6 +338,7 @@ class BakeRunner:
             else:
                 manifest, first = self.cache.start(header), s.frame_start
             s.done = s.resumed = first - s.frame_start
+            self._tag = manifest.get("file_tag", "")  # a resume keeps the names it began with
             for frame in range(first, s.frame_end + 1):
                 if self._cancel.is_set():
                     settle()
