@@ -4,7 +4,6 @@ rename: more obstacles than the core takes, a paint stroke before the bake's fir
 at its Frame, not where it is when Bake is pressed), Capture Paint / Capture Feature Rule on
 the surface of a domain renamed since its bake, and the textured surface and the Volume
 object renamed by the artist (a re-bake reuses them, Free removes them)."""
-import os
 
 import bpy
 import numpy as np

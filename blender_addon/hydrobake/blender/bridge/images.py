@@ -1,5 +1,4 @@
 """Baked image sequences as Blender images."""
-import os
 
 import bpy
 import numpy as np

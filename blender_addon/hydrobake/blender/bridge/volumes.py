@@ -9,9 +9,8 @@ from .depsgraph import evaluated as evaluated_depsgraph
 
 def load_volume_sequence(folder, stream, frame_start, frame_count, name, collection=None):
     """A Volume object reading the bake's ``<folder>/<tag><stream>_####.vdb`` as a sequence
-    (reused by name:
-    the object's own volume data is the one set, whatever it is called; a new object gets
-    the volume data of that name, or a new one)."""
+    (reused by name: the object's own volume data is the one set, whatever it is called; a
+    new object gets the volume data of that name, or a new one)."""
     path = frame_path(folder, stream, frame_start, "vdb")
     obj = bpy.data.objects.get(name)
     if obj is not None and obj.type != "VOLUME":
