@@ -70,6 +70,11 @@ def test_unpack_resources_gives_each_bake_its_own_file(blender, tmp_path):
     assert "PACKED UNPACK OK" in r.stdout
 
 
+def test_a_bake_from_before_file_tags_resumes_and_shows_under_its_names(blender, tmp_path):
+    r = blender.run("old_file_names.py", tmp_path)
+    assert "OLD FILE NAMES OK" in r.stdout
+
+
 def test_a_free_leaves_another_bakes_material_the_artist_gave_the_object(blender, tmp_path):
     r = blender.run("given_wiring.py", tmp_path)
     assert "GIVEN WIRING OK" in r.stdout
