@@ -148,17 +148,18 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # list, and its bake found no material in the first (918; materials._sync_slots).
 # mark_waits_for_deleted: the harness's snapshot with nothing baked took in the mark of a
 # mesh's empty slot kept while its object showed a clean copy waiting for a deleted
-# object's bake to be removed (922; fails with the harness from before). dead_shared_mark:
-# the snapshot with nothing baked took in the rename mark of a shared material whose only
-# copy, a deleted object's, went at a reopen; the next Bake removed the dead mark (the
-# harness's 936 of every flag + --scene --external, made short by hand; fails with the
-# harness from before).
+# object's bake to be removed (922; fails with the harness from before).
+# hidden_copy_after_reopen: a clean copy, kept while the mesh's made material showed a
+# deleted object's bake, was hidden behind a Link set to Data; the artist emptied the slot,
+# and at the reopen the made material went and the copy stayed, with nothing left to put it
+# back (every flag + --relations 114, made short by hand; fails without
+# materials.tidy_on_load).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
                                   "deleted_objects_copy_rebaked", "given_deleted_wiring",
                                   "lagging_slots", "mark_waits_for_deleted",
-                                  "dead_shared_mark"))
+                                  "hidden_copy_after_reopen"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

@@ -17,10 +17,13 @@ def _cancel_on_load(*_args):
 @bpy.app.handlers.persistent
 def _refresh_on_load(*_args):
     """The objects' addresses are new in an opened file: tell bakes their holders again. The
-    bakes' images and volumes are found again where a Save As left their paths behind."""
+    bakes' images and volumes are found again where a Save As left their paths behind, and
+    materials a Free would tidy are tidied (materials.tidy_on_load)."""
     from . import jobs, paths
+    from .bridge import materials
     jobs.refresh_holders()
     paths.repoint_data()
+    materials.tidy_on_load()
 
 
 @bpy.app.handlers.persistent

@@ -240,18 +240,16 @@ def _round(v):
         return v
 
 
-def mat_state(m, before=False):
+def mat_state(m):
     # The mark by which a bake's copies find their shared material again after a rename
-    # (materials.follow_renames) stays while a copy records it: a deleted object's, until
-    # Remove Deleted Objects' Bakes. One no copy records is dead, and the next Bake or Free
-    # removes it: taken ``before`` the bakes, it is left out (the copy of a deleted object
-    # went with a reopen: every flag + --scene --external 936); left at the end, it counts.
-    was = m.get("hydrobake_shared_as")
-    recorded = was is not None and any(c.get("hydrobake_copy_of") == was
-                                       for c in bpy.data.materials)
+    # (materials.follow_renames) is the addon's bookkeeping, not the artist's state: it stays
+    # while a copy records it (a deleted object's, until Remove Deleted Objects' Bakes), and
+    # one no copy records any more goes at the next Bake, Free or opening of the file (a copy
+    # gone at a reopen or a purge: every flag + --scene --external 936, 940). What it is for
+    # is checked by renamed_shared.py.
     st = {"use_nodes": m.use_nodes, "eevee": (m.blend_method, m.use_screen_refraction),
-          "props": sorted(k for k in m.keys() if k != "hydrobake_snow" and
-                          (k != "hydrobake_shared_as" or not (recorded or before)))}
+          "props": sorted(k for k in m.keys()
+                          if k not in ("hydrobake_snow", "hydrobake_shared_as"))}
     if m.node_tree and m.use_nodes:  # nodes switched off: what they hold does not show
         tree = m.node_tree
         st["nodes"] = sorted(n.name for n in tree.nodes)
@@ -720,7 +718,7 @@ class Monkey:
         # (not one a deleted object's bake is in: not the artist's state, seeds 783, 787; nor
         # a clean copy waiting for that bake's removal, whose name a later copy may take once
         # it is gone: every flag + --relations 106)
-        self.snap_mats = {m.name: mat_state(m, before=True) for m in bpy.data.materials
+        self.snap_mats = {m.name: mat_state(m) for m in bpy.data.materials
                           if not self.waits_for_deleted(m) and not self.only_orphans_hold(m)}
         self.dirty = set()
         self.copies = {}

@@ -94,4 +94,16 @@ free("H")
 assert [shows(n) for n in "GHK"] == [mat] * 3, [shows(n).name for n in "GHK"]
 assert not no_copies(), no_copies()
 assert "hydrobake_shared_as" not in mat
+
+# The baked object deleted: its copy goes with it at a save (the first keeps it for the
+# deleted object's mesh, the second finds it used by nothing). No Free will come, so the
+# mark no copy records goes when the file opens (materials.tidy_on_load).
+glasses("DeadMat", ("D1", "D2"), 40.0)
+bake(bpy.data.objects["D1"])
+bpy.data.objects.remove(bpy.data.objects["D1"])
+reopen()
+assert "hydrobake_shared_as" in bpy.data.materials["DeadMat"]  # (its copy is still here)
+reopen()
+assert bpy.data.materials.get("DeadMat (D1)") is None, "the copy was meant to go"
+assert "hydrobake_shared_as" not in bpy.data.materials["DeadMat"], "a dead mark stayed"
 print("RENAMED SHARED OK")

@@ -608,6 +608,19 @@ def _put_back_hidden(obj):
             _free(mat, obj)
 
 
+def tidy_on_load():
+    """What a Free would tidy in objects without a bake, done when a file opens: clean copies
+    a slot's Link hides (_put_back_hidden), and rename marks no copy records any more. A save
+    drops a material nothing uses, and with it what a copy waited for: the copy of a deleted
+    object's made material behind a Link switched to Data stayed in the file with nothing
+    left to put it back (monkey every flag + --relations 114)."""
+    follow_renames()
+    for obj in bpy.data.objects:
+        if obj.library is None and obj.override_library is None and obj.type == "MESH" and \
+                obj.data.library is None and not _holds_bake(obj):
+            _put_back_hidden(obj)
+
+
 def _mesh_slot_shown(obj, index):
     """Whether another object of the object's mesh shows the mesh's material in slot
     ``index`` (its Link: Data)."""
