@@ -419,6 +419,9 @@ class Monkey:
         self.roots_seen = set()  # every cache folder a setting named (--external)
         self.known_seen = set()
         self.record = None  # main's record of the run, written before each step
+        # (--external) per image and volume packed by Pack Resources: its path (as the artist's
+        # Make Paths Absolute / Relative left it since) and the file it named when packed
+        self.packed_from = {}
 
     # --- invariants -------------------------------------------------------------------------
     def known(self, kind, item):
@@ -456,7 +459,14 @@ class Monkey:
                 continue
             path = bpy.path.abspath(block.filepath)
             if block.packed_file is not None:  # (--external) it shows what it packed
-                if os.path.exists(path):
+                # Blender's rule for a relative path a Save As left unremapped: the path, as
+                # it was when packed, now names a file of the new folder (another version of
+                # the shot's bake there, or another bake's unpacked image), and the packed
+                # copy is what shows (every flag + --scene --external 933, 941).
+                was = self.packed_from.get((type(block).__name__, block.name))
+                moved = was is not None and was[0] == block.filepath and \
+                    was[1] != os.path.realpath(path)
+                if os.path.exists(path) and not moved:
                     with open(path, "rb") as f:
                         if f.read() != block.packed_file.data:
                             raise Violation("stale-pack", f"{block.name} shows what it packed, "
@@ -1153,13 +1163,24 @@ class Monkey:
 
     def do_paths(self, kind):
         """File > External Data > Make Paths Absolute / Relative."""
-        return str(getattr(bpy.ops.file, f"make_paths_{kind}")())
+        result = str(getattr(bpy.ops.file, f"make_paths_{kind}")())
+        for b in self.packable():  # (the same file, written another way: see check)
+            key = (type(b).__name__, b.name)
+            if key in self.packed_from:
+                self.packed_from[key] = (b.filepath, self.packed_from[key][1])
+        return result
 
     def do_pack(self, kind):
         """File > External Data > Pack Resources, or Unpack Resources with ``kind``'s method."""
         if kind == "pack":
             try:
-                return str(bpy.ops.file.pack_all())
+                before = {(type(b).__name__, b.name) for b in self.packable() if b.packed_file}
+                result = str(bpy.ops.file.pack_all())
+                for b in self.packable():
+                    if b.packed_file and (type(b).__name__, b.name) not in before:
+                        self.packed_from[(type(b).__name__, b.name)] = (
+                            b.filepath, os.path.realpath(bpy.path.abspath(b.filepath)))
+                return result
             except RuntimeError as exc:  # Blender's: a file missing; the artist's, it may be
                 missing = re.findall(r"source path '(.*?)' not found", str(exc))
                 if missing and not any(paths_inside(p, self.bake_folder_roots())
@@ -1169,6 +1190,10 @@ class Monkey:
         if not any(b.packed_file for b in (*bpy.data.images, *bpy.data.volumes)):
             raise Skip("nothing packed")
         return str(bpy.ops.file.unpack_all(method=kind))
+
+    @staticmethod
+    def packable():
+        return (*bpy.data.images, *bpy.data.volumes)
 
     def do_purge(self):
         """File > Clean Up > Purge Unused Data (recursive)."""
@@ -1492,6 +1517,11 @@ class Monkey:
                         getattr(n, "image", None) == img for n in m.node_tree.nodes)]
                     print(f"    image {img.name!r} users={img.users} in {shown} "
                           f"path={img.filepath!r} packed={img.packed_file is not None}")
+            for vol in bpy.data.volumes:
+                if vol.name.startswith("HBK"):
+                    print(f"    volume {vol.name!r} users={vol.users} path={vol.filepath!r} "
+                          f"packed={vol.packed_file is not None}")
+            print(f"    file {bpy.data.filepath}")
         self.check(f"step {k} {a['op']}")
 
     def finish(self, render=True):
