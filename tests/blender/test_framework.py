@@ -90,6 +90,12 @@ def test_free_puts_back_a_shared_material_the_artist_renamed_meanwhile(blender, 
     assert "RENAMED SHARED OK" in r.stdout
 
 
+def test_a_copy_of_a_material_whose_nodes_a_bake_turned_on_keeps_them_off_once_clean(
+        blender, tmp_path):
+    r = blender.run("shared_nodes_off.py", tmp_path)
+    assert "SHARED NODES OFF OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

@@ -1509,7 +1509,8 @@ class Monkey:
                 print(f"    {o.name}: {obj_state(o)} shows={shows} baked="
                       f"{[e for e in EFFECTS if getattr(o, f'hydrobake_{e}').is_baked]}{data}")
             for mat in bpy.data.materials:
-                print(f"    mat {mat.name!r} users={mat.users} {dict(mat.items()) if 0 else sorted(mat.keys())}"
+                print(f"    mat {mat.name!r} users={mat.users} nodes={mat.use_nodes} "
+                      f"{sorted(mat.keys())}"
                       f" tagged={[n.get('hydrobake') for n in mat.node_tree.nodes if n.get('hydrobake')] if mat.node_tree else None}")
             for img in bpy.data.images:
                 if img.name.startswith("HBK"):

@@ -485,9 +485,11 @@ def own(obj, index, unwire):
     if MADE in mat:  # gone with its bake, it leaves the copy nothing to go back to
         copy[COPY_OF_MADE] = mat[MADE]
     # The original's record, not the copy's (what another object's copy went over, too:
-    # this object's copy from before a rename keeps it).
+    # this object's copy from before a rename keeps it). The nodes' switch stays: a copy of
+    # a material another bake turned them on in looks like the artist's once clean, and is
+    # the artist's material if the original leaves the file (every flag + --relations 120).
     renamed = COPY_FOR in mat and bpy.data.objects.get(mat[COPY_FOR]) is None
-    for key in (MADE, NODES_WERE_OFF) + (() if renamed else (BEHIND,)):
+    for key in (MADE,) + (() if renamed else (BEHIND,)):
         if key in copy:
             del copy[key]
     if copy.node_tree:  # (a material without nodes holds no wiring)
