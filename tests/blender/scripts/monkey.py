@@ -497,12 +497,29 @@ class Monkey:
                 raise Violation("orphan-folder",
                                 f"{folder} holds {sorted(os.listdir(folder))} and no object "
                                 "records it")
+        self.check_copies()
         if baked_pairs():
             self.had_bake = True
         else:  # compared with the snapshot from before the bakes, then a new one
             self.check_clean(compare=self.had_bake)
             self.take_snapshot()
             self.had_bake = False
+
+    def check_copies(self):
+        """A clean copy a bake made of a shared material (own()) looks like the artist's: its
+        nodes on or off as the material's were before any bake turned them on (every flag +
+        --relations 120: a copy of a material another object's bake had turned them on in
+        showed default nodes, and kept them once it became the material again)."""
+        for m in bpy.data.materials:
+            shared = bpy.data.materials.get(m.get("hydrobake_copy_of", ""))
+            if shared is None or shared.library is not None or wired(m) or \
+                    "hydrobake_copy_of_made" in m:
+                continue
+            want = shared.use_nodes and "hydrobake_nodes_were_off" not in shared
+            if m.use_nodes != want and not self.known("copy-nodes", m):
+                raise Violation("copy-nodes", f"clean copy {m.name!r} has Use Nodes "
+                                              f"{m.use_nodes}, its material {shared.name!r} "
+                                              f"{want} without the bakes")
 
     def check_folder(self, name, effect, folder):
         where = f"{name}/{effect} is_baked"
