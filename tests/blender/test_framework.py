@@ -96,6 +96,12 @@ def test_a_copy_of_a_material_whose_nodes_a_bake_turned_on_keeps_them_off_once_c
     assert "SHARED NODES OFF OK" in r.stdout
 
 
+def test_a_clean_copy_a_free_shows_again_on_an_alt_d_mesh_goes_back_in_that_free(
+        blender, tmp_path):
+    r = blender.run("revealed_copy.py", tmp_path)
+    assert "REVEALED COPY OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

@@ -759,6 +759,13 @@ def _put_shared_back(slot, prefix, obj):
     if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
+        # It may be a clean copy waiting too, freed of its bake by this Free (a copy the
+        # artist gave the mesh, over which own() made this one): it goes back now, not at
+        # some later Free (every flag + --relations 128).
+        shown = slot.material
+        if shown is not None and COPY_OF in shown and COPY_OF_MADE not in shown and \
+                not _shared_again(shown):
+            _put_shared_back(slot, prefix, obj)
     else:
         slot.material = shared
     if mat.users == 0:
