@@ -101,11 +101,24 @@ def baked_glass(blend):
     """Saves the session as ``blend`` (empty_file) and bakes one frame of rain on a plane
     "Glass" with a coarse rain grid; returns the plane's rain settings."""
     empty_file(blend)
-    s = uv_plane("Glass").hydrobake_rain
-    s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
-    s.rain.cell_size = 0.05
+    s = rain_once(uv_plane("Glass"))
     assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
     return s
+
+
+def rain_once(obj):
+    """The object's rain settings for a small test bake: enabled, frame 1 alone, a coarse
+    grid."""
+    s = obj.hydrobake_rain
+    s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
+    s.rain.cell_size = 0.05
+    return s
+
+
+def reopen():
+    """Save, then open the file again, as the artist's reopen does."""
+    bpy.ops.wm.save_mainfile()
+    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
 
 
 def snow(obj, frames, density, texture=64):

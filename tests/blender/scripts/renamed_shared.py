@@ -18,9 +18,7 @@ def glasses(mat_name, names, x):
         obj = in_blender.uv_plane(name)
         obj.location.x = x + 3.0 * k
         obj.data.materials.append(mat)
-        s = obj.hydrobake_rain
-        s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
-        s.rain.cell_size = 0.05
+        in_blender.rain_once(obj)
         out.append(obj)
     return mat, out
 
@@ -35,11 +33,6 @@ def free(name):
 
 def shows(name):
     return bpy.data.objects[name].material_slots[0].material
-
-
-def reopen():
-    bpy.ops.wm.save_mainfile()
-    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
 
 
 def no_copies():
@@ -62,7 +55,7 @@ assert "hydrobake_shared_as" not in mat, "the mark outlived the bake"
 mat, (c, d) = glasses("SideMat", ("C", "D"), 10.0)
 bake(c)
 mat.name = "Side Window"
-reopen()
+in_blender.reopen()
 other = in_blender.node_material("SideMat")
 free("C")
 mat = bpy.data.materials["Side Window"]
@@ -101,9 +94,9 @@ assert "hydrobake_shared_as" not in mat
 glasses("DeadMat", ("D1", "D2"), 40.0)
 bake(bpy.data.objects["D1"])
 bpy.data.objects.remove(bpy.data.objects["D1"])
-reopen()
+in_blender.reopen()
 assert "hydrobake_shared_as" in bpy.data.materials["DeadMat"]  # (its copy is still here)
-reopen()
+in_blender.reopen()
 assert bpy.data.materials.get("DeadMat (D1)") is None, "the copy was meant to go"
 assert "hydrobake_shared_as" not in bpy.data.materials["DeadMat"], "a dead mark stayed"
 print("RENAMED SHARED OK")

@@ -34,9 +34,7 @@ g2 = bpy.data.objects.new("G2", g.data)
 g2.location.x = 9.0
 bpy.context.scene.collection.objects.link(g2)
 for o in (g, g2):
-    r = o.hydrobake_rain
-    r.enabled, r.use_scene_range, r.frame_start, r.frame_end = True, False, 1, 1
-    r.rain.cell_size = 0.05
+    in_blender.rain_once(o)
     assert bpy.ops.hydrobake.bake(effect="rain", object_name=o.name) == {"FINISHED"}
     slot = o.material_slots[0]
     assert slot.link == "OBJECT" and slot.material.name == f"Shared ({o.name})", \

@@ -21,9 +21,7 @@ def glass(name, mat, x):
     obj = in_blender.uv_plane(name)
     obj.location.x = x
     obj.data.materials.append(mat)
-    s = obj.hydrobake_rain
-    s.enabled, s.use_scene_range, s.frame_start, s.frame_end = True, False, 1, 1
-    s.rain.cell_size = 0.05
+    in_blender.rain_once(obj)
     return obj
 
 
@@ -37,11 +35,6 @@ def free(name):
 
 def shows(name):
     return bpy.data.objects[name].material_slots[0].material
-
-
-def reopen():
-    bpy.ops.wm.save_mainfile()
-    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
 
 
 def nodes_off(name):
@@ -60,7 +53,7 @@ glass("B", mat, 3.0)
 bake("B")
 assert shows("B") != mat and shows("B")["hydrobake_copy_of"] == "Plain"
 bpy.data.objects["A"].material_slots[0].material = plain_material("Other")
-reopen()
+in_blender.reopen()
 assert bpy.data.materials.get("Plain") is None or bpy.data.materials["Plain"] == shows("B")
 free("B")
 assert shows("B").name == "Plain", shows("B").name
@@ -78,7 +71,7 @@ glass("D", mat, 13.0)
 bake("C")
 assert shows("C") != mat and shows("C")["hydrobake_copy_of"] == "Plain2"
 bpy.data.objects["D"].material_slots[0].material = plain_material("Other2")
-reopen()
+in_blender.reopen()
 free("C")
 assert shows("C").name == "Plain2", shows("C").name
 nodes_off("C")
