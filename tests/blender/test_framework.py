@@ -102,6 +102,12 @@ def test_a_clean_copy_a_free_shows_again_on_an_alt_d_mesh_goes_back_in_that_free
     assert "REVEALED COPY OK" in r.stdout
 
 
+def test_free_of_a_copy_of_another_objects_copy_switches_the_link_back_only_where_it_was(
+        blender, tmp_path):
+    r = blender.run("given_copy_link.py", tmp_path)
+    assert "GIVEN COPY LINK OK" in r.stdout
+
+
 def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp_path):
     r = blender.run("copied_and_renamed.py", tmp_path)
     assert "COPIED AND RENAMED OK" in r.stdout

@@ -338,14 +338,27 @@ def _slots(o, name_of, foreign_as_own):
     # on the object's own slot of a shared mesh: the slot's Link is the mesh's then (1738).
     # Another object's copy in a slot (put there by the artist) stays as it is, unless a
     # bake of this object copies it again as its own, which Free puts back (foreign_as_own).
+    # That bake's copy keeps the other (or a deleted) object's record of its own slot only
+    # where the mesh shows the shared material in that slot (a Shift+D copy of a baked
+    # object): Free switches the Link back there, and elsewhere puts the shared one in the
+    # slot as it is (every flag + --scene --external 950).
     def named(m):
         n = name_of(m)
         return slot_name(m) if not foreign_as_own and _foreign_copy(o, m) and \
             n == m.get("hydrobake_copy_of") else n
-    return [("DATA" if m is not None and m.get("hydrobake_link_was") == "DATA" and
-             (foreign_as_own or not _foreign_copy(o, m)) and
-             named(m) in (m.get("hydrobake_copy_of"), EMPTIED) else link, named(m))
-            for link, m in slots_of(o)]
+    mesh = [m.get("hydrobake_copy_of", m.name) if m is not None else None
+            for m in o.data.materials] if o.type == "MESH" else []
+    def link_was(i, m):
+        if m is None or m.get("hydrobake_link_was") != "DATA":
+            return False
+        if not foreign_as_own:
+            return not _foreign_copy(o, m)
+        if m.get("hydrobake_copy_for") != o.name:
+            return i < len(mesh) and mesh[i] == m.get("hydrobake_copy_of")
+        return True
+    return [("DATA" if link_was(i, m) and named(m) in (m.get("hydrobake_copy_of"), EMPTIED)
+             else link, named(m))
+            for i, (link, m) in enumerate(slots_of(o))]
 
 
 def obj_state(o, name_of=slot_name, pending=None):

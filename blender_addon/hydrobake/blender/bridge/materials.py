@@ -492,6 +492,13 @@ def own(obj, index, unwire):
     for key in (MADE,) + (() if renamed else (BEHIND,)):
         if key in copy:
             del copy[key]
+    # The record of an object's own slot (another's, or a deleted one's the artist gave this
+    # slot) holds here only where this object's mesh shows the shared material in that slot
+    # (a Shift+D copy of a baked object): Free switching the Link back shows what the slot
+    # showed before. Elsewhere Free puts the shared material in the slot as it is (every
+    # flag + --scene --external 950, --relations 133).
+    if LINK_WAS in copy and _mesh_stands_for(obj, index) != shared:
+        del copy[LINK_WAS]
     if copy.node_tree:  # (a material without nodes holds no wiring)
         unwire(copy.node_tree)  # another object's, if the shared material had it
     if slot.link == "DATA" and obj.data.users > 1:
@@ -504,6 +511,14 @@ def own(obj, index, unwire):
     if COPY_OF in mat and mat.users == 0:  # this object's copy from before a rename
         _free(mat, obj)
     return copy
+
+
+def _mesh_stands_for(obj, index):
+    """The name of the material the object's mesh shows in slot ``index`` (of the one a
+    clean copy there stands for), or None."""
+    mats = getattr(obj.data, "materials", None) or ()
+    mat = mats[index] if index < len(mats) else None
+    return mat.get(COPY_OF, mat.name) if mat is not None else None
 
 
 def _free_name(name):
