@@ -161,13 +161,19 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # harness from before). copy_nodes_off: a clean copy of a material whose nodes another
 # object's bake had turned on showed default nodes, not the artist's Use Nodes off (every flag
 # + --relations 120, made short by hand; fails without the fix to materials.own).
+# given_link_was: Link Materials gave an object's own slot a copy made for a baked Alt+D
+# object deleted since; the object's bake copied it again with the first copy's record of
+# its Link, and Free switched the slot to the mesh's (empty) material instead of putting
+# the shared one back (every flag + --scene --external 950, 1003 steps; fails without the
+# fix to materials.own, and with the harness from before once it is in; given_copy_link.py
+# is the short case).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
                                   "deleted_objects_copy_rebaked", "given_deleted_wiring",
                                   "lagging_slots", "mark_waits_for_deleted",
                                   "hidden_copy_after_reopen", "unremapped_pack",
-                                  "copy_nodes_off"))
+                                  "copy_nodes_off", "given_link_was"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

@@ -4,7 +4,8 @@ keeps the record only where it holds there too: on a Shift+D copy of the object,
 shows the shared material in that slot. On a slot the artist gave the copy (Link: Object,
 another material in the mesh's slot), Free puts the shared material in the slot as it is;
 before, it switched the Link and the slot showed the mesh's other material (every flag +
---scene --external 950, where the mesh's slot was empty)."""
+--scene --external 950, where the mesh's slot was empty). In the mesh's slot of an object
+it never holds."""
 import bpy
 
 import in_blender
@@ -72,4 +73,36 @@ assert not left, left
 in_blender.reopen()
 sb = bpy.data.objects["B"].material_slots[0]
 assert (sb.link, sb.material.name) == ("OBJECT", "Shared")
+
+# The record holds on an object's own slot only. E (one object, Link: Data) shows F's copy
+# in its mesh's slot; F's mesh shows another material since, and a save drops Shared2, which
+# nothing uses. E's copy of F's copy, in the mesh's slot, has no record: its Free makes it
+# Shared2 again. Before, it kept the record, which stopped that, and stayed a copy (every
+# flag + --relations 133).
+shared2 = in_blender.node_material("Shared2")
+f = in_blender.uv_plane("F")
+f.location.y = 3.0
+f.data.materials.append(shared2)
+f2 = bpy.data.objects.new("F2", f.data)
+f2.location.y = 6.0
+bpy.context.scene.collection.objects.link(f2)
+in_blender.rain_once(f)
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="F") == {"FINISHED"}
+f_copy = f.material_slots[0].material
+assert f_copy.name == "Shared2 (F)" and f_copy["hydrobake_link_was"] == "DATA"
+e = in_blender.uv_plane("E")
+e.location.y = 9.0
+e.data.materials.append(f_copy)
+in_blender.rain_once(e)
+f.data.materials[0] = bpy.data.materials["Other"]
+in_blender.reopen()
+assert "Shared2" not in bpy.data.materials
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="E") == {"FINISHED"}
+se = bpy.data.objects["E"].material_slots[0]
+assert se.link == "DATA" and se.material.name == "Shared2 (E)", (se.link, se.material)
+assert "hydrobake_link_was" not in se.material
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="E") == {"FINISHED"}
+se = bpy.data.objects["E"].material_slots[0]
+assert se.link == "DATA" and se.material.name == "Shared2", (se.link, se.material)
+assert "hydrobake_copy_of" not in se.material
 print("GIVEN COPY LINK OK")

@@ -493,11 +493,12 @@ def own(obj, index, unwire):
         if key in copy:
             del copy[key]
     # The record of an object's own slot (another's, or a deleted one's the artist gave this
-    # slot) holds here only where this object's mesh shows the shared material in that slot
-    # (a Shift+D copy of a baked object): Free switching the Link back shows what the slot
-    # showed before. Elsewhere Free puts the shared material in the slot as it is (every
-    # flag + --scene --external 950, --relations 133).
-    if LINK_WAS in copy and _mesh_stands_for(obj, index) != shared:
+    # slot) holds here only on this object's own slot where its mesh shows the shared
+    # material (a Shift+D copy of a baked object): Free switching the Link back shows what
+    # the slot showed before. Elsewhere Free puts the shared material in the slot as it is
+    # (every flag + --scene --external 950), or, in the mesh's slot, the copy becomes the
+    # shared one again if that left the file (--relations 133).
+    if LINK_WAS in copy and (slot.link != "OBJECT" or _mesh_stands_for(obj, index) != shared):
         del copy[LINK_WAS]
     if copy.node_tree:  # (a material without nodes holds no wiring)
         unwire(copy.node_tree)  # another object's, if the shared material had it
