@@ -20,9 +20,8 @@ other = in_blender.node_material("Other")
 # its copy, and records the Link it switched.
 a = in_blender.uv_plane("A")
 a.data.materials.append(shared)
-a2 = bpy.data.objects.new("A2", a.data)
+a2 = in_blender.duplicate(a, linked=True)
 a2.location.x = 3.0
-bpy.context.scene.collection.objects.link(a2)
 in_blender.rain_once(a)
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="A") == {"FINISHED"}
 a_copy = a.material_slots[0].material
@@ -39,10 +38,7 @@ b.material_slots[0].material = a_copy
 
 # C: a Shift+D copy of A, made while A is baked: its own mesh shows Shared in the slot, its
 # own slot A's copy.
-bpy.ops.object.select_all(action="DESELECT")
-in_blender.select_alone(a)
-assert bpy.ops.object.duplicate(linked=False) == {"FINISHED"}
-c = bpy.context.active_object
+c = in_blender.duplicate(a)
 c.name = "C"
 assert c.data != a.data and c.data.materials[0] == shared
 assert c.material_slots[0].link == "OBJECT" and c.material_slots[0].material == a_copy
@@ -83,9 +79,7 @@ shared2 = in_blender.node_material("Shared2")
 f = in_blender.uv_plane("F")
 f.location.y = 3.0
 f.data.materials.append(shared2)
-f2 = bpy.data.objects.new("F2", f.data)
-f2.location.y = 6.0
-bpy.context.scene.collection.objects.link(f2)
+in_blender.duplicate(f, linked=True).location.y = 6.0
 in_blender.rain_once(f)
 assert bpy.ops.hydrobake.bake(effect="rain", object_name="F") == {"FINISHED"}
 f_copy = f.material_slots[0].material

@@ -30,9 +30,8 @@ assert s_copy.name == "Shared (S)" and s_copy["hydrobake_copy_of"] == "Shared"
 g = in_blender.uv_plane("G")
 g.location.x = 6.0
 g.data.materials.append(s_copy)
-g2 = bpy.data.objects.new("G2", g.data)
+g2 = in_blender.duplicate(g, linked=True)
 g2.location.x = 9.0
-bpy.context.scene.collection.objects.link(g2)
 for o in (g, g2):
     in_blender.rain_once(o)
     assert bpy.ops.hydrobake.bake(effect="rain", object_name=o.name) == {"FINISHED"}
