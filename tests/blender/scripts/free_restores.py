@@ -732,33 +732,48 @@ elif case == "made_slot_removed_copy_marked":  # 41: a pool without a material a
                       c.name: []}, f"slots {slots()}")
     check("hydrobake_empty_slot" not in c.data, "the copy's mesh keeps the empty-slot mark")
     clean()
-elif case in ("linked_copy_slot_removed", "linked_copy_slot_removed_copied"):  # 42, 43: a glass of two materials and its Alt+D
+elif case in ("linked_copy_slot_removed", "linked_copy_slot_removed_copied",
+              "linked_copy_slot_removed_then_copied"):  # 42, 43, 46: a glass of two materials and its Alt+D
     # copy; the copy baked (its own copies of both at Link: Object), the second slot removed
     # through the glass: Blender 3.4 keeps the copy's own material of the gone slot past its
     # slots, and the Free removing that copy (used by nothing) left it pointing at freed
     # memory, which a slot added to the copy then showed: a segfault (monkey --more
     # --delete-baked --elsewhere 7215). 43: the baked copy Shift+D copied before, whose Free
-    # (first, by name) removes the copy it shows too
+    # (first, by name) removes the copy it shows too. 46: the baked copy Shift+D copied after
+    # the slot went, and that copy baked on its own: Blender copies the list past the slots
+    # too, so the copy's pointed at the material the first Free removed, and a slot added to
+    # it showed freed memory (every flag + --relations 144: a segfault)
     g = glass()
     g.data.materials.append(in_blender.node_material("FritMat"))
     c = in_blender.duplicate(g, linked=True)
     bake(c.name, "rain")
     check([s.link for s in c.material_slots] == ["OBJECT", "OBJECT"],
           f"the copy's links {[s.link for s in c.material_slots]}")
-    d = in_blender.duplicate(c) if case.endswith("copied") else None
+    d = in_blender.duplicate(c) if case.endswith("removed_copied") else None
     g.active_material_index = 1
     with bpy.context.temp_override(object=g):
         bpy.ops.object.material_slot_remove()
     if d is not None:
         d.name = "Frit first"
         free(d.name, "rain")
+    e = in_blender.duplicate(c) if case.endswith("then_copied") else None
+    if e is not None:
+        e.name = "Frit copied"
+        bake(e.name, "rain")  # a bake of its own: c's Free is not its Free
     free(c.name, "rain")
-    c.active_material_index = 0
-    with bpy.context.temp_override(object=c):
-        bpy.ops.object.material_slot_add()
+    dangling = in_blender.dangling_materials()
+    check(not dangling, f"objects pointing at removed materials {dangling}")
+    if e is not None:
+        free(e.name, "rain")
+    for o in (c, e) if e is not None else (c,):
+        o.active_material_index = 0
+        with bpy.context.temp_override(object=o):
+            bpy.ops.object.material_slot_add()
     want = {"Glass": ["GlassMat", None], c.name: ["GlassMat", None]}
     if d is not None:
         want[d.name] = ["GlassMat", "FritMat"]
+    if e is not None:
+        want[e.name] = ["GlassMat", None]
     check(slots() == want, f"slots {slots()}")
     check([s.link for s in c.material_slots] == ["DATA", "DATA"],
           f"the copy's links {[s.link for s in c.material_slots]}")

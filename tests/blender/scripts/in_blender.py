@@ -209,3 +209,71 @@ def ui_steps(step):
             traceback.print_exc()
             os._exit(1)
     bpy.app.timers.register(tick, first_interval=0.5)
+
+
+# Blender 3.4 keeps an object's own materials past its slots when a slot goes, and copies them
+# with the object (Shift+D); no ID user counts them, so a material removed from the file leaves
+# them pointing at freed memory, which a slot added later shows (a segfault, or not, as the
+# memory falls). These read that list from the Object itself, to find such a pointer at once.
+_MAT_FIELD = []
+
+
+def _word(address, offset=0):
+    import ctypes
+    return ctypes.c_uint64.from_address(address + offset).value
+
+
+def _mat_field():
+    """The offset in the Object struct of ``mat`` (Material **), followed by ``matbits`` and
+    the ints ``totcol`` and ``actcol``: found once on a probe object with three own materials
+    and checked against their addresses, so a different struct layout fails, not misreads."""
+    if _MAT_FIELD:
+        return _MAT_FIELD[0]
+    import ctypes
+    mesh = bpy.data.meshes.new("HBK probe")
+    obj = bpy.data.objects.new("HBK probe", mesh)
+    mats = [bpy.data.materials.new(f"HBK probe {i}") for i in range(3)]
+    try:
+        for m in mats:
+            mesh.materials.append(None)
+        for s, m in zip(obj.material_slots, mats):
+            s.link = "OBJECT"
+            s.material = m
+        obj.active_material_index = 1
+        base, want = obj.as_pointer(), [m.as_pointer() for m in mats]
+        for off in range(0, 4096, 8):
+            ints = (ctypes.c_int * 2).from_address(base + off + 16)
+            p = _word(base, off)
+            if (ints[0], ints[1]) == (3, 2) and p and [_word(p, 8 * i) for i in range(3)] == want:
+                _MAT_FIELD.append(off)
+                return off
+        raise AssertionError("no Object.mat found: the struct layout is not Blender 3.4's")
+    finally:
+        bpy.data.objects.remove(obj)
+        bpy.data.meshes.remove(mesh)
+        for m in mats:
+            bpy.data.materials.remove(m)
+
+
+def dangling_materials():
+    """Each object whose own-material list (its slots' and past them, as far as its block
+    goes) holds a material no longer in the file: {name: [(index, slots)]}. The block's
+    length is the allocator's header just before it (guardedalloc, lock-free)."""
+    import ctypes
+    off = _mat_field()
+    live = {m.as_pointer() for m in bpy.data.materials}
+    found = {}
+    for obj in bpy.data.objects:
+        if obj.type != "MESH":
+            continue
+        base = obj.as_pointer()
+        p = _word(base, off)
+        if not p:
+            continue
+        slots = ctypes.c_int.from_address(base + off + 16).value
+        size = _word(p, -8) & ~3
+        assert size % 8 == 0 and slots * 8 <= size <= 1 << 16, (obj.name, slots, size)
+        bad = [i for i in range(size // 8) if _word(p, 8 * i) not in live | {0}]
+        if bad:
+            found[obj.name] = [(i, slots) for i in bad]
+    return found

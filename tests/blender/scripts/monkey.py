@@ -511,6 +511,11 @@ class Monkey:
                                 f"{folder} holds {sorted(os.listdir(folder))} and no object "
                                 "records it")
         self.check_copies()
+        dangling = in_blender.dangling_materials()
+        if dangling and not self.known("dangling-material", dangling):
+            raise Violation("dangling-material", f"own-material lists (index, slots) "
+                            f"{dangling} point at materials removed from the file: a slot "
+                            "added there shows freed memory (a segfault, or not)")
         if baked_pairs():
             self.had_bake = True
         else:  # compared with the snapshot from before the bakes, then a new one

@@ -225,14 +225,15 @@ def _let_go_made(obj, mat, prefix, deleted=False):
 
 def _free(mat, obj):
     """Removes ``mat`` from the file, once out of reach of what Blender 3.4 leaves of the
-    object's own materials past its slots. Removing a slot, on any object of the mesh, keeps
-    the object's own material of the last one in the object's list beyond its slots; a slot
-    added later shows it again: freed, a segfault (monkey --more --delete-baked --elsewhere
-    7215). ``obj``, and the object a copy own() made was for (its Shift+D copy shows the
-    copy: 7215 again), may have held it in an own slot. Whether it was removed: not while
-    one is in Edit, Sculpt or a paint mode (it waits, used by nothing)."""
-    held = [o for o in dict.fromkeys((obj, bpy.data.objects.get(mat.get(COPY_FOR, ""))))
-            if o is not None and o.type == "MESH" and o.data is not None and
+    objects' own materials past their slots. Removing a slot, on any object of the mesh,
+    keeps the object's own material of the last one in the object's list beyond its slots; a
+    slot added later shows it again: freed, a segfault (monkey --more --delete-baked
+    --elsewhere 7215). Shift+D copies that list whole, so any object copied from one that
+    held it may hold it too (every flag + --relations 144): each object's list is cleared,
+    not only ``obj``'s. Whether it was removed: not while an object is in Edit, Sculpt or a
+    paint mode (it waits, used by nothing, for a save to drop it)."""
+    held = [o for o in bpy.data.objects
+            if o.type == "MESH" and o.data is not None and len(o.material_slots) and
             o.library is None and o.override_library is None]  # (their data is not ours)
     if any(o.mode != "OBJECT" for o in held):
         return False
@@ -248,6 +249,9 @@ def _clear_past_slots(obj):
     slots' Links and own materials (shown, or behind the mesh's) are put back after. (Taken
     out first: freeing the list keeps their users.)"""
     mesh, active = obj.data, obj.active_material_index
+    # (Blender sets a Multires modifier's levels to its total when the mesh comes back)
+    levels = [(m, m.levels, m.sculpt_levels, m.render_levels) for m in obj.modifiers
+              if m.type == "MULTIRES"]
     slots = []
     for s in obj.material_slots:
         link = s.link
@@ -265,6 +269,8 @@ def _clear_past_slots(obj):
         slot.material = mat
         slot.link = link
     obj.active_material_index = active
+    for m, *was in levels:
+        m.levels, m.sculpt_levels, m.render_levels = was
 
 
 def take_out_made(mats, objs):
@@ -781,7 +787,11 @@ def _put_shared_back(slot, prefix, obj):
         shown = slot.material
         if shown is not None and COPY_OF in shown and COPY_OF_MADE not in shown and \
                 not _shared_again(shown):
+            itself = shown == mat
             _put_shared_back(slot, prefix, obj)
+            if itself:
+                return  # the mesh's slot showed this very copy: that call put it back
+                # (and removed it; every flag + --scene --external --relations 711)
     else:
         slot.material = shared
     if mat.users == 0:
