@@ -826,6 +826,23 @@ elif case == "copy_name_taken":  # 45: the artist's material named as a bake's c
     check(slots() == {"Glass": ["GlassMat", f"GlassMat ({c.name})"], c.name: ["GlassMat"]},
           f"slots {slots()}")
     clean()
+elif case == "linked_copy_in_mesh_slot":  # 47: a glass and its Alt+D copy; the copy baked
+    # (its own copy at Link: Object), then the artist gives the mesh's slot that copy too.
+    # The copy's Free switched the slot back to the mesh's, found the same copy there, put
+    # the material back in that call and removed the copy, then read the removed copy: a
+    # ReferenceError, the Free undone (every flag + --scene --external --relations 711)
+    g = glass()
+    c = in_blender.duplicate(g, linked=True)
+    bake(c.name, "rain")
+    mine = c.material_slots[0].material
+    check(mine.name == f"GlassMat ({c.name})", f"the copy's slot shows {mine.name}")
+    g.material_slots[0].material = mine  # (Link: Data, so the mesh's)
+    free(c.name, "rain")
+    check(slots() == {"Glass": ["GlassMat"], c.name: ["GlassMat"]}, f"slots {slots()}")
+    check([s.link for s in c.material_slots] == ["DATA"],
+          f"the copy's links {[s.link for s in c.material_slots]}")
+    check(not c.hydrobake_rain.is_baked, "the copy is still baked")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))
