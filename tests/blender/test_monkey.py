@@ -167,13 +167,21 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # the shared one back (every flag + --scene --external 950, 1003 steps; fails without the
 # fix to materials.own, and with the harness from before once it is in; given_copy_link.py
 # is the short case).
+# copy_of_clean_copy: the artist's Link Materials gave a mesh's slot a clean copy a bake had
+# made, whose shared material a save then dropped; an object showing it was baked and freed,
+# and its copy of that copy became the shared material again, which took the clean copy's
+# other slots too (every flag + --relations 144, 350 steps; fails with the addon of de585a5,
+# where own() first dropped the Link record in a mesh's slot; its run also found
+# dangling-material at step 234 with the addon before, whose _free cleared two objects'
+# lists: free_restores.py linked_copy_slot_removed_then_copied is the short case).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
                                   "deleted_objects_copy_rebaked", "given_deleted_wiring",
                                   "lagging_slots", "mark_waits_for_deleted",
                                   "hidden_copy_after_reopen", "unremapped_pack",
-                                  "copy_nodes_off", "given_link_was"))
+                                  "copy_nodes_off", "given_link_was",
+                                  "copy_of_clean_copy"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

@@ -5,7 +5,8 @@ shows the shared material in that slot. On a slot the artist gave the copy (Link
 another material in the mesh's slot), Free puts the shared material in the slot as it is;
 before, it switched the Link and the slot showed the mesh's other material (every flag +
 --scene --external 950, where the mesh's slot was empty). In the mesh's slot of an object
-it never holds."""
+it never holds. A copy of a clean copy whose shared material left the file gives the slot
+that copy back, if it is still in the file."""
 import bpy
 
 import in_blender
@@ -99,4 +100,38 @@ assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="E") == {"FINISHED
 se = bpy.data.objects["E"].material_slots[0]
 assert se.link == "DATA" and se.material.name == "Shared2", (se.link, se.material)
 assert "hydrobake_copy_of" not in se.material
+
+# A copy made of a clean copy still in the file gives the slot that copy back. P and its
+# Alt+D copy share a mesh showing Shared3; P's bake gives P's own slot its copy, which the
+# artist gives the mesh's slot too; a save drops Shared3; P's Free leaves its copy clean in
+# both (the Link record holds it). Q's mesh slot is given it; Q's bake copies it again, and
+# Q's Free shows it in Q's slot again. Before, Q's copy became Shared3, which then took the
+# slots of P's copy as well (every flag + --relations 144).
+shared3 = in_blender.node_material("Shared3")
+p = in_blender.uv_plane("P")
+p.location.y = -3.0
+p.data.materials.append(shared3)
+p2 = in_blender.duplicate(p, linked=True)
+p2.location.y = -6.0
+in_blender.rain_once(p)
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="P") == {"FINISHED"}
+p_copy = p.material_slots[0].material
+assert p_copy.name == "Shared3 (P)" and p.material_slots[0].link == "OBJECT"
+p.data.materials[0] = p_copy
+in_blender.reopen()
+assert "Shared3" not in bpy.data.materials
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="P") == {"FINISHED"}
+p_copy = bpy.data.materials["Shared3 (P)"]
+q = in_blender.uv_plane("Q")
+q.location.y = -9.0
+q.data.materials.append(p_copy)
+in_blender.rain_once(q)
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Q") == {"FINISHED"}
+q_copy = q.material_slots[0].material
+assert q_copy.name == "Shared3 (Q)", q_copy.name
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="Q") == {"FINISHED"}
+shown = {o.name: o.material_slots[0].material.name for o in bpy.data.objects
+         if o.name.startswith(("P", "Q"))}
+assert set(shown.values()) == {"Shared3 (P)"}, shown
+assert "Shared3" not in bpy.data.materials and "Shared3 (Q)" not in bpy.data.materials
 print("GIVEN COPY LINK OK")

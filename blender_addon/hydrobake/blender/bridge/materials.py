@@ -462,6 +462,7 @@ LINK_WAS = "hydrobake_link_was"  # ... put on the object's own slot of a shared 
 EMPTY_SLOT = "hydrobake_empty_slot"  # on a mesh: the slot a made material left, others using it
 COPY_OF_MADE = "hydrobake_copy_of_made"  # on a copy own() made of a made material: its MADE
 BEHIND = "hydrobake_behind"  # ... over the object's own, the mesh's hid: held till put back
+COPY_FROM = "hydrobake_copy_from"  # ... of another copy: that copy's name
 
 
 @_following_renames
@@ -488,6 +489,10 @@ def own(obj, index, unwire):
         del copy[SHARED_AS]
     copy.name = _free_name(f"{shared} ({obj.name})")
     copy[COPY_OF], copy[COPY_FOR] = shared, obj.name
+    if COPY_OF in mat:
+        copy[COPY_FROM] = mat.name
+    elif COPY_FROM in copy:
+        del copy[COPY_FROM]
     if MADE in mat:  # gone with its bake, it leaves the copy nothing to go back to
         copy[COPY_OF_MADE] = mat[MADE]
     # The original's record, not the copy's (what another object's copy went over, too:
@@ -590,8 +595,9 @@ def restore(obj, prefix):
         if _copy_of_gone_made(mat):
             _take_out_copy(obj, mat)
             continue
-        if not _shared_again(mat):
-            _put_shared_back(slot, prefix, obj)
+        if _copied_again(slot, obj) or _shared_again(mat):
+            continue
+        _put_shared_back(slot, prefix, obj)
     _put_back_hidden(obj)
     _drop_empty_slot(obj)
     put_back_others(prefix, but=obj)
@@ -733,6 +739,27 @@ def put_back_others(prefix, but=None):
             _drop_empty_slot(other, freed=but)
 
 
+def _copied_again(slot, obj):
+    """A clean copy own() made of another clean copy, in a slot it did not switch, whose
+    shared material has left the file: the slot shows that other copy again, as before the
+    bake, if it is still in the file and clean (the artist gave it to other slots too).
+    Become the shared material instead (_shared_again), it took the other copy's slots
+    (every flag + --relations 144). Whether it did."""
+    mat = slot.material
+    if mat is None or COPY_FROM not in mat or COPY_OF not in mat or COPY_OF_MADE in mat or \
+            _has_wiring(mat) or mat.get(LINK_WAS) == "DATA" or \
+            bpy.data.materials.get(mat[COPY_OF]) is not None:
+        return False
+    before = bpy.data.materials.get(mat[COPY_FROM])
+    if before is None or before == mat or before.get(COPY_OF) != mat[COPY_OF] or \
+            COPY_OF_MADE in before or _has_wiring(before):
+        return False
+    slot.material = before
+    if mat.users == 0:
+        _free(mat, obj)
+    return True
+
+
 def _shared_again(mat):
     """A clean copy own() made, wired by no bake now, whose shared material left the file
     meanwhile (its slots changed, it had no user at a save) becomes that material again: its
@@ -741,8 +768,9 @@ def _shared_again(mat):
             mat.get(LINK_WAS) == "DATA" or bpy.data.materials.get(mat[COPY_OF]) is not None:
         return False
     mat.name = mat[COPY_OF]
-    for key in (COPY_OF, COPY_FOR):
-        del mat[key]
+    for key in (COPY_OF, COPY_FOR, COPY_FROM):
+        if key in mat:
+            del mat[key]
     return True
 
 
