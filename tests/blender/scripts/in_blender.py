@@ -255,13 +255,14 @@ def _mat_field():
             bpy.data.materials.remove(m)
 
 
-def dangling_materials():
+def dangling_materials(but=()):
     """Each object whose own-material list (its slots' and past them, as far as its block
-    goes) holds a material no longer in the file: {name: [(index, slots)]}. The block's
-    length is the allocator's header just before it (guardedalloc, lock-free)."""
+    goes) holds a material no longer in the file, at an address not in ``but``:
+    {name: [(index, slots)]}. The block's length is the allocator's header just before it
+    (guardedalloc, lock-free)."""
     import ctypes
     off = _mat_field()
-    live = {m.as_pointer() for m in bpy.data.materials}
+    live = {m.as_pointer() for m in bpy.data.materials} | set(but)
     found = {}
     for obj in bpy.data.objects:
         if obj.type != "MESH":

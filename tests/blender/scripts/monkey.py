@@ -431,6 +431,7 @@ class Monkey:
         self.output_orphans = set()
         self.roots_seen = set()  # every cache folder a setting named (--external)
         self.known_seen = set()
+        self.purged = set()  # addresses of materials Purge removed (do_purge)
         self.record = None  # main's record of the run, written before each step
         # (--external) per image and volume packed by Pack Resources: its path (as the artist's
         # Make Paths Absolute / Relative left it since) and the file it named when packed
@@ -511,7 +512,7 @@ class Monkey:
                                 f"{folder} holds {sorted(os.listdir(folder))} and no object "
                                 "records it")
         self.check_copies()
-        dangling = in_blender.dangling_materials()
+        dangling = in_blender.dangling_materials(but=self.purged)
         if dangling and not self.known("dangling-material", dangling):
             raise Violation("dangling-material", f"own-material lists (index, slots) "
                             f"{dangling} point at materials removed from the file: a slot "
@@ -1231,9 +1232,14 @@ class Monkey:
         return (*bpy.data.images, *bpy.data.volumes)
 
     def do_purge(self):
-        """File > Clean Up > Purge Unused Data (recursive)."""
-        return str(bpy.ops.outliner.orphans_purge(do_local_ids=True, do_linked_ids=True,
+        """File > Clean Up > Purge Unused Data (recursive). Blender's purge leaves the own-
+        material lists past objects' slots pointing at what it removed, as the addon's Free
+        did (its own bug, the artist's action): those addresses are not the addon's."""
+        self.purged.update(m.as_pointer() for m in bpy.data.materials)
+        done = str(bpy.ops.outliner.orphans_purge(do_local_ids=True, do_linked_ids=True,
                                                   do_recursive=True))
+        self.purged.difference_update(m.as_pointer() for m in bpy.data.materials)
+        return done
 
     def do_undo(self):
         if self.undo_works is False:
