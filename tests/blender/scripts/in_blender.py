@@ -262,7 +262,7 @@ def dangling_materials(but=()):
     (guardedalloc, lock-free)."""
     import ctypes
     off = _mat_field()
-    live = {m.as_pointer() for m in bpy.data.materials} | set(but)
+    live = {m.as_pointer() for m in bpy.data.materials} | set(but) | {0}
     found = {}
     for obj in bpy.data.objects:
         if obj.type != "MESH":
@@ -274,7 +274,7 @@ def dangling_materials(but=()):
         slots = ctypes.c_int.from_address(base + off + 16).value
         size = _word(p, -8) & ~3
         assert size % 8 == 0 and slots * 8 <= size <= 1 << 16, (obj.name, slots, size)
-        bad = [i for i in range(size // 8) if _word(p, 8 * i) not in live | {0}]
+        bad = [i for i in range(size // 8) if _word(p, 8 * i) not in live]
         if bad:
             found[obj.name] = [(i, slots) for i in bad]
     return found

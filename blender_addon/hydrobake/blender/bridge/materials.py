@@ -739,6 +739,14 @@ def put_back_others(prefix, but=None):
             _drop_empty_slot(other, freed=but)
 
 
+def _orphan_copy(mat):
+    """Whether ``mat`` is a clean copy own() made of a shared (not made) material, in a slot
+    whose Link it did not switch, and that shared material has left the file."""
+    return mat is not None and COPY_OF in mat and COPY_OF_MADE not in mat and \
+        not _has_wiring(mat) and mat.get(LINK_WAS) != "DATA" and \
+        bpy.data.materials.get(mat[COPY_OF]) is None
+
+
 def _copied_again(slot, obj):
     """A clean copy own() made of another clean copy, in a slot it did not switch, whose
     shared material has left the file: the slot shows that other copy again, as before the
@@ -746,9 +754,7 @@ def _copied_again(slot, obj):
     Become the shared material instead (_shared_again), it took the other copy's slots
     (every flag + --relations 144). Whether it did."""
     mat = slot.material
-    if mat is None or COPY_FROM not in mat or COPY_OF not in mat or COPY_OF_MADE in mat or \
-            _has_wiring(mat) or mat.get(LINK_WAS) == "DATA" or \
-            bpy.data.materials.get(mat[COPY_OF]) is not None:
+    if not _orphan_copy(mat) or COPY_FROM not in mat:
         return False
     before = bpy.data.materials.get(mat[COPY_FROM])
     if before is None or before == mat or before.get(COPY_OF) != mat[COPY_OF] or \
@@ -764,8 +770,7 @@ def _shared_again(mat):
     """A clean copy own() made, wired by no bake now, whose shared material left the file
     meanwhile (its slots changed, it had no user at a save) becomes that material again: its
     name back, no longer a copy (other copies of it then go back to it). Whether it did."""
-    if mat is None or COPY_OF not in mat or COPY_OF_MADE in mat or _has_wiring(mat) or \
-            mat.get(LINK_WAS) == "DATA" or bpy.data.materials.get(mat[COPY_OF]) is not None:
+    if not _orphan_copy(mat):
         return False
     mat.name = mat[COPY_OF]
     for key in (COPY_OF, COPY_FOR, COPY_FROM):
