@@ -843,6 +843,30 @@ elif case == "linked_copy_in_mesh_slot":  # 47: a glass and its Alt+D copy; the 
           f"the copy's links {[s.link for s in c.material_slots]}")
     check(not c.hydrobake_rain.is_baked, "the copy is still baked")
     clean()
+elif case == "made_copy_dropped":  # 48: a pool and its Alt+D copy; the pool baked (the
+    # material made for the mesh, the pool's own copy holding the wiring), then the artist
+    # gives the pool's slot another material: a save drops the copy, the one record that the
+    # made material goes with the pool's Free. It stayed in the mesh's slot, shown by the
+    # Alt+D copy, with nothing baked (every flag + --scene --external 950)
+    pool()
+    in_blender.duplicate(bpy.data.objects["Water"], linked=True)
+    bake("Water", "caustics")
+    w = bpy.data.objects["Water"]
+    check(slots()["Water"] == ["HBK_Water_water (Water)"], f"slots {slots()}")
+    w.material_slots[0].material = in_blender.node_material("UserMat")  # (Link: Object)
+    bpy.ops.wm.save_mainfile()
+    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
+    check("HBK_Water_water (Water)" not in bpy.data.materials, "the copy was saved")
+    c = in_blender.duplicate(bpy.data.objects["Water"])  # Shift+D: holds the bake too
+    check(c.hydrobake_caustics.is_baked, "the Shift+D copy holds no bake")
+    free("Water", "caustics")
+    check(slots()["Water.001"] == [None], f"the Alt+D copy's slot: {slots()}")
+    check(list(c.data.materials) == [bpy.data.materials.get("HBK_Water_water")],
+          f"the Shift+D copy's mesh: {list(c.data.materials)}")  # (its bake's own Free)
+    free(c.name, "caustics")
+    check(slots() == {"Ground": ["GroundMat"], "Water": ["UserMat"], "Water.001": [None],
+                      c.name: ["UserMat"]}, f"slots {slots()}")  # (its own slot)
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

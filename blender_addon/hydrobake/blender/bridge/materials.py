@@ -583,11 +583,12 @@ def _copy(mat):
 
 
 @_following_renames
-def restore(obj, prefix):
+def restore(obj, prefix, made=None):
     """Undoes own() in the object's slots (Free Bake), unless the shared material holds
     another object's wiring of the same effect (then the object keeps its clean copy); and
     in other objects' slots, whose clean copies waited for the shared material to be free of
-    this object's wiring (two objects sharing a material, both baked, both freed)."""
+    this object's wiring (two objects sharing a material, both baked, both freed). ``made``:
+    the name of the material this bake's ensure_material made (_let_go_behind)."""
     for slot in obj.material_slots:
         mat = slot.material
         if _mesh_slot_again(obj, slot):
@@ -599,6 +600,8 @@ def restore(obj, prefix):
             continue
         _put_shared_back(slot, prefix, obj)
     _put_back_hidden(obj)
+    if made is not None:
+        _let_go_behind(obj, prefix, made)
     _drop_empty_slot(obj)
     put_back_others(prefix, but=obj)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
@@ -636,6 +639,25 @@ def _put_back_hidden(obj):
                 mat = None
         if mat is not None and mat.users == 0:
             _free(mat, obj)
+
+
+def _let_go_behind(obj, prefix, made):
+    """The material this bake made (named ``made``) in the mesh's slot behind the object's
+    own (Link: Object), wired by none, where other objects of the mesh show it: the clean
+    copy own() made of it, which held the wiring, left the file (the artist gave the slot
+    another material, a save dropped the copy), and with it the one record that it goes with
+    this Free. It goes as that copy's Free would have taken it, unless a baked object's copy
+    still stands for it (every flag + --scene --external 950)."""
+    for slot in obj.material_slots:
+        if slot.link != "OBJECT":
+            continue
+        with _hidden(slot):
+            mat = slot.material
+        if mat is None or mat.name != made or MADE not in mat or _has_wiring(mat) or \
+                any(s.material is not None and s.material.get(COPY_OF) == made
+                    for s in obj.material_slots) or _stood_for(mat, obj):
+            continue
+        give_back(obj, mat, prefix)
 
 
 def tidy_on_load():

@@ -696,7 +696,7 @@ class CausticsBlender(BlenderEffect):
         cls._unwire_floors(pool, grounds)
         # After the floors: the ground may be another pool showing the shared material this
         # pool's clean copy stands for (monkey 312).
-        materials.restore(obj, "caustics.")
+        materials.restore(obj, "caustics.", made=f"HBK_{pool}_water")
         settings.pop("wired_ground", None)
         cls._give_shadow_back(obj)
         for stream in STREAM_IMAGES:

@@ -299,7 +299,7 @@ class RainBlender(BlenderEffect):
             if mat.node_tree:
                 cls._unwire(mat.node_tree)
             materials.give_back(obj, mat, "rain.")
-        materials.restore(obj, "rain.")
+        materials.restore(obj, "rain.", made=f"HBK_{name}_glass")
         cls._remove_images(name)
 
     @classmethod

@@ -593,7 +593,7 @@ class SnowBlender(BlenderEffect):
             if mat.node_tree:
                 _unwire(mat.node_tree)
             materials.give_back(obj, mat, "snow.")  # nodes switched on, a material made
-        materials.restore(obj, "snow.")
+        materials.restore(obj, "snow.", made=f"HBK_{name}_snow")
         for stream in STREAMS:
             images.remove(f"HBK_{name}_{stream}")
 
