@@ -179,6 +179,9 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # save dropped the copy, and the made material stayed in the mesh's slot after every Free
 # (every flag + --scene --external 950, 424 steps; fails without materials._let_go_behind;
 # free_restores.py made_copy_dropped is the short case).
+# remapped_pack: unremapped_pack's rule after a later Save As with Remap Relative on, whose
+# rewritten path names the same other file: the packed copy still shows (every flag +
+# --scene --external 972, shrunk to 9 steps; fails with the harness from before).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
@@ -186,7 +189,8 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
                                   "lagging_slots", "mark_waits_for_deleted",
                                   "hidden_copy_after_reopen", "unremapped_pack",
                                   "copy_nodes_off", "given_link_was",
-                                  "copy_of_clean_copy", "made_copy_dropped"))
+                                  "copy_of_clean_copy", "made_copy_dropped",
+                                  "remapped_pack"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

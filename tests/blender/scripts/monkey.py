@@ -1183,6 +1183,8 @@ class Monkey:
         bpy.ops.wm.save_as_mainfile(filepath=path, copy=copy, relative_remap=remap)
         if copy:
             bpy.ops.wm.open_mainfile(filepath=path)
+        if remap:  # the paths rewritten to name the same files (as do_paths): a packed block
+            self._packed_paths_rewritten()  # an unremapped save moved stays moved (972)
         self.blend = path
         return f"saved {'a copy ' if copy else ''}in {folder or '.'}"
 
@@ -1200,11 +1202,15 @@ class Monkey:
     def do_paths(self, kind):
         """File > External Data > Make Paths Absolute / Relative."""
         result = str(getattr(bpy.ops.file, f"make_paths_{kind}")())
-        for b in self.packable():  # (the same file, written another way: see check)
+        self._packed_paths_rewritten()
+        return result
+
+    def _packed_paths_rewritten(self):
+        """The packed blocks' paths, written another way for the same files: see check."""
+        for b in self.packable():
             key = (type(b).__name__, b.name)
             if key in self.packed_from:
                 self.packed_from[key] = (b.filepath, self.packed_from[key][1])
-        return result
 
     def do_pack(self, kind):
         """File > External Data > Pack Resources, or Unpack Resources with ``kind``'s method."""
