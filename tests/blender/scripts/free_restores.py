@@ -867,6 +867,24 @@ elif case == "made_copy_dropped":  # 48: a pool and its Alt+D copy; the pool bak
     check(slots() == {"Ground": ["GroundMat"], "Water": ["UserMat"], "Water.001": [None],
                       c.name: ["UserMat"]}, f"slots {slots()}")  # (its own slot)
     clean()
+elif case == "linked_copy_given_own_slot":  # 49: a glass and its Alt+D copy; the glass
+    # baked (its own copy at Link: Object, recording the mesh's Link), then the artist gives
+    # that copy to another object's own slot. The glass's Free switched that object's slot to
+    # its mesh's material too, which the copy's record was not about (every flag + --scene 816)
+    g = glass()
+    in_blender.duplicate(g, linked=True)
+    h = glass("Pane", "PaneMat", (5, 0, 1))
+    bake("Glass", "rain")
+    mine = g.material_slots[0].material
+    check(mine.name == "GlassMat (Glass)", f"the glass's slot shows {mine.name}")
+    h.material_slots[0].link = "OBJECT"
+    h.material_slots[0].material = mine
+    free("Glass", "rain")
+    check(slots() == {"Glass": ["GlassMat"], "Glass.001": ["GlassMat"], "Pane": ["GlassMat"]},
+          f"slots {slots()}")
+    check([s.link for s in h.material_slots] == ["OBJECT"],
+          f"the pane's links {[s.link for s in h.material_slots]}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -833,7 +833,11 @@ def _put_shared_back(slot, prefix, obj):
             str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)) or \
             _shows_others(shared, obj):
         return  # another effect's bake still in the copy, or another object's in it
-    if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT":
+    # The Link record is the slot's of the object the copy was made for: another object the
+    # artist gave the copy (Link Materials) gets the shared material in the slot as it is
+    # (every flag + --scene 816).
+    owner = bpy.data.objects.get(mat.get(COPY_FOR, ""))
+    if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and owner in (None, obj):
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
         # It may be a clean copy waiting too, freed of its bake by this Free (a copy the
