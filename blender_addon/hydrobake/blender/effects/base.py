@@ -131,6 +131,13 @@ class BlenderEffect:
 
     wired_prefix = ""   # the role of the Hydrobake nodes apply adds to materials: "snow."
     wired_streams = ()  # the images they show: HBK_<baked_name>_<stream>
+    made_material = ""  # the role of the material apply makes for an object with none: "snow"
+
+    @classmethod
+    def made_material_name(cls, name):
+        """The material apply makes for the object ``name`` when it has none to wire; Free
+        Bake passes the baked_name to find the same one (one spelling for both)."""
+        return f"HBK_{name}_{cls.made_material}"
 
     @classmethod
     def shown_in(cls, mats=None):

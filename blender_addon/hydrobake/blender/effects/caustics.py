@@ -71,6 +71,7 @@ class CausticsBlender(BlenderEffect):
     name = "caustics"
     label = "Caustics"
     wired_prefix, wired_streams = "caustics.", ("surface",)
+    made_material = "water"
     icon = "MOD_OCEAN"
     refracts = True
     presets = {
@@ -324,7 +325,7 @@ class CausticsBlender(BlenderEffect):
         # The water: a clear refracting material with the baked surface normals (the pool's
         # own: another pool sharing the material has other normals).
         # Nodes on in the pool's own copy only: the shared material stays as it was.
-        materials.ensure_material(obj, f"HBK_{obj.name}_water", nodes=False)
+        materials.ensure_material(obj, cls.made_material_name(obj.name), nodes=False)
         mat = materials.own(obj, 0, lambda tree: materials.remove_tagged(tree, "caustics."))
         materials.use_nodes(mat)
         tree = mat.node_tree
@@ -696,7 +697,7 @@ class CausticsBlender(BlenderEffect):
         cls._unwire_floors(pool, grounds)
         # After the floors: the ground may be another pool showing the shared material this
         # pool's clean copy stands for (monkey 312).
-        materials.restore(obj, "caustics.", made=f"HBK_{pool}_water")
+        materials.restore(obj, "caustics.", made=cls.made_material_name(pool))
         settings.pop("wired_ground", None)
         cls._give_shadow_back(obj)
         for stream in STREAM_IMAGES:

@@ -22,6 +22,7 @@ class RainBlender(BlenderEffect):
     name = "rain"
     label = "Windshield Rain"
     wired_prefix, wired_streams = "rain.", ("rain_normal",)
+    made_material = "glass"
     icon = "MOD_FLUIDSIM"
     refracts = True
     presets = {
@@ -206,7 +207,7 @@ class RainBlender(BlenderEffect):
         # values go to the glass-like ones (Glass BSDF, or transmission), else to the first.
         mats = [materials.own(obj, i, cls._unwire) for i in range(len(obj.material_slots))]
         mats = list(dict.fromkeys(m for m in mats if m is not None)) or \
-            [materials.ensure_material(obj, f"HBK_{obj.name}_glass")]
+            [materials.ensure_material(obj, cls.made_material_name(obj.name))]
         for mat in mats:
             materials.use_nodes(mat)
         wired = [m for m in mats if cls._shader(m.node_tree) is not None]
@@ -299,7 +300,7 @@ class RainBlender(BlenderEffect):
             if mat.node_tree:
                 cls._unwire(mat.node_tree)
             materials.give_back(obj, mat, "rain.")
-        materials.restore(obj, "rain.", made=f"HBK_{name}_glass")
+        materials.restore(obj, "rain.", made=cls.made_material_name(name))
         cls._remove_images(name)
 
     @classmethod

@@ -288,6 +288,7 @@ class SnowBlender(BlenderEffect):
     name = "snow"
     label = "Snow"
     wired_prefix, wired_streams = "snow.", STREAMS
+    made_material = "snow"
     icon = "FREEZE"
     presets = {
         "Wet Snow (+1 °C)": {"snow": {"temperature": 1.0, "fall_speed": 1.2},
@@ -503,7 +504,7 @@ class SnowBlender(BlenderEffect):
             cls._remove_box(obj)  # an earlier BOX bake's
         if not obj.material_slots or obj.material_slots[0].material is None:
             # Snow needs a material to be mixed into: a new one (Free Bake takes it away).
-            materials.ensure_material(obj, f"HBK_{obj.name}_snow")
+            materials.ensure_material(obj, cls.made_material_name(obj.name))
         for index in range(len(obj.material_slots)):
             mat = obj.material_slots[index].material
             if mat is None or mat.hydrobake_snow.melts or mat.hydrobake_snow.sheds:
@@ -593,7 +594,7 @@ class SnowBlender(BlenderEffect):
             if mat.node_tree:
                 _unwire(mat.node_tree)
             materials.give_back(obj, mat, "snow.")  # nodes switched on, a material made
-        materials.restore(obj, "snow.", made=f"HBK_{name}_snow")
+        materials.restore(obj, "snow.", made=cls.made_material_name(name))
         for stream in STREAMS:
             images.remove(f"HBK_{name}_{stream}")
 
