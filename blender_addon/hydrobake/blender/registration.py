@@ -18,12 +18,15 @@ def _cancel_on_load(*_args):
 def _refresh_on_load(*_args):
     """The objects' addresses are new in an opened file: tell bakes their holders again. The
     bakes' images and volumes are found again where a Save As left their paths behind, and
-    materials a Free would tidy are tidied (materials.tidy_on_load)."""
+    materials a Free would tidy are tidied (materials.tidy_on_load), and materials made for
+    deleted objects' bakes that nothing records any more go (forget_dropped_made)."""
     from . import jobs, paths
     from .bridge import materials
     jobs.refresh_holders()
     paths.repoint_data()
     materials.tidy_on_load()
+    for beffect in effects.BLENDER_EFFECTS.values():
+        beffect.forget_dropped_made()
 
 
 @bpy.app.handlers.persistent

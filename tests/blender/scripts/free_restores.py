@@ -857,6 +857,8 @@ elif case == "made_copy_dropped":  # 48: a pool and its Alt+D copy; the pool bak
     bpy.ops.wm.save_mainfile()
     bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
     check("HBK_Water_water (Water)" not in bpy.data.materials, "the copy was saved")
+    check(slots()["Water.001"] == ["HBK_Water_water"],  # (the pool's Free's, not the load's)
+          f"the Alt+D copy's slot after the load: {slots()}")
     c = in_blender.duplicate(bpy.data.objects["Water"])  # Shift+D: holds the bake too
     check(c.hydrobake_caustics.is_baked, "the Shift+D copy holds no bake")
     free("Water", "caustics")
@@ -884,6 +886,28 @@ elif case == "linked_copy_given_own_slot":  # 49: a glass and its Alt+D copy; th
           f"slots {slots()}")
     check([s.link for s in h.material_slots] == ["OBJECT"],
           f"the pane's links {[s.link for s in h.material_slots]}")
+    clean()
+elif case in ("made_deleted_dropped", "made_deleted_dropped_own_mesh"):  # 50, 51: a pool
+    # and its Alt+D copy; the pool baked (the material made for the mesh, the pool's own copy
+    # holding the wiring), given a mesh of its own (Make Single User: 51) or not, then
+    # deleted, and the file saved and opened: the save dropped the copy, the one record of
+    # the bake, and the made material stayed in the Alt+D copy's slot with nothing to take
+    # it out (every flag + --relations 159)
+    pool()
+    copy = in_blender.duplicate(bpy.data.objects["Water"], linked=True)
+    bake("Water", "caustics")
+    w = bpy.data.objects["Water"]
+    if case.endswith("own_mesh"):
+        in_blender.select_alone(w)
+        assert bpy.ops.object.make_single_user(type="SELECTED_OBJECTS", object=True,
+                                               obdata=True) == {"FINISHED"}
+    check(slots()[copy.name] == ["HBK_Water_water"], f"slots {slots()}")
+    in_blender.select_alone(w)
+    assert bpy.ops.object.delete() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    in_blender.reopen()
+    check("HBK_Water_water (Water)" not in bpy.data.materials, "the copy was saved")
+    check(slots() == {"Ground": ["GroundMat"], "Water.001": []}, f"slots {slots()}")
     clean()
 else:
     raise SystemExit(f"no case {case}")

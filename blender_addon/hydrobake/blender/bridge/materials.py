@@ -223,6 +223,19 @@ def _let_go_made(obj, mat, prefix, deleted=False):
         _free(mat, obj)
 
 
+def unrecorded_made(mat):
+    """Whether ``mat`` is a material ensure_material made that no bake wires, holds no
+    effect's saved values, and that no copy own() made stands for."""
+    return MADE in mat and mat.library is None and not _has_wiring(mat) and \
+        SAVED not in mat and not any(m.get(COPY_OF) == mat.name for m in bpy.data.materials)
+
+
+def let_go_deleted_made(mat, prefix):
+    """A made material of a deleted object's bake out of every slot, and out of the file if
+    nothing else uses it (as forget would, had the wiring been left to find it)."""
+    _let_go_made(None, mat, prefix, deleted=True)
+
+
 def _free(mat, obj):
     """Removes ``mat`` from the file, once out of reach of what Blender 3.4 leaves of the
     objects' own materials past their slots. Removing a slot, on any object of the mesh,

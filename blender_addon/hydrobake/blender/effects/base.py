@@ -1,4 +1,5 @@
 """The Blender half of an effect: scene inputs in, baked outputs wired back."""
+import fnmatch
 import warnings
 
 import bpy
@@ -189,6 +190,25 @@ class BlenderEffect:
         for name in sorted(gone):
             cls.forget(name)
         return gone
+
+    @classmethod
+    def forget_dropped_made(cls):
+        """When a file opens: a material apply made for an object with none (known by its
+        name) that no object's bake of the effect is named for, no copy stands for and
+        nothing wires. Its object was deleted while baked, and the save dropped the object's
+        copy that held the wiring: the one record Remove Deleted Objects' Bakes would have
+        found. It goes from the Alt+D copies' slots it was left in (every flag +
+        --relations 159)."""
+        if not cls.made_material:
+            return
+        attr = f"hydrobake_{cls.name}"
+        claimed = {cls.made_material_name(cls.baked_name(o, getattr(o, attr)))
+                   for o in bpy.data.objects if getattr(o, attr).is_baked}
+        pattern = cls.made_material_name("*")
+        for mat in [m for m in bpy.data.materials if m.name not in claimed and
+                    fnmatch.fnmatchcase(m.name, pattern)]:
+            if materials.unrecorded_made(mat):
+                materials.let_go_deleted_made(mat, cls.wired_prefix)
 
     @classmethod
     def evaluated_inputs(cls, obj, settings):
