@@ -909,6 +909,30 @@ elif case in ("made_deleted_dropped", "made_deleted_dropped_own_mesh"):  # 50, 5
     check("HBK_Water_water (Water)" not in bpy.data.materials, "the copy was saved")
     check(slots() == {"Ground": ["GroundMat"], "Water.001": []}, f"slots {slots()}")
     clean()
+elif case == "made_slot_tidied_copies":  # 52: a pool with two slots, its first empty, baked
+    # (the material made for that slot), two Shift+D copies after (each holding the bake),
+    # the pool and the second copy freed (the made material stays for the first copy's Free),
+    # then the first copy's slots tidied (Remove Unused Slots took the made one's slot). The
+    # last Free left it in the second copy's slot (every flag + --scene --external 984)
+    w = pool()
+    w.data.materials.append(None)
+    w.data.materials.append(None)
+    w.material_slots[1].link = "OBJECT"
+    for face in w.data.polygons:  # (the faces use the second slot: the first is unused)
+        face.material_index = 1
+    bake("Water", "caustics")
+    check(slots()["Water"] == ["HBK_Water_water", None], f"slots {slots()}")
+    a = in_blender.duplicate(w)
+    free("Water", "caustics")
+    b = in_blender.duplicate(a)
+    free(b.name, "caustics")
+    check(slots()[b.name] == ["HBK_Water_water", None], f"slots {slots()}")  # (a holds it)
+    in_blender.select_alone(a)
+    bpy.ops.object.material_slot_remove_unused()
+    check("HBK_Water_water" not in slots()[a.name], f"slots {slots()}")
+    free(a.name, "caustics")
+    check(all("HBK_Water_water" not in v for v in slots().values()), f"slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

@@ -615,6 +615,7 @@ def restore(obj, prefix, made=None):
     _put_back_hidden(obj)
     if made is not None:
         _let_go_behind(obj, prefix, made)
+        _let_go_unshown(obj, prefix, made)
     _drop_empty_slot(obj)
     put_back_others(prefix, but=obj)
     # A made material (or a clean copy own() made) taken out of its slot, and so out of the
@@ -671,6 +672,22 @@ def _let_go_behind(obj, prefix, made):
                     for s in obj.material_slots) or _stood_for(mat, obj):
             continue
         give_back(obj, mat, prefix)
+
+
+def _let_go_unshown(obj, prefix, made):
+    """The material this bake made (named ``made``), in none of the object's slots (Remove
+    Unused Slots took its slot) but still shown by Shift+D copies that let go of the bake:
+    it goes with the last Free of the bake, as it would have from the object's slot (every
+    flag + --scene --external 984)."""
+    mat = bpy.data.materials.get(made)
+    own = getattr(obj, f"hydrobake_{prefix.rstrip('.')}", None)
+    folder = own.bake_folder if own is not None and own.is_baked else None
+    if mat is None or folder is None or not unrecorded_made(mat) or \
+            mat in list(obj.data.materials) or \
+            any(s.material == mat for s in obj.material_slots) or \
+            any(o != obj and _holds_bake(o, prefix, folder) for o in bpy.data.objects):
+        return
+    _let_go_made(obj, mat, prefix)
 
 
 def tidy_on_load():
