@@ -209,8 +209,7 @@ def _let_go_made(obj, mat, prefix, deleted=False):
     # The bake being freed: a copy keeping its record shows the material for its own Free.
     # A bake of another folder is another object's own (a Shift+D copy re-baked, or one made
     # while a shared mesh showed the material): it goes there too (monkey seed 3783).
-    own = getattr(obj, f"hydrobake_{prefix.rstrip('.')}", None) if obj and prefix else None
-    folder = own.bake_folder if own is not None and own.is_baked else None
+    folder = _bake_folder(obj, prefix)
     if obj is not None:
         _take_out(obj, mat)
     for other in bpy.data.objects:
@@ -234,6 +233,13 @@ def let_go_deleted_made(mat, prefix):
     """A made material of a deleted object's bake out of every slot, and out of the file if
     nothing else uses it (as forget would, had the wiring been left to find it)."""
     _let_go_made(None, mat, prefix, deleted=True)
+
+
+def _bake_folder(obj, prefix):
+    """The folder of the object's bake of the effect whose nodes' role is ``prefix``; None
+    if it holds none (or ``obj`` is None: deleted)."""
+    own = getattr(obj, f"hydrobake_{prefix.rstrip('.')}", None) if obj and prefix else None
+    return own.bake_folder if own is not None and own.is_baked else None
 
 
 def _free(mat, obj):
@@ -680,8 +686,7 @@ def _let_go_unshown(obj, prefix, made):
     it goes with the last Free of the bake, as it would have from the object's slot (every
     flag + --scene --external 984)."""
     mat = bpy.data.materials.get(made)
-    own = getattr(obj, f"hydrobake_{prefix.rstrip('.')}", None)
-    folder = own.bake_folder if own is not None and own.is_baked else None
+    folder = _bake_folder(obj, prefix)
     if mat is None or folder is None or not unrecorded_made(mat) or \
             mat in list(obj.data.materials) or \
             any(s.material == mat for s in obj.material_slots) or \
