@@ -564,6 +564,11 @@ class SnowBlender(BlenderEffect):
                 disp.inputs["Scale"].default_value = 1.0
                 tree.links.new(dep.outputs["Color"], disp.inputs["Height"])
                 tree.links.new(disp.outputs["Displacement"], out.inputs["Displacement"])
+            else:  # turned off since an earlier bake, or a stale bake's (a deleted object's
+                # made material this object took: every flag + --scene --external
+                # --relations 727): the surface no longer moves
+                for role in ("snow.depth", "snow.displacement"):
+                    materials.remove_tagged(tree, role)
 
         if "flakes" in manifest.get("streams", []):
             white = bpy.data.materials.get("HBK Snow Flake") or _flake_material()
