@@ -352,7 +352,12 @@ def _slots(o, name_of, foreign_as_own):
         if m is None or m.get("hydrobake_link_was") != "DATA":
             return False
         if not foreign_as_own:
-            return not _foreign_copy(o, m)
+            # The record holds where the mesh's slot stands for the copy's shared material,
+            # as own() keeps it: Move Slot on an Alt+D copy moves the mesh's slots under this
+            # object's own ones, and a re-bake's copy drops the record then (every flag +
+            # --scene --external 981: the slot showed the copy, and shows one after).
+            return not _foreign_copy(o, m) and (named(m) == EMPTIED or (
+                i < len(mesh) and mesh[i] == m.get("hydrobake_copy_of")))
         if m.get("hydrobake_copy_for") != o.name:
             return i < len(mesh) and mesh[i] == m.get("hydrobake_copy_of")
         return True
