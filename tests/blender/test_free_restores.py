@@ -24,7 +24,8 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "copy_name_taken", "linked_copy_slot_removed_then_copied",
          "linked_copy_in_mesh_slot", "made_copy_dropped",
          "linked_copy_given_own_slot", "made_deleted_dropped",
-         "made_deleted_dropped_own_mesh", "made_slot_tidied_copies")
+         "made_deleted_dropped_own_mesh", "made_slot_tidied_copies",
+         "linked_copy_shows_deleted")
 
 
 @pytest.mark.parametrize("case", CASES)

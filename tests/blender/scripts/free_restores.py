@@ -933,6 +933,32 @@ elif case == "made_slot_tidied_copies":  # 52: a pool with two slots, its first 
     free(a.name, "caustics")
     check(all("HBK_Water_water" not in v for v in slots().values()), f"slots {slots()}")
     clean()
+elif case == "linked_copy_shows_deleted":  # 53: an Alt+D copy of a pool whose mesh's slot
+    # shows the material a snow bake made for an object deleted while baked (its wiring stays
+    # until Remove Deleted Objects' Bakes). The copy's bake copies it at Link: Object, the
+    # snow's nodes along; its Free kept that copy, as if the snow were the copy's own bake,
+    # instead of showing the mesh's slot again (every flag + --scene --external
+    # --relations 756)
+    s = plane("Snowy", 0.5, (-3, 0, 0))
+    in_blender.snow(s, (1, 3), 40.0, 16)
+    bake("Snowy", "snow")
+    made = s.material_slots[0].material
+    w = pool()
+    w.data.materials.append(made)
+    w2 = in_blender.duplicate(w, linked=True)
+    bpy.data.objects.remove(s)
+    bpy.context.view_layer.update()
+    bake(w2.name, "caustics")
+    check(w2.material_slots[0].link == "OBJECT", "the bake went into the mesh's slot")
+    free(w2.name, "caustics")
+    want = {"Ground": ["GroundMat"], "Water": [made.name], w2.name: [made.name]}
+    check(slots() == want and all(s.link == "DATA" for s in w2.material_slots),
+          f"slots {slots()}, Links {[s.link for s in w2.material_slots]}")
+    check(not any("hydrobake_copy_of" in m for m in bpy.data.materials),
+          f"a copy left: {[m.name for m in bpy.data.materials]}")
+    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}, "no deleted bake to remove")
+    check(slots() == {"Ground": ["GroundMat"], "Water": [], w2.name: []}, f"then slots {slots()}")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

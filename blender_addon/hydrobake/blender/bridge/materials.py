@@ -860,14 +860,21 @@ def _take_out_copy(obj, mat):
 def _put_shared_back(slot, prefix, obj):
     """The shared material back in the object's slot in place of a clean copy own() made,
     unless the shared one holds another object's wiring of the effect, or shows a bake the
-    object holds no record of (of an object deleted while baked, its wiring left there)."""
+    object holds no record of (of an object deleted while baked, its wiring left there) that
+    the copy does not show, or the copy holds another effect's wiring of the object's."""
     mat = slot.material
     shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
         else None
-    if shared is None or _has_wiring(mat) or (shared.node_tree and any(
-            str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)) or \
-            _shows_others(shared, obj):
-        return  # another effect's bake still in the copy, or another object's in it
+    if shared is None or (shared.node_tree and any(
+            str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
+        return  # another object's bake of the effect in the shared one
+    # Another effect's bake still in the copy waits for its own Free, unless the copy only
+    # took it along from the shared one: a bake of an object deleted while baked, whose Free
+    # never comes (every flag + --scene --external --relations 756). The shared one goes
+    # back where it shows no such bake that the copy did not show.
+    if (_has_wiring(mat) and not _only_others(mat, obj)) or \
+            not _others_shown(shared, obj) <= _others_shown(mat, obj):
+        return
     # The Link record is the slot's of the object the copy was made for: another object the
     # artist gave the copy (Link Materials) gets the shared material in the slot as it is
     # (every flag + --scene 816).
@@ -897,16 +904,31 @@ def _put_shared_back(slot, prefix, obj):
         _let_go_made(obj, shared, prefix)
 
 
-def _shows_others(mat, obj):
-    """Whether the material's Hydrobake nodes show images (HBK_<name>_...) of a bake that
-    ``obj`` holds no record of. (A floor's nodes, owned by their pool, show on whatever the
-    floor material is given to.)"""
-    held = [getattr(obj, e).get("baked_as") or obj.name for e in EFFECT_SETTINGS
+def _held(obj):
+    """The names the images of the bakes ``obj`` holds start with (HBK_<name>_...)."""
+    return [getattr(obj, e).get("baked_as") or obj.name for e in EFFECT_SETTINGS
             if getattr(getattr(obj, e, None), "is_baked", False)]
-    return bool(mat.node_tree) and any(
-        n.get(TAG) and OWNER not in n and getattr(n, "image", None) is not None and
-        not any(n.image.name.startswith(f"HBK_{h}_") for h in held)
-        for n in mat.node_tree.nodes)
+
+
+def _others_shown(mat, obj):
+    """The images of bakes ``obj`` holds no record of that the material's Hydrobake nodes
+    show. (A floor's nodes, owned by their pool, show on whatever the floor material is
+    given to.)"""
+    held = _held(obj)
+    return {n.image.name for n in (mat.node_tree.nodes if mat.node_tree else ())
+            if n.get(TAG) and OWNER not in n and getattr(n, "image", None) is not None and
+            not any(n.image.name.startswith(f"HBK_{h}_") for h in held)}
+
+
+def _only_others(mat, obj):
+    """Whether every Hydrobake node of the material is of bakes ``obj`` holds no record of:
+    none owned by a pool, and every image shown one of those bakes'."""
+    held = _held(obj)
+    nodes = [n for n in (mat.node_tree.nodes if mat.node_tree else ()) if n.get(TAG)]
+    return bool(nodes) and all(
+        OWNER not in n and not (getattr(n, "image", None) is not None and
+                                any(n.image.name.startswith(f"HBK_{h}_") for h in held))
+        for n in nodes) and bool(_others_shown(mat, obj))
 
 
 def tagged(node_tree, role, owner=None):
