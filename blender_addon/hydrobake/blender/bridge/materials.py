@@ -860,8 +860,8 @@ def _take_out_copy(obj, mat):
 def _put_shared_back(slot, prefix, obj):
     """The shared material back in the object's slot in place of a clean copy own() made,
     unless the shared one holds another object's wiring of the effect, or shows a bake the
-    object holds no record of (of an object deleted while baked, its wiring left there) that
-    the copy does not show, or the copy holds another effect's wiring of the object's."""
+    object holds no record of (of an object deleted while baked, its wiring left there) other
+    than those the copy shows, or the copy holds the wiring of a bake some object holds."""
     mat = slot.material
     shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
         else None
@@ -871,9 +871,10 @@ def _put_shared_back(slot, prefix, obj):
     # Another effect's bake still in the copy waits for its own Free, unless the copy only
     # took it along from the shared one: a bake of an object deleted while baked, whose Free
     # never comes (every flag + --scene --external --relations 756). The shared one goes
-    # back where it shows no such bake that the copy did not show.
-    if (_has_wiring(mat) and not _only_others(mat, obj)) or \
-            not _others_shown(shared, obj) <= _others_shown(mat, obj):
+    # back where it shows the same such bakes as the copy: none that the copy did not show,
+    # and none of the copy's taken out with it.
+    if (_has_wiring(mat) and not _only_deleted(mat)) or \
+            _others_shown(shared, obj) != _others_shown(mat, obj):
         return
     # The Link record is the slot's of the object the copy was made for: another object the
     # artist gave the copy (Link Materials) gets the shared material in the slot as it is
@@ -920,15 +921,15 @@ def _others_shown(mat, obj):
             not any(n.image.name.startswith(f"HBK_{h}_") for h in held)}
 
 
-def _only_others(mat, obj):
-    """Whether every Hydrobake node of the material is of bakes ``obj`` holds no record of:
-    none owned by a pool, and every image shown one of those bakes'."""
-    held = _held(obj)
+def _only_deleted(mat):
+    """Whether every Hydrobake node of the material is of bakes no object holds a record of
+    (of objects deleted while baked): none owned by a pool, and some image shown, none of
+    them a held bake's."""
+    held = [h for o in bpy.data.objects for h in _held(o)]
     nodes = [n for n in (mat.node_tree.nodes if mat.node_tree else ()) if n.get(TAG)]
-    return bool(nodes) and all(
-        OWNER not in n and not (getattr(n, "image", None) is not None and
-                                any(n.image.name.startswith(f"HBK_{h}_") for h in held))
-        for n in nodes) and bool(_others_shown(mat, obj))
+    images = [n.image.name for n in nodes if getattr(n, "image", None) is not None]
+    return bool(images) and all(OWNER not in n for n in nodes) and \
+        not any(i.startswith(f"HBK_{h}_") for i in images for h in held)
 
 
 def tagged(node_tree, role, owner=None):
