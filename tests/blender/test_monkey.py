@@ -186,6 +186,11 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # Unused Slots had taken it out of the last copy holding the bake (every flag + --scene
 # --external 984, shrunk to 16 steps; fails without materials._let_go_unshown;
 # free_restores.py made_slot_tidied_copies is the short case).
+# live_copy_wiring_kept: Free puts a shared material back in place of a bake's copy that
+# took along only a deleted object's wiring (free_restores.py linked_copy_shows_deleted),
+# and only then: a copy holding a live object's wiring, or a deleted one's that the shared
+# one does not show, stays (every flag + --scene --external --relations 761, 164 steps;
+# fails with the two versions of that fix before the one kept).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
@@ -194,7 +199,8 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
                                   "hidden_copy_after_reopen", "unremapped_pack",
                                   "copy_nodes_off", "given_link_was",
                                   "copy_of_clean_copy", "made_copy_dropped",
-                                  "remapped_pack", "made_slot_tidied"))
+                                  "remapped_pack", "made_slot_tidied",
+                                  "live_copy_wiring_kept"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:
