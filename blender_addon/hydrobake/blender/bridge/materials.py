@@ -911,6 +911,11 @@ def _held(obj):
             if getattr(getattr(obj, e, None), "is_baked", False)]
 
 
+def _of_held(image, held):
+    """Whether the image's name is of one of the bakes named ``held`` (_held)."""
+    return any(image.startswith(f"HBK_{h}_") for h in held)
+
+
 def _others_shown(mat, obj):
     """The images of bakes ``obj`` holds no record of that the material's Hydrobake nodes
     show. (A floor's nodes, owned by their pool, show on whatever the floor material is
@@ -918,7 +923,7 @@ def _others_shown(mat, obj):
     held = _held(obj)
     return {n.image.name for n in (mat.node_tree.nodes if mat.node_tree else ())
             if n.get(TAG) and OWNER not in n and getattr(n, "image", None) is not None and
-            not any(n.image.name.startswith(f"HBK_{h}_") for h in held)}
+            not _of_held(n.image.name, held)}
 
 
 def _only_deleted(mat):
@@ -929,7 +934,7 @@ def _only_deleted(mat):
     nodes = [n for n in (mat.node_tree.nodes if mat.node_tree else ()) if n.get(TAG)]
     images = [n.image.name for n in nodes if getattr(n, "image", None) is not None]
     return bool(images) and all(OWNER not in n for n in nodes) and \
-        not any(i.startswith(f"HBK_{h}_") for i in images for h in held)
+        not any(_of_held(i, held) for i in images)
 
 
 def tagged(node_tree, role, owner=None):
