@@ -113,6 +113,14 @@ def test_monkey_external_seed(blender, tmp_path, seed):
     run_seed(blender, tmp_path, seed, 90, "--external")
 
 
+# --sources: the artist's own simulations as the fluid's source, a particle emitter
+# (PARTICLES) and a baked Mantaflow liquid (VELOCITY_GRID), switched and re-pointed among the
+# other actions (2: both baked, and refused by name where the pointer is gone or hidden).
+@pytest.mark.parametrize("seed", (2,))
+def test_monkey_sources_seed(blender, tmp_path, seed):
+    run_seed(blender, tmp_path, seed, 60, "--effects", "fluid", "--sources")
+
+
 # Every flag, long runs: 7176 found a made material left in a Shift+D copy's slot after the
 # mesh's slot was removed (materials._remove_copy), then a Shift+D copy's marked empty slot
 # kept; 7147 a deleted object's made material kept behind an Alt+D copy's own slot after
