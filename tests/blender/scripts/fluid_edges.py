@@ -83,6 +83,11 @@ msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
 assert "Liquid Domain: Emitter cannot be the Liquid Domain, which takes a Mantaflow liquid " \
     "domain" in msg, msg
 s.liquid_domain = None
+s.particle_object = domain  # no particle system: the panel would not offer it
+msg = refused(bpy.ops.hydrobake.bake, effect="fluid", object_name="Domain")
+assert "Particles: Domain cannot be the Particles, which takes an object with a particle " \
+    "system" in msg, msg
+s.particle_object = emitter
 
 # A Fill box outside the domain would simulate nothing.
 fill = in_blender.new_box("Column", (0.25, 0.45, 0.4), (5.0, 5.0, 5.0))

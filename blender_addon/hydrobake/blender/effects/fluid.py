@@ -36,6 +36,12 @@ class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
     high: bpy.props.FloatProperty(name="High", default=1.0, description="Upper bound")
 
 
+@offers("an object with a particle system")
+def _has_particles(_self, obj):
+    """Offer only objects that emit particles (PARTICLES reads the first system)."""
+    return len(obj.particle_systems) > 0
+
+
 @offers("a Mantaflow liquid domain")
 def _is_liquid_domain(_self, obj):
     """Offer only Mantaflow liquid domains."""
@@ -140,7 +146,7 @@ class FluidBlender(BlenderEffect):
                 name="Fill", type=bpy.types.Object,
                 description="SIMULATE: particles fill this object's bounding box at frame one"),
             particle_object=bpy.props.PointerProperty(
-                name="Particles", type=bpy.types.Object,
+                name="Particles", type=bpy.types.Object, poll=_has_particles,
                 description="PARTICLES: the object whose first particle system is the fluid "
                             "(positions and velocities read every frame)"),
             liquid_domain=bpy.props.PointerProperty(
@@ -321,7 +327,7 @@ class FluidBlender(BlenderEffect):
         def particles(_f):
             ev = evaluated_object(pobj, evaluated_depsgraph(context), "Particles")
             if not ev.particle_systems:
-                raise ValueError(f"{pobj.name}: has no particle system")
+                raise ValueError(f"Particles: {pobj.name} has no particle system")
             ps = ev.particle_systems[0].particles
             n = len(ps)
             pos, vel = np.empty(n * 3, np.float32), np.empty(n * 3, np.float32)
