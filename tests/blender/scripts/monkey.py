@@ -4,7 +4,7 @@ re-bakes with a changed setting, Shift+D copies, renames, deletes, material slot
 tidied with --moves), Join, Make Single User and Link Materials (--relations), File >
 External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
 Cache Folder (--external), the scene's frame rate and range (--scene), the fluid's source
-(a particle emitter, --sources), modifiers, visibility,
+(a particle emitter and a Mantaflow liquid, --sources), modifiers, visibility,
 save and reopen, undo, the command line in-process and in a subprocess), with the invariants
 checked after every step:
 
@@ -245,6 +245,10 @@ def targets(effect=None):
 select_alone = in_blender.select_alone
 
 
+def is_liquid_domain(obj):
+    return any(m.type == "FLUID" and m.fluid_type == "DOMAIN" for m in obj.modifiers)
+
+
 MESH_ASPECTS = ("slots", "mesh", "behind")  # what Join, Link Materials, ... change
 
 
@@ -444,7 +448,7 @@ class Monkey:
         self.relations = False  # --relations: Join, Make Single User, Link Materials
         self.external = False  # --external: paths absolute / relative, pack, unpack, purge
         self.scene_ops = False  # --scene: the scene's frame rate and range
-        self.sources = False  # --sources: a particle emitter, the fluid's source switched
+        self.sources = False  # --sources: an emitter and a liquid, the fluid's source switched
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
         self.left_behind = set()  # bake folders of the files saved elsewhere from
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
@@ -940,7 +944,7 @@ class Monkey:
         obj = self.obj(name)
         if not obj.visible_get():
             raise Skip("hidden: cannot be selected")
-        if any(m.type == "FLUID" and m.fluid_type == "DOMAIN" for m in obj.modifiers):
+        if is_liquid_domain(obj):
             # Blender 3.4's Mantaflow is not safe with several liquid domains (Blender's, not
             # the addon's: upstream/mantaflow_domain_copies.py).
             raise Skip("a liquid domain: Blender 3.4's Mantaflow is not safe with several")
@@ -1382,8 +1386,7 @@ class Monkey:
                                       if o.particle_systems or rng.random() < 0.2])),
                         ("liquid_domain", rng.choice(
                             [None] + [o.name for o in scene_objects()
-                                      if any(m.type == "FLUID" and m.fluid_type == "DOMAIN"
-                                             for m in o.modifiers)]))]
+                                      if is_liquid_domain(o)]))]
         key, value = rng.choice(choices)
         if self.external and self.rng3.random() < 0.3:  # another Cache Folder
             return {"op": "set", "name": name, "effect": effect, "key": "cache_dir",
@@ -1683,7 +1686,8 @@ def main():
     p.add_argument("--scene", action="store_true",
                    help="also the scene's frame rate and End frame, and Use Scene Range")
     p.add_argument("--sources", action="store_true",
-                   help="also a particle emitter, and the fluid's source switched to it")
+                   help="also a particle emitter and a baked Mantaflow liquid, the fluid's "
+                        "source switched among them")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
