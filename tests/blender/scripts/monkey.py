@@ -427,6 +427,18 @@ def obj_state(o, name_of=slot_name, pending=None):
     }
 
 
+def stale_mark_gone(have, want):
+    """Whether the mesh differs from its snapshot only by the empty-slot mark gone. The mark
+    is Hydrobake's note of a slot to drop once no object shows anything there; the artist's
+    own material put there since (Link Materials over the slot it was kept for) makes it
+    stale, and the next Free of any object tidies it (every flag + --sources 772: taken into
+    a snapshot while stale). A mark left behind is still caught; a slot wrongly kept, by
+    the slots' check."""
+    return have["uv"] == want["uv"] and \
+        set(want["props"]) - set(have["props"]) == {"hydrobake_empty_slot"} and \
+        set(have["props"]) <= set(want["props"])
+
+
 class Monkey:
     def __init__(self, seed, tmp, effects, subprocess_ok=True, delete_baked=False):
         self.seed, self.tmp, self.effects = seed, tmp, effects
@@ -771,6 +783,9 @@ class Monkey:
                     continue  # a bake's material the artist gave it: it may go with the bake
                 if aspect == "slots" and {repr(have["slots"]), repr(have["slots_alt"])} & \
                         {repr(want["slots"]), repr(want["slots_alt"])}:
+                    continue
+                if aspect == "mesh" and want["mesh"] and have["mesh"] and \
+                        stale_mark_gone(have["mesh"], want["mesh"]):
                     continue
                 if have[aspect] != want[aspect] and \
                         not self.known(f"object-{aspect}", (name, have[aspect], want[aspect])):
