@@ -392,6 +392,9 @@ def _slots(o, name_of, foreign_as_own):
             for i, (link, m) in enumerate(slots_of(o))]
 
 
+EMPTY_SLOT_MARK = "hydrobake_empty_slot"  # materials.EMPTY_SLOT, on a mesh
+
+
 def obj_state(o, name_of=slot_name, pending=None):
     """The object's state as Free gives it back. ``slots_alt`` is the slots' other reading
     where another object's copy is in one (monkey 7262): whether this object was baked since
@@ -404,7 +407,7 @@ def obj_state(o, name_of=slot_name, pending=None):
     # _drop_empty_slot keeps it while a copy is shown: every flag + --scene --external 922,
     # a snapshot with nothing baked taken while a clean copy waited for its shared one).
     users = [u for u in bpy.data.objects if u.data == o.data] if o.type == "MESH" else []
-    mark = {"hydrobake_empty_slot"} if any(n in (DROPPED, EMPTIED) for _l, n in slots) or (
+    mark = {EMPTY_SLOT_MARK} if any(n in (DROPPED, EMPTIED) for _l, n in slots) or (
         pending is not None and any(pending(m) for u in users for _l, m in slots_of(u))) \
         else set()
     def tidy(slots):
@@ -434,9 +437,8 @@ def stale_mark_gone(have, want):
     stale, and the next Free of any object tidies it (every flag + --sources 772: taken into
     a snapshot while stale). A mark left behind is still caught; a slot wrongly kept, by
     the slots' check."""
-    return have["uv"] == want["uv"] and \
-        set(want["props"]) - set(have["props"]) == {"hydrobake_empty_slot"} and \
-        set(have["props"]) <= set(want["props"])
+    return have["uv"] == want["uv"] and EMPTY_SLOT_MARK not in have["props"] and \
+        set(want["props"]) == set(have["props"]) | {EMPTY_SLOT_MARK}
 
 
 class Monkey:
