@@ -134,4 +134,29 @@ shown = {o.name: o.material_slots[0].material.name for o in bpy.data.objects
          if o.name.startswith(("P", "Q"))}
 assert set(shown.values()) == {"Shared3 (P)"}, shown
 assert "Shared3" not in bpy.data.materials and "Shared3 (Q)" not in bpy.data.materials
+
+# The Link record holds for the object the copy was made for after a rename, though another
+# object took its old name since: R's Free switches its slot back to the mesh's. Before, the
+# copy's name for its object led to that other object, and the slot stayed R's own
+# (monkey --more --delete-baked --elsewhere --moves --scene 2106, 2108).
+shared4 = in_blender.node_material("Shared4")
+r = in_blender.uv_plane("R")
+r.location.x = -3.0
+r.data.materials.append(shared4)
+in_blender.duplicate(r, linked=True).location.x = -6.0
+in_blender.rain_once(r)
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="R") == {"FINISHED"}
+assert r.material_slots[0].link == "OBJECT"
+r.name = "R renamed"
+s = in_blender.uv_plane("S")
+s.location.x = -9.0
+s.name = "R"
+assert s.name == "R" and r.name == "R renamed"
+assert bpy.ops.hydrobake.free_bake(effect="rain", object_name="R renamed") == {"FINISHED"}
+for o in bpy.data.objects:
+    if o.data == r.data:
+        sl = o.material_slots[0]
+        assert (sl.link, sl.material) == ("DATA", shared4), (o.name, sl.link, sl.material)
+left = [m.name for m in bpy.data.materials if m.get("hydrobake_copy_of") == "Shared4"]
+assert not left, left
 print("GIVEN COPY LINK OK")

@@ -878,8 +878,12 @@ def _put_shared_back(slot, prefix, obj):
         return
     # The Link record is the slot's of the object the copy was made for: another object the
     # artist gave the copy (Link Materials) gets the shared material in the slot as it is
-    # (every flag + --scene 816).
+    # (every flag + --scene 816). The object renamed since has the copy's name among those it
+    # holds bakes under: another object may have taken its old name (monkey --more
+    # --delete-baked --elsewhere --moves --scene 2106, 2108).
     owner = bpy.data.objects.get(mat.get(COPY_FOR, ""))
+    if mat.get(COPY_FOR) in _held(obj):
+        owner = obj
     if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and owner in (None, obj):
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
