@@ -47,7 +47,8 @@ def test_cancel_midway_keeps_earlier_frames_and_no_partial_file(tmp_path):
     t0 = time.monotonic()
     r.cancel()
     assert r.join(5.0)
-    assert time.monotonic() - t0 < 0.5  # within a fraction of a second
+    # Within about a frame (0.15 s; loose for a busy machine): the rest would take 5 s.
+    assert time.monotonic() - t0 < 2.0
     assert r.state.status == "CANCELLED"
     m = BakeCache(folder).read_manifest()
     assert m["complete"] is False

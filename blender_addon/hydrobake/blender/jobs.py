@@ -161,8 +161,13 @@ def name_holder(obj, effect_name, folder):
         if other == obj:
             continue
         s = settings_of(other, effect_name)
-        if not s.is_baked or (own.is_baked and _same_folder(s.bake_folder, own.bake_folder)):
+        if not s.is_baked:
+            continue
+        if own.is_baked and _same_folder(s.bake_folder, own.bake_folder) and \
+                copied_from(obj, effect_name) is None:
             continue  # a copy of this object's own record: a re-bake replaces that bake
+        # (``obj`` itself a Shift+D copy of it, renamed to the name the bake was made under,
+        # would have baked over the other's files and into its material)
         if _same_folder(s.bake_folder, folder) or s.get("baked_as") == obj.name:
             return other
     return None
@@ -183,6 +188,10 @@ class Job:
         settings = settings_of(obj, effect_name)
         self.folder = paths.bake_folder(obj, effect_name, settings, folder_override)
         self.override = folder_override
+        self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
+        if resume and self.copy_of is not None:
+            raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
+                             f"record is a copy of {self.copy_of.name}'s); bake it anew")
         # A resume stays in its folder, but is wired under the name the object has now:
         # another object's bake made under that name is checked for too (monkey 1560: a
         # renamed pool resumed under its copy's baked name took the copy's made material).
@@ -208,10 +217,6 @@ class Job:
                              f"{', '.join(repr(n) for n in gone)}, which this file still shows "
                              "(Undo brings it back): take it out with File > Clean Up > "
                              f"Remove Deleted Objects' Bakes first, or rename {obj.name}")
-        self.copy_of = copied_from(obj, effect_name)  # a record to drop, not a bake to unwire
-        if resume and self.copy_of is not None:
-            raise ValueError(f"{obj.name}: nothing of its own to resume (its {effect_name} bake "
-                             f"record is a copy of {self.copy_of.name}'s); bake it anew")
         wrong = unoffered(settings) or linked_parts(self.beffect, obj, settings)
         if wrong:  # (unoffered: a script's setattr skips the panel's choice)
             raise ValueError(wrong)

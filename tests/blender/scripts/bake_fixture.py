@@ -71,7 +71,8 @@ job.runner.cancel()
 assert job.runner.join(5.0)
 took = time.monotonic() - t0
 job.finalize(bpy.context)
-assert took < 0.5, took
+# Within about a frame (0.2 s; loose for a busy machine): the rest would take 7 s and more.
+assert took < 2.0, took
 assert job.runner.state.status == "CANCELLED"
 cache = BakeCache(folder)
 done = cache.frames()

@@ -129,6 +129,32 @@ for p in pools:
     assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=p.name) == {"FINISHED"}
     assert not p.material_slots, [s.material for s in p.material_slots]
 
+# A Shift+D copy given the name the original's bake was made under (the original renamed
+# away) is refused as a newcomer is. Before, its copied record let it through as a re-bake of
+# its own, into the original's folder and material.
+sw = in_blender.new_plane("Sw")
+sw.location.y = 30.0
+w = sw.hydrobake_caustics
+w.enabled, w.use_scene_range, w.frame_start, w.frame_end = True, False, 1, 2
+w.water.width, w.map_resolution = 16, 32
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Sw") == {"FINISHED"}
+swfolder, swmat = w.bake_folder, sw.material_slots[0].material.name
+stamp = os.stat(frame_path(swfolder, "caustics", 1, "exr")).st_mtime_ns
+dup = in_blender.duplicate(sw)
+sw.name, dup.name = "SwA", "Sw"
+assert dup.name == "Sw" and dup.hydrobake_caustics.bake_folder == swfolder
+try:
+    bpy.ops.hydrobake.bake(effect="caustics", object_name="Sw")
+    raise AssertionError("a renamed copy's bake over its original's was not refused")
+except RuntimeError as exc:
+    assert "Sw: SwA records a caustics bake made under this name" in str(exc), exc
+assert os.stat(frame_path(swfolder, "caustics", 1, "exr")).st_mtime_ns == stamp
+assert w.bake_folder == swfolder and sw.material_slots[0].material.name == swmat
+# Freed there first (the files stay for the copy's record), the copy's bake is its own.
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="SwA") == {"FINISHED"}
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Sw") == {"FINISHED"}
+assert not w.is_baked and dup.hydrobake_caustics.is_baked
+
 # After the file is opened again (new addresses), a bake's holder is known again.
 from hydrobake.blender import jobs  # noqa: E402
 assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Renamed") == {"FINISHED"}

@@ -60,9 +60,10 @@ def step():
         print("ticks", [round(g, 3) for g in gaps], flush=True)
         print(f"UI cancel after {took:.3f}s, kept {len(done)} frames, worst UI gap "
               f"{max(gaps):.3f}s over {len(gaps)} ticks", flush=True)
-        # Thresholds are loose for busy machines (software GL redraws take ~0.2 s under Xvfb);
-        # a bake blocking the main thread would stall it for the whole bake (> 8 s).
-        ok = (took < 1.0 and max(gaps) < 1.0 and 3 <= len(done) < 60 and
+        # Thresholds are loose for busy machines (software GL redraws take ~0.2 s under Xvfb;
+        # with another Blender on each core, 1.03 s for the cancel); a bake blocking the main
+        # thread would stall it for the whole bake (60 frames of 0.15 s: 9 s).
+        ok = (took < 4.0 and max(gaps) < 4.0 and 3 <= len(done) < 60 and
               done == list(range(1, len(done) + 1)) and cache.verify() == [] and
               settings.is_baked and
               sorted(os.listdir(settings.bake_folder)) ==
