@@ -157,17 +157,17 @@ def name_holder(obj, effect_name, folder):
     it records a bake in that folder, or one whose files and wiring go by the name ``obj``
     has now (it was renamed since, or copied from one that was), or None."""
     own = settings_of(obj, effect_name)
+    # Not when ``obj`` itself is a Shift+D copy: renamed to the name the bake was made under,
+    # it would bake over the original's files and into its material.
+    owns = own.is_baked and copied_from(obj, effect_name) is None
     for other in bpy.data.objects:
         if other == obj:
             continue
         s = settings_of(other, effect_name)
         if not s.is_baked:
             continue
-        if own.is_baked and _same_folder(s.bake_folder, own.bake_folder) and \
-                copied_from(obj, effect_name) is None:
+        if owns and _same_folder(s.bake_folder, own.bake_folder):
             continue  # a copy of this object's own record: a re-bake replaces that bake
-        # (``obj`` itself a Shift+D copy of it, renamed to the name the bake was made under,
-        # would have baked over the other's files and into its material)
         if _same_folder(s.bake_folder, folder) or s.get("baked_as") == obj.name:
             return other
     return None

@@ -881,9 +881,8 @@ def _put_shared_back(slot, prefix, obj):
     # (every flag + --scene 816). The object renamed since has the copy's name among those it
     # holds bakes under: another object may have taken its old name (monkey --more
     # --delete-baked --elsewhere --moves --scene 2106, 2108).
-    owner = bpy.data.objects.get(mat.get(COPY_FOR, ""))
-    if mat.get(COPY_FOR) in _held(obj):
-        owner = obj
+    made_for = mat.get(COPY_FOR, "")
+    owner = obj if made_for in _held(obj) else bpy.data.objects.get(made_for)
     if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and owner in (None, obj):
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
