@@ -6,7 +6,9 @@ another material in the mesh's slot), Free puts the shared material in the slot 
 before, it switched the Link and the slot showed the mesh's other material (every flag +
 --scene --external 950, where the mesh's slot was empty). In the mesh's slot of an object
 it never holds. A copy of a clean copy whose shared material left the file gives the slot
-that copy back, if it is still in the file."""
+that copy back, if it is still in the file. The record, and the object's own material behind
+the mesh's, hold for the object renamed since, whose old name another object took. A Shift+D
+copy freed without a bake of its own ends the same whichever Free comes first."""
 import bpy
 
 import in_blender
@@ -159,4 +161,62 @@ for o in bpy.data.objects:
         assert (sl.link, sl.material) == ("DATA", shared4), (o.name, sl.link, sl.material)
 left = [m.name for m in bpy.data.materials if m.get("hydrobake_copy_of") == "Shared4"]
 assert not left, left
+
+# So does the object's own material behind the mesh's. T keeps Own5 behind its mesh's
+# Shared5; T's rain bake copies Shared5 over it and holds Own5; T is renamed, another object
+# takes the name T, and T's snow bake copies the copy again. Its Frees show the mesh's
+# material with Own5 behind it, as before the bakes. Before, the second copy took the other
+# object for the first one's and dropped Own5: the slot held nothing behind the mesh's.
+shared5, own5 = in_blender.node_material("Shared5"), in_blender.node_material("Own5")
+t = in_blender.uv_plane("T")
+t.location.y = 3.0
+t.data.materials.append(shared5)
+in_blender.duplicate(t, linked=True).location.y = 6.0
+st = t.material_slots[0]
+st.link, st.material, st.link = "OBJECT", own5, "DATA"
+in_blender.rain_once(t)
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="T") == {"FINISHED"}
+t.name = "T renamed"
+in_blender.uv_plane("U").name = "T"
+in_blender.snow(t, (1, 1), 5.0, texture=32)
+assert bpy.ops.hydrobake.bake(effect="snow", object_name="T renamed") == {"FINISHED"}
+assert st.material.name == "Shared5 (T renamed)", st.material.name
+for effect in ("snow", "rain"):
+    assert bpy.ops.hydrobake.free_bake(effect=effect, object_name="T renamed") == {"FINISHED"}
+assert (st.link, st.material) == ("DATA", shared5), (st.link, st.material)
+st.link = "OBJECT"
+assert st.material == own5, st.material
+st.link = "DATA"
+
+# A Shift+D copy of a baked object holds the original's record, under its name, but the
+# bake's copy in its slot is not its own: whichever Free comes first, the copy's slot ends
+# as the original's Free leaves another object's copy (the shared material in it, as it
+# is). Before, the copy's Link went back to its mesh's only when the original was freed
+# first, and took the original's own material behind it.
+ends = []
+for first in ("V", "V.copy"):
+    shared6 = in_blender.node_material(f"Shared6 {first}")
+    v = in_blender.uv_plane("V")
+    v.location.y = -12.0
+    v.data.materials.append(shared6)
+    in_blender.duplicate(v, linked=True).location.x = 3.0
+    sv = v.material_slots[0]
+    sv.link, sv.material, sv.link = "OBJECT", in_blender.node_material("Own6"), "DATA"
+    in_blender.rain_once(v)
+    assert bpy.ops.hydrobake.bake(effect="rain", object_name="V") == {"FINISHED"}
+    w = in_blender.duplicate(v)
+    w.name = "V.copy"
+    for name in (first, "V" if first != "V" else "V.copy"):
+        assert bpy.ops.hydrobake.free_bake(effect="rain", object_name=name) == \
+            {"FINISHED"}
+    sw = w.material_slots[0]
+    end = [sw.link, sw.material == shared6, None]
+    if sw.link == "DATA":  # what it holds behind the mesh's
+        sw.link = "OBJECT"
+        end[2] = sw.material and sw.material.name
+        sw.link = "DATA"
+    ends.append(end)
+    for o in [o for o in bpy.data.objects if o.name.startswith("V")]:
+        bpy.data.objects.remove(o)
+assert ends == [["OBJECT", True, None]] * 2, ends
 print("GIVEN COPY LINK OK")

@@ -515,10 +515,13 @@ def own(obj, index, unwire):
     if MADE in mat:  # gone with its bake, it leaves the copy nothing to go back to
         copy[COPY_OF_MADE] = mat[MADE]
     # The original's record, not the copy's (what another object's copy went over, too:
-    # this object's copy from before a rename keeps it). The nodes' switch stays: a copy of
-    # a material another bake turned them on in looks like the artist's once clean, and is
-    # the artist's material if the original leaves the file (every flag + --relations 120).
-    renamed = COPY_FOR in mat and bpy.data.objects.get(mat[COPY_FOR]) is None
+    # this object's copy from before a rename keeps it, though another object took its old
+    # name: the object's own material behind the mesh's comes back with Free, not None).
+    # The nodes' switch stays: a copy of a material another bake turned them on in looks
+    # like the artist's once clean, and is the artist's material if the original leaves the
+    # file (every flag + --relations 120).
+    renamed = COPY_FOR in mat and (_made_for(obj, mat) or
+                                   bpy.data.objects.get(mat[COPY_FOR]) is None)
     for key in (MADE,) + (() if renamed else (BEHIND,)):
         if key in copy:
             del copy[key]
@@ -878,11 +881,10 @@ def _put_shared_back(slot, prefix, obj):
         return
     # The Link record is the slot's of the object the copy was made for: another object the
     # artist gave the copy (Link Materials) gets the shared material in the slot as it is
-    # (every flag + --scene 816). The object renamed since has the copy's name among those it
-    # holds bakes under: another object may have taken its old name (monkey --more
-    # --delete-baked --elsewhere --moves --scene 2106, 2108).
-    made_for = mat.get(COPY_FOR, "")
-    owner = obj if made_for in _held(obj) else bpy.data.objects.get(made_for)
+    # (every flag + --scene 816). The object renamed since is found by its bake's name, not
+    # its old one, which another object may have taken (monkey --more --delete-baked
+    # --elsewhere --moves --scene 2106, 2108).
+    owner = obj if _made_for(obj, mat) else bpy.data.objects.get(mat.get(COPY_FOR, ""))
     if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and owner in (None, obj):
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
@@ -906,6 +908,17 @@ def _put_shared_back(slot, prefix, obj):
         # showed it; monkey --more 1017), no bake in it now: it goes as give_back's would,
         # from Shift+D copies of those objects too (1056).
         _let_go_made(obj, shared, prefix)
+
+
+def _made_for(obj, mat):
+    """Whether ``mat`` is a copy own() made for ``obj``, under the name it had then: the
+    name a bake of its own was made under. (A Shift+D copy holds its original's record, with
+    the original's name: not its own.)"""
+    from .. import jobs  # (jobs imports the effects, which import this module)
+    made_for = mat.get(COPY_FOR)
+    return made_for == obj.name or any(
+        getattr(obj, e).is_baked and getattr(obj, e).get("baked_as") == made_for and
+        jobs.copied_from(obj, e[len("hydrobake_"):]) is None for e in EFFECT_SETTINGS)
 
 
 def _held(obj):
