@@ -520,8 +520,7 @@ def own(obj, index, unwire):
     # The nodes' switch stays: a copy of a material another bake turned them on in looks
     # like the artist's once clean, and is the artist's material if the original leaves the
     # file (every flag + --relations 120).
-    renamed = COPY_FOR in mat and (_made_for(obj, mat) or
-                                   bpy.data.objects.get(mat[COPY_FOR]) is None)
+    renamed = COPY_FOR in mat and _for_no_other(obj, mat)
     for key in (MADE,) + (() if renamed else (BEHIND,)):
         if key in copy:
             del copy[key]
@@ -884,8 +883,7 @@ def _put_shared_back(slot, prefix, obj):
     # (every flag + --scene 816). The object renamed since is found by its bake's name, not
     # its old one, which another object may have taken (monkey --more --delete-baked
     # --elsewhere --moves --scene 2106, 2108).
-    owner = obj if _made_for(obj, mat) else bpy.data.objects.get(mat.get(COPY_FOR, ""))
-    if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and owner in (None, obj):
+    if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and _for_no_other(obj, mat):
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
         # It may be a clean copy waiting too, freed of its bake by this Free (a copy the
@@ -910,13 +908,16 @@ def _put_shared_back(slot, prefix, obj):
         _let_go_made(obj, shared, prefix)
 
 
-def _made_for(obj, mat):
-    """Whether ``mat`` is a copy own() made for ``obj``, under the name it had then: the
-    name a bake of its own was made under. (A Shift+D copy holds its original's record, with
-    the original's name: not its own.)"""
+def _for_no_other(obj, mat):
+    """Whether ``mat`` (a copy own() made) was made for no object in the file but ``obj``:
+    for ``obj`` under its name, or under the name a bake of its own was made under (renamed
+    since: another object may have taken the old name), or for one that is gone. (A Shift+D
+    copy holds its original's record, with the original's name: not its own.)"""
+    made_for = mat.get(COPY_FOR, "")
+    if made_for == obj.name or bpy.data.objects.get(made_for) is None:
+        return True
     from .. import jobs  # (jobs imports the effects, which import this module)
-    made_for = mat.get(COPY_FOR)
-    return made_for == obj.name or any(
+    return any(
         getattr(obj, e).is_baked and getattr(obj, e).get("baked_as") == made_for and
         jobs.copied_from(obj, e[len("hydrobake_"):]) is None for e in EFFECT_SETTINGS)
 
