@@ -126,6 +126,12 @@ def copied_from(obj, effect_name):
     return owner if owner is not None else others[0]
 
 
+def owns_record(obj, effect_name):
+    """Whether ``obj`` records a bake of the effect of its own, not a Shift+D copy's of
+    another object's."""
+    return settings_of(obj, effect_name).is_baked and copied_from(obj, effect_name) is None
+
+
 def forget(obj, effect_name):
     """Clears a bake record from the object's settings (not the files, not the wiring)."""
     s = settings_of(obj, effect_name)
@@ -159,7 +165,7 @@ def name_holder(obj, effect_name, folder):
     own = settings_of(obj, effect_name)
     # Not when ``obj`` itself is a Shift+D copy: renamed to the name the bake was made under,
     # it would bake over the original's files and into its material.
-    owns = own.is_baked and copied_from(obj, effect_name) is None
+    owns = owns_record(obj, effect_name)
     for other in bpy.data.objects:
         if other == obj:
             continue

@@ -917,9 +917,8 @@ def _for_no_other(obj, mat):
     if made_for == obj.name or bpy.data.objects.get(made_for) is None:
         return True
     from .. import jobs  # (jobs imports the effects, which import this module)
-    return any(
-        getattr(obj, e).is_baked and getattr(obj, e).get("baked_as") == made_for and
-        jobs.copied_from(obj, e[len("hydrobake_"):]) is None for e in EFFECT_SETTINGS)
+    return any(getattr(obj, e).get("baked_as") == made_for and
+               jobs.owns_record(obj, e[len("hydrobake_"):]) for e in EFFECT_SETTINGS)
 
 
 def _held(obj):
