@@ -1,9 +1,9 @@
 """Caustics wiring an artist's scene and giving it back: the materials a floor renders with
 (every slot, a slot linked to the object), the water's own values, an old material without
-nodes, a pool with no material, a ground changed or deleted after the bake; Displace Surface
-moving the water down as well as up, and a re-bake over its own modifiers seeing the same
-grid; the floor's colour not darkened along the pool's edge (a probe render); and settings
-refused by name."""
+nodes, a pool with no material, a ground changed, renamed or deleted after the bake, a
+material swapped out of the ground; Displace Surface moving the water down as well as up, and
+a re-bake over its own modifiers seeing the same grid; the floor's colour not darkened along
+the pool's edge (a probe render); and settings refused by name."""
 import json
 import math
 import os
@@ -186,6 +186,24 @@ bake(bare)
 bpy.data.objects.remove(other)
 free(bare)
 assert tags(other_mat) == [], tags(other_mat)
+# The ground renamed, then another chosen and re-baked: the renamed one loses the pool's
+# nodes at the re-bake (its old name found nothing: it went on showing the caustics), as does
+# a material swapped out of the ground before a re-bake.
+b.ground_object = plain
+bake(bare)
+plain.name = "PlainFloor renamed"
+third = in_blender.new_plane("ThirdFloor")
+third.location = (8.0, 0.0, -0.7)
+third_mat, swapped = node_material("Third"), node_material("Swapped")
+third.data.materials.append(third_mat)
+b.ground_object = third
+bake(bare)
+assert tags(old) == [] and not old.use_nodes and "caustics.multiply" in tags(third_mat)
+third.data.materials[0] = swapped
+bake(bare)
+assert tags(third_mat) == [] and "caustics.multiply" in tags(swapped), tags(third_mat)
+free(bare)
+assert tags(swapped) == []
 
 # Displace Surface on a water whose other half a Mirror makes: the dent under a stone in the
 # mirrored half shows there (each vertex reads its own place on the grid).

@@ -315,10 +315,12 @@ class CausticsBlender(BlenderEffect):
         ground = settings.ground_object
         if ground is not None and ground.type != "MESH":
             ground = None
+        # The pool's floor nodes out of every material but the ground's: found by their
+        # owner, as the ground wired last may have been renamed since (its name then finds
+        # nothing, and it kept showing the caustics), or its material swapped.
         old = bpy.data.objects.get(settings.get("wired_ground", ""))
-        if old is not None and old != ground:  # the ground changed since the last bake
-            keep = {s.material for s in ground.material_slots} if ground else set()
-            cls._unwire_floors(obj.name, [old], keep=keep)
+        keep = {s.material for s in ground.material_slots} if ground else set()
+        cls._unwire_floors(obj.name, [old] if old not in (None, ground) else [], keep=keep)
         if ground is not None:
             cls._wire_floor(ground, obj, grid, folder, frames)
             settings["wired_ground"] = ground.name
