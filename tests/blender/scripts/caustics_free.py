@@ -1,9 +1,10 @@
 """Caustics wiring an artist's scene and giving it back: the materials a floor renders with
 (every slot, a slot linked to the object), the water's own values, an old material without
 nodes, a pool with no material, a ground changed, renamed or deleted after the bake, a
-material swapped out of the ground; Displace Surface moving the water down as well as up, and
-a re-bake over its own modifiers seeing the same grid; the floor's colour not darkened along
-the pool's edge (a probe render); and settings refused by name."""
+material swapped out of the ground, a shared one the ground shows its own copy of; Displace
+Surface moving the water down as well as up, and a re-bake over its own modifiers seeing the
+same grid; the floor's colour not darkened along the pool's edge (a probe render); and
+settings refused by name."""
 import json
 import math
 import os
@@ -202,6 +203,21 @@ assert tags(old) == [] and not old.use_nodes and "caustics.multiply" in tags(thi
 third.data.materials[0] = swapped
 bake(bare)
 assert tags(third_mat) == [] and "caustics.multiply" in tags(swapped), tags(third_mat)
+free(bare)
+assert tags(swapped) == []
+# The ground showing its own copy of a material it shares (a snow bake's): the shared one a
+# Free would put back keeps the pool's nodes at the re-bake.
+twin = in_blender.new_plane("Twin")
+twin.location = (16.0, 0.0, -0.7)
+twin.data.materials.append(swapped)
+third.data.uv_layers.new(name="UVMap")
+bake(bare)
+in_blender.snow(third, (1, 1), 40.0, 16)
+assert bpy.ops.hydrobake.bake(effect="snow", object_name=third.name) == {"FINISHED"}
+assert third.active_material != swapped
+bake(bare)
+assert "caustics.multiply" in tags(swapped) and "caustics.multiply" in tags(third.active_material)
+assert bpy.ops.hydrobake.free_bake(effect="snow", object_name=third.name) == {"FINISHED"}
 free(bare)
 assert tags(swapped) == []
 

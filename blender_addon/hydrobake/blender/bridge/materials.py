@@ -430,6 +430,27 @@ def holding(prefix, image_names, owner=ANY):
     return found
 
 
+def every_material(obj):
+    """The materials the object has in any form: shown in its slots, behind a slot's Link
+    (the mesh's, or its own behind the mesh's), and the shared ones its copies (own()) stand
+    for and a Free would put back."""
+    mats = {s.material for s in obj.material_slots}
+    mats.update(getattr(obj.data, "materials", None) or ())
+    if obj.library is None:  # (a linked object's Link cannot be switched, even for a look)
+        for slot in obj.material_slots:
+            if slot.link == "DATA":
+                with _hidden(slot):
+                    mats.add(slot.material)
+    mats.discard(None)
+    todo = list(mats)
+    while todo:
+        shared = bpy.data.materials.get(todo.pop().get(COPY_OF, ""))
+        if shared is not None and shared not in mats:
+            mats.add(shared)
+            todo.append(shared)
+    return mats
+
+
 def shown_bakes(prefix, streams, mats=None):
     """The names of the bakes whose images (``HBK_<name>_<stream>``) the materials (default:
     the file's) show in Hydrobake nodes of an effect (role ``prefix``)."""

@@ -315,11 +315,11 @@ class CausticsBlender(BlenderEffect):
         ground = settings.ground_object
         if ground is not None and ground.type != "MESH":
             ground = None
-        # The pool's floor nodes out of every material but the ground's: found by their
-        # owner, as the ground wired last may have been renamed since (its name then finds
-        # nothing, and it kept showing the caustics), or its material swapped.
+        # The pool's floor nodes out of every material but the ground's (in any form): found
+        # by their owner, as the ground wired last may have been renamed since (its name then
+        # finds nothing, and it kept showing the caustics), or its material swapped out.
         old = bpy.data.objects.get(settings.get("wired_ground", ""))
-        keep = {s.material for s in ground.material_slots} if ground else set()
+        keep = materials.every_material(ground) if ground else set()
         cls._unwire_floors(obj.name, [old] if old not in (None, ground) else [], keep=keep)
         if ground is not None:
             cls._wire_floor(ground, obj, grid, folder, frames)
