@@ -25,7 +25,7 @@ CASES = ("hidden", "slot_changed", "copy_made", "copy_made_copy_first", "copy_ma
          "linked_copy_in_mesh_slot", "made_copy_dropped",
          "linked_copy_given_own_slot", "made_deleted_dropped",
          "made_deleted_dropped_own_mesh", "made_slot_tidied_copies",
-         "linked_copy_shows_deleted")
+         "linked_copy_shows_deleted", "refilled_slot_of_deleted")
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -959,6 +959,31 @@ elif case == "linked_copy_shows_deleted":  # 53: an Alt+D copy of a pool whose m
     check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}, "no deleted bake to remove")
     check(slots() == {"Ground": ["GroundMat"], "Water": [], w2.name: []}, f"then slots {slots()}")
     clean()
+elif case == "refilled_slot_of_deleted":  # 54: three Alt+D copies of one mesh whose slot
+    # a made material left, kept and marked (as a Free leaves it while an object of the mesh
+    # shows a copy there: the monkey's path to it is long); one baked (its made material fills
+    # the slot) and deleted while baked, another showing nothing of its own at Link: Object:
+    # deleting the third, unbaked, dropped the slot with the deleted object's material in it
+    # before Remove Deleted Objects' Bakes, the second's slot with it (every flag + --scene 2137)
+    o = plane("Snowy", 0.5, (6, 0, 0))
+    o.data.materials.append(None)
+    o.data["hydrobake_empty_slot"] = 0
+    c, d = (in_blender.duplicate(o, linked=True) for _ in range(2))
+    o.material_slots[0].link = "OBJECT"
+    in_blender.snow(d, (1, 1), 40.0, 16)
+    bake(d.name, "snow")
+    kept = o.data.materials[0]
+    check(kept is not None and kept.get("hydrobake_made") == "appended", f"slots {slots()}")
+    bpy.data.objects.remove(d)
+    bpy.context.view_layer.update()
+    bpy.data.objects.remove(c)
+    bpy.context.view_layer.update()
+    check(len(o.material_slots) == 1 and o.data.materials[0] == kept,
+          f"the deleted object's made material left before its removal: {slots()}")
+    check(bpy.ops.hydrobake.remove_deleted_bakes() == {"FINISHED"}, "no deleted bake to remove")
+    check(slots() == {"Snowy": []}, f"then slots {slots()}")
+    check("hydrobake_empty_slot" not in o.data, "the mesh keeps its empty-slot mark")
+    clean()
 else:
     raise SystemExit(f"no case {case}")
 print(f"FREE RESTORES {case} " + ("OK" if not problems else "FAIL " + "; ".join(problems)))

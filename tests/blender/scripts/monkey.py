@@ -406,10 +406,13 @@ def obj_state(o, name_of=slot_name, pending=None):
     # one kept while an object of the mesh shows a copy waiting for that (materials.
     # _drop_empty_slot keeps it while a copy is shown: every flag + --scene --external 922,
     # a snapshot with nothing baked taken while a clean copy waited for its shared one).
+    # So does one whose slot a deleted object's made material filled again, hidden behind
+    # every object's own there (every flag + --scene 2137).
     users = [u for u in bpy.data.objects if u.data == o.data] if o.type == "MESH" else []
+    held = [m for u in users for _l, m in slots_of(u)] + list(o.data.materials) if users \
+        else []
     mark = {EMPTY_SLOT_MARK} if any(n in (DROPPED, EMPTIED) for _l, n in slots) or (
-        pending is not None and any(pending(m) for u in users for _l, m in slots_of(u))) \
-        else set()
+        pending is not None and any(pending(m) for m in held)) else set()
     def tidy(slots):
         while slots and slots[-1][1] is DROPPED:
             slots.pop()

@@ -772,6 +772,15 @@ def _drop_empty_slot(obj, freed=None):
     index = obj.data.get(EMPTY_SLOT) if obj.data is not None else None
     if index is None:
         return
+    held = obj.data.materials[index] if index < len(obj.data.materials) else None
+    if held is not None:
+        # The mesh's slot filled again, hidden where every object of the mesh shows its own
+        # there: by a bake (ensure_material), the slot goes with that material, not before (a
+        # deleted object's, kept for Remove Deleted Objects' Bakes: every flag + --scene
+        # 2137); by the artist, it stays.
+        if MADE not in held and COPY_OF not in held:
+            del obj.data[EMPTY_SLOT]
+        return
     users = [o for o in bpy.data.objects if o.data == obj.data]
     shown = [o.material_slots[index].material for o in users
              if index < len(o.material_slots) and o.material_slots[index].material]
