@@ -199,6 +199,13 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # and only then: a copy holding a live object's wiring, or a deleted one's that the shared
 # one does not show, stays (every flag + --scene --external --relations 761, 164 steps;
 # fails with the two versions of that fix before the one kept).
+# renamed_ground: a pool's re-bake left its floor nodes in a material swapped out of its
+# ground (and, the ground renamed, in the former ground's: caustics_free.py is the short
+# case), found by --renames' check of the floor after each pool's bake (seed 1, caustics,
+# --more --moves --renames, 107 steps; fails with the addon of 9171cbd). copy_root_gone: the
+# harness's reading of a clean copy whose shared material left the file after the snapshot:
+# it becomes that material, as materials._shared_again makes it (every flag + --scene
+# --external --relations 818, 178 steps; fails with the harness from before).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
@@ -208,7 +215,8 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
                                   "copy_nodes_off", "given_link_was",
                                   "copy_of_clean_copy", "made_copy_dropped",
                                   "remapped_pack", "made_slot_tidied",
-                                  "live_copy_wiring_kept"))
+                                  "live_copy_wiring_kept", "renamed_ground",
+                                  "copy_root_gone"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:
