@@ -113,6 +113,11 @@ def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp
     assert "COPIED AND RENAMED OK" in r.stdout
 
 
+def test_renamed_helper_objects_are_updated_by_a_rebake_and_taken_out_by_free(blender, tmp_path):
+    r = blender.run("renamed_helpers.py", tmp_path)
+    assert "RENAMED HELPERS OK" in r.stdout
+
+
 def test_shared_materials_meshes_and_records_freed_in_any_order(blender, tmp_path):
     r = blender.run("shared_records.py", tmp_path)
     assert "SHARED RECORDS OK" in r.stdout

@@ -9,7 +9,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..bridge import animation, images, materials, meshes
+from ..bridge import animation, helper_objects, images, materials, meshes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
 from .base import BlenderEffect, offers
@@ -355,11 +355,11 @@ class CausticsBlender(BlenderEffect):
         if settings.displace_surface:
             cls._displace(obj, folder, frames, grid)
         else:
-            cls._undisplace(obj, f"HBK_{obj.name}")
+            cls._undisplace(obj, obj.name)
         if settings.projector:
             cls._projector(context, obj, settings, folder, frames, grid)
         else:
-            cls._remove_helpers(f"HBK_{obj.name}", ("projector",))
+            cls._remove_helpers(obj.name, ("projector",))
         if "view" in manifest.get("streams", []):
             images.load_unused_sequence(folder, "view", frames[0], len(frames),
                                         f"HBK_{obj.name}_view")
@@ -465,8 +465,9 @@ class CausticsBlender(BlenderEffect):
         All made here, removed by Free Bake."""
         shape = grid.shape
         mesh = obj.data
-        name = f"HBK_{obj.name}_grid"
-        frame = bpy.data.objects.get(name) or bpy.data.objects.new(name, None)
+        frame = helper_objects.find("caustics", obj.name, "grid", "EMPTY") or \
+            bpy.data.objects.new(f"HBK_{obj.name}_grid", None)
+        helper_objects.tag(frame, "caustics", obj.name, "grid")
         if frame.name not in bpy.context.scene.collection.all_objects:
             (obj.users_collection[0] if obj.users_collection else
              bpy.context.scene.collection).objects.link(frame)
@@ -512,8 +513,13 @@ class CausticsBlender(BlenderEffect):
             if ground is not None else level - 1.0
         height = max(sx, sy)  # far enough for a narrow, even cone
         name = f"HBK_{obj.name}_projector"
-        light = bpy.data.lights.get(name) or bpy.data.lights.new(name, "SPOT")
-        lobj = bpy.data.objects.get(name) or bpy.data.objects.new(name, light)
+        lobj = helper_objects.find("caustics", obj.name, "projector", "LIGHT")
+        if lobj is None:
+            light = bpy.data.lights.get(name) or bpy.data.lights.new(name, "SPOT")
+            lobj = bpy.data.objects.new(name, light)
+        lobj.data.type = "SPOT"  # (an artist may have made it another kind)
+        light = lobj.data  # the one it shows, renamed or not
+        helper_objects.tag(lobj, "caustics", obj.name, "projector")
         if lobj.name not in context.scene.collection.all_objects:
             (obj.users_collection[0] if obj.users_collection else
              context.scene.collection).objects.link(lobj)
@@ -565,18 +571,17 @@ class CausticsBlender(BlenderEffect):
                 obj.modifiers.remove(mod)
 
     @classmethod
-    def _undisplace(cls, obj, prefix):
+    def _undisplace(cls, obj, pool):
         """The Subdivision and Displace modifiers, and the height texture and grid Empty of
-        the pool baked as ``prefix`` once nothing uses them."""
+        the pool baked as ``pool`` once nothing uses them."""
         cls._remove_modifiers(obj)
-        height = bpy.data.textures.get(f"{prefix}_height")
+        height = bpy.data.textures.get(f"HBK_{pool}_height")
         if height is not None and height.users == 0:
             bpy.data.textures.remove(height)
-        grid = bpy.data.objects.get(f"{prefix}_grid")
-        if grid is not None and not any(
-                m.type == "DISPLACE" and m.texture_coords_object == grid
-                for o in bpy.data.objects for m in o.modifiers):
-            bpy.data.objects.remove(grid)
+        for grid in helper_objects.every("caustics", pool, "grid", "EMPTY"):
+            if not any(m.type == "DISPLACE" and m.texture_coords_object == grid
+                       for o in bpy.data.objects for m in o.modifiers):
+                bpy.data.objects.remove(grid)
 
     @classmethod
     def let_go(cls, context, obj, settings, keep):
@@ -607,14 +612,15 @@ class CausticsBlender(BlenderEffect):
 
     @staticmethod
     def _helper_owners():
-        """The pools whose projector or grid Empty (apply's helper objects) is in the file:
-        with the ground deleted first, they are all a deleted pool leaves (monkey --more
-        --delete-baked 7076, 7077)."""
+        """The pools whose projector or grid Empty (apply's helper objects, by name or tag) is
+        in the file: with the ground deleted first, they are all a deleted pool leaves
+        (monkey --more --delete-baked 7076, 7077)."""
         helpers = [(o.name, o.type) for o in bpy.data.objects] + \
             [(light.name, "LIGHT") for light in bpy.data.lights]
         return {name[4:-len(suffix)] for name, kind in helpers
                 for suffix, want in (("_projector", "LIGHT"), ("_grid", "EMPTY"))
-                if kind == want and name.startswith("HBK_") and name.endswith(suffix)}
+                if kind == want and name.startswith("HBK_") and name.endswith(suffix)} | \
+            helper_objects.owners("caustics", ("projector", "grid"))
 
     @staticmethod
     def _floor_owners():
@@ -632,7 +638,7 @@ class CausticsBlender(BlenderEffect):
         # Clean copies of a floor material that waters kept while the pool's floor nodes were
         # in it: the floor material back (monkey --more --delete-baked 1620).
         materials.put_back_others("caustics.")
-        cls._remove_helpers(f"HBK_{pool}")
+        cls._remove_helpers(pool)
         for stream in STREAM_IMAGES:  # those nothing shows any more
             images.remove(f"HBK_{pool}_{stream}")
 
@@ -654,14 +660,17 @@ class CausticsBlender(BlenderEffect):
         cls._forget_floors(pool)
 
     @staticmethod
-    def _remove_helpers(prefix, which=("projector", "grid")):
-        """The pool's projector (and its light) and its grid object."""
-        for name in (f"{prefix}_{helper}" for helper in which):
-            if name in bpy.data.objects:
-                bpy.data.objects.remove(bpy.data.objects[name])
-        light = bpy.data.lights.get(f"{prefix}_projector")
-        if light is not None and light.users == 0:
-            bpy.data.lights.remove(light)
+    def _remove_helpers(pool, which=("projector", "grid")):
+        """The pool's projector (and its light) and its grid object, renamed or not."""
+        lights = {bpy.data.lights.get(f"HBK_{pool}_projector")}
+        for role, kind in (("projector", "LIGHT"), ("grid", "EMPTY")):
+            if role in which:
+                for helper in helper_objects.every("caustics", pool, role, kind):
+                    lights.add(helper.data)
+                    bpy.data.objects.remove(helper)
+        for light in lights - {None}:
+            if light.users == 0:
+                bpy.data.lights.remove(light)
 
     @classmethod
     def after_deletes(cls):
@@ -680,8 +689,8 @@ class CausticsBlender(BlenderEffect):
     def remove(cls, context, obj, settings):
         pool = cls.baked_name(obj, settings)
         prefix = f"HBK_{pool}"
-        cls._remove_helpers(prefix)
-        cls._undisplace(obj, prefix)
+        cls._remove_helpers(pool)
+        cls._undisplace(obj, pool)
         if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):  # from older bakes
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
         # The water's wiring wherever it is: in the pool's slots, and in materials taken out

@@ -10,7 +10,8 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..bridge import animation, frame_meshes, images, materials, mesh_data, points
+from ..bridge import animation, frame_meshes, helper_objects, images, materials, mesh_data, \
+    points
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
 from .base import BlenderEffect, warn_uv_overlap
@@ -105,6 +106,12 @@ def _flake_material():
     bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     bsdf.inputs["Roughness"].default_value = 0.9
     return mat
+
+
+def _detach_flakes(name):
+    """The falling flakes of the bake wired as ``name``, renamed or not."""
+    for flakes in helper_objects.every("snow", name, "flakes", "MESH"):
+        points.detach(flakes.name)
 
 
 def _is_box(contact_mode):
@@ -572,10 +579,12 @@ class SnowBlender(BlenderEffect):
 
         if "flakes" in manifest.get("streams", []):
             white = bpy.data.materials.get("HBK Snow Flake") or _flake_material()
-            points.attach(f"HBK_{obj.name}_flakes", folder, "flakes",
-                          settings.snow.flake_radius * 2.0,
-                          collection=obj.users_collection[0] if obj.users_collection else None,
-                          material=white)
+            old = helper_objects.find("snow", obj.name, "flakes", "MESH")  # renamed, maybe
+            flakes = points.attach(old.name if old else f"HBK_{obj.name}_flakes", folder,
+                                   "flakes", settings.snow.flake_radius * 2.0,
+                                   collection=obj.users_collection[0] if obj.users_collection
+                                   else None, material=white)
+            helper_objects.tag(flakes, "snow", obj.name, "flakes")
 
     @classmethod
     def let_go(cls, context, obj, settings, keep):
@@ -588,7 +597,7 @@ class SnowBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
-        points.detach(f"HBK_{cls.baked_name(obj, settings)}_flakes")
+        _detach_flakes(cls.baked_name(obj, settings))
         cls._remove_box(obj)
         # The bake's wiring wherever it is: in the object's slots, and in materials taken
         # out of them since (or a shared one a re-bake made a copy of), known by its images.
@@ -610,11 +619,11 @@ class SnowBlender(BlenderEffect):
             if o.name.startswith("HBK_") and o.name.endswith("_flakes") and \
                     str(o.get(frame_meshes.PROP, "")).startswith("points|"):
                 names.add(o.name[len("HBK_"):-len("_flakes")])
-        return names
+        return names | helper_objects.owners("snow", ("flakes",))
 
     @classmethod
     def forget(cls, name):
-        points.detach(f"HBK_{name}_flakes")
+        _detach_flakes(name)
         shown = {f"HBK_{name}_{stream}" for stream in STREAMS}
         materials.forget(name, "snow.", shown, _unwire)
         for image in shown:
