@@ -5,6 +5,8 @@ at its Frame, not where it is when Bake is pressed), Capture Paint / Capture Fea
 the surface of a domain renamed since its bake, and the textured surface and the Volume
 object renamed by the artist (a re-bake reuses them, Free removes them)."""
 
+import os
+
 import bpy
 import numpy as np
 
@@ -100,6 +102,15 @@ assert not vol.hide_render
 assert vol.data.filepath.endswith("_Domain_fluid_fluid_0001.vdb") and vol.data.materials[0] is not None
 scene.frame_set(2)
 assert len(bpy.data.objects["Water"].data.vertices) > 0
+# A re-bake into another Cache Folder too (found by the files of the folder baked into, the
+# renamed pair was left showing the old bake beside a new pair: monkey --renames 834).
+s.cache_dir = os.path.join(tmp, "elsewhere", "")
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+hbk = sorted(o.name for o in bpy.data.objects if o.type in ("VOLUME",) or
+             "hydrobake_domain" in o)
+assert hbk == ["Water", "Water volume"], hbk
+vol = bpy.data.objects["Water volume"]
+assert os.path.join(tmp, "elsewhere") in bpy.path.abspath(vol.data.filepath), vol.data.filepath
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 left = sorted(o.name for o in bpy.data.objects if o.type == "VOLUME" or "hydrobake_domain" in o)
 assert left == [], left

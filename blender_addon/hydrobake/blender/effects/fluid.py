@@ -12,7 +12,7 @@ import numpy as np
 
 from ...core import mantaflow, solid_textures
 from .. import paths
-from ..bridge import animation, frame_meshes, meshes, tileable, volumes
+from ..bridge import animation, frame_meshes, helper_objects, meshes, tileable, volumes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
 from .base import BakeWarning, BlenderEffect, offers
@@ -345,8 +345,8 @@ class FluidBlender(BlenderEffect):
     def apply(cls, context, obj, settings, folder, manifest):
         frames = sorted(int(f) for f in manifest["frames"])
         coll = obj.users_collection[0] if obj.users_collection else None
-        # A re-bake in place reuses the objects it made, found by the files they show when
-        # the artist renamed them (a new pair by the default names would be made otherwise).
+        # A re-bake reuses the objects it made, renamed by the artist or not (a new pair by
+        # the default names would be made otherwise).
         old_surf, old_vol = cls._wired(obj, settings, folder)
         vol_name = old_vol.name if old_vol is not None else f"HBK_{obj.name}_volume"
         new_vol = old_vol is None and bpy.data.objects.get(vol_name) is None
@@ -370,6 +370,8 @@ class FluidBlender(BlenderEffect):
         surf = frame_meshes.attach(surf_name, "surface", folder, "surface",
                                    collection=coll, material=mat)
         surf["hydrobake_domain"] = obj.name  # for Capture Feature Rule
+        helper_objects.tag(surf, "fluid", obj.name, "surface")
+        helper_objects.tag(vol, "fluid", obj.name, "volume")
         # The domain is only a box: show the fluid, not the box (Free Bake shows it again as
         # it was: the first bake's view is kept through re-bakes).
         if SHOWN not in settings:
@@ -379,11 +381,11 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def _wired(cls, obj, settings, folder=None):
-        """(surface, Volume object) that apply made for the bake in ``folder`` (default: the
-        recorded one), or None each: by the names apply gave them, else (renamed by the
-        artist since) the ones showing that bake's files."""
+        """(surface, Volume object) that apply made for the bake, or None each: by the names
+        apply gave them, else (renamed by the artist since) by their tag, else (renamed, made
+        before objects were tagged) the ones showing the files in ``folder`` (default: the
+        recorded one)."""
         folder = folder or settings.bake_folder
-        prefix = f"HBK_{cls.baked_name(obj, settings)}"
         top = os.path.join(os.path.realpath(bpy.path.abspath(folder)), "") if folder else None
 
         def shows(path):
@@ -392,8 +394,8 @@ class FluidBlender(BlenderEffect):
 
         found = []
         for kind, suffix in (("MESH", "surface"), ("VOLUME", "volume")):
-            named = bpy.data.objects.get(f"{prefix}_{suffix}")
-            if named is not None and named.type == kind:
+            named = helper_objects.find("fluid", cls.baked_name(obj, settings), suffix, kind)
+            if named is not None:
                 found.append(named)
                 continue
             found.append(next((
@@ -552,12 +554,14 @@ class FluidBlender(BlenderEffect):
 
     @classmethod
     def remove(cls, context, obj, settings):
+        name = cls.baked_name(obj, settings)
         surf, vol = cls._wired(obj, settings)
-        if surf is not None:
-            frame_meshes.detach(surf.name)
-        if vol is not None:
-            data = vol.data
-            bpy.data.objects.remove(vol)
+        # (with any Shift+D copy of them: they show the files this Free removes)
+        for o in ({surf} | set(helper_objects.every("fluid", name, "surface", "MESH"))) - {None}:
+            frame_meshes.detach(o.name)
+        for o in ({vol} | set(helper_objects.every("fluid", name, "volume", "VOLUME"))) - {None}:
+            data = o.data
+            bpy.data.objects.remove(o)
             if data.users == 0:
                 bpy.data.volumes.remove(data)
         # The textured materials stay, unused, for the session: a re-bake sampling the same
