@@ -5,7 +5,7 @@ tidied with --moves), Join, Make Single User and Link Materials (--relations), F
 External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
 Cache Folder (--external), the scene's frame rate and range (--scene), the fluid's source
 (a particle emitter and a Mantaflow liquid, --sources), any object renamed (a pool's
-ground: --renames), modifiers, visibility,
+ground, a bake's projector or flakes: --renames), modifiers, visibility,
 save and reopen, undo, the command line in-process and in a subprocess), with the invariants
 checked after every step:
 
@@ -21,8 +21,8 @@ checked after every step:
   superseded folder of a renamed object waits for the save; a deleted object's stays);
 * whenever nothing is baked: every object and material is as it was before its first bake
   (material per slot, the material's node count, links and shader values, modifiers,
-  visibility, Hydrobake's custom properties), no node tagged by Hydrobake, no HBK_* object,
-  material, image or modifier is left;
+  visibility, Hydrobake's custom properties), no node tagged by Hydrobake, no HBK_* object
+  (nor one renamed from HBK_*), material, image or modifier is left;
 * after a pool's bake its floor nodes are in its ground's materials only;
 * at the end the scene renders a frame in Cycles (32 x 32 px, 1 sample, no denoiser).
 
@@ -229,9 +229,20 @@ def paths_inside(path, roots):
 
 
 # --- what the scene holds now --------------------------------------------------------------
+# The helper objects bakes add (a projector, a grid Empty, flakes, a fluid's surface) that
+# --renames renamed: their name now -> the name the addon gave them (HBK_<bake>_<role>). The
+# new names (Helper<n>) are the monkey's alone, so an undone rename leaves a name no other
+# object takes.
+RENAMED = {}
+
+
+def made_name(name):
+    return RENAMED.get(name, name)
+
+
 def scene_objects():
     return sorted((o for o in bpy.data.objects if o.type == "MESH" and
-                   not o.name.startswith("HBK")), key=lambda o: o.name)
+                   not made_name(o.name).startswith("HBK")), key=lambda o: o.name)
 
 
 def targets(effect=None):
@@ -678,6 +689,8 @@ class Monkey:
         made after the delete's undo step would not be undone with it) until Remove Deleted
         Objects' Bakes; a fluid domain's surface and volume objects with their materials
         stay."""
+        if what == "object":
+            name = made_name(name)
         if self.removed_deleted and not name.endswith(
                 {"object": ("_surface", "_volume"), "material": ("_textured", "_volume")}.get(
                     what, ())):
@@ -747,7 +760,8 @@ class Monkey:
                                                    f"nodes {tagged} with nothing baked")
         for coll, what in ((bpy.data.materials, "material"), (bpy.data.images, "image"),
                            (bpy.data.objects, "object")):
-            left = [(b.name, b.users) for b in coll if b.name.startswith("HBK")]
+            left = [(b.name, b.users) for b in coll if (
+                made_name(b.name) if what == "object" else b.name).startswith("HBK")]
             if what == "material":  # by design: fluid's Free keeps its textured materials
                 # unused, so that a re-bake in the session takes up the artist's edits
                 left = [x for x in left if not (x[0].endswith(("_textured", "_volume")) and
@@ -1026,13 +1040,21 @@ class Monkey:
     def do_rename(self, name, new):
         obj = self.obj(name)
         before = {o.as_pointer(): o.name for o in bpy.data.objects}
-        self.used_names.add(name)
+        helper = made_name(name).startswith("HBK")
+        if not helper:  # (a helper's name is not used again: see RENAMED)
+            self.used_names.add(name)
         obj.name = new
         new = obj.name  # Blender may have added .001
-        self.used_names.add(new)
+        if helper:
+            RENAMED[new] = RENAMED.pop(name, name)
+        else:
+            self.used_names.add(new)
         # ... or given the name to this object and .001 to the one that had it (3.4 does).
         moved = {before[o.as_pointer()]: o.name for o in bpy.data.objects
                  if before.get(o.as_pointer(), o.name) != o.name}
+        for old, now in moved.items():  # a renamed helper that gave its name up
+            if old in RENAMED and now not in RENAMED:
+                RENAMED[now] = RENAMED.pop(old)
         self.snap_objs = {moved.get(k, k): v for k, v in self.snap_objs.items()}
         self.dirty = {(moved.get(n, n), a) for n, a in self.dirty}
         self.all_copies |= {moved[n] for n in self.all_copies if n in moved}
@@ -1497,7 +1519,7 @@ class Monkey:
         if self.scene_ops:
             ops += [("fps", 2), ("scene_range", 4)]
         if self.renames:
-            ops += [("rename_any", 4)]
+            ops += [("rename_any", 4), ("rename_helper", 3)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -1533,6 +1555,13 @@ class Monkey:
             return [{"op": op, "name": rng.choice(objs)}]
         if op == "fps":
             return [{"op": op, "fps": rng.choice((24, 25, 30))}]
+        if op == "rename_helper":  # a bake's projector, grid, flakes or fluid surface
+            helpers = sorted(o.name for o in bpy.data.objects if o.library is None and
+                             made_name(o.name).startswith("HBK_"))
+            if not helpers:
+                return [{"op": "save"}]
+            self.counter += 1
+            return [{"op": "rename", "name": rng.choice(helpers), "new": f"Helper{self.counter}"}]
         if op == "rename_any":
             who = rng.choice(objs)
             return [{"op": "rename", "name": who, "new": self.new_name(who.split(".")[0][:6])}]
@@ -1757,7 +1786,7 @@ def main():
                    help="also a particle emitter and a baked Mantaflow liquid, the fluid's "
                         "source switched among them")
     p.add_argument("--renames", action="store_true",
-                   help="also any object renamed (a pool's ground, a collider)")
+                   help="also any object renamed (a pool's ground, a collider, a bake's helpers)")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
     p.add_argument("--known", action="store_true",
                    help="do not fail on the violations in KNOWN (already reported)")
