@@ -5,7 +5,7 @@ tidied with --moves), Join, Make Single User and Link Materials (--relations), F
 External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
 Cache Folder (--external), the scene's frame rate and range (--scene), the fluid's source
 (a particle emitter and a Mantaflow liquid, --sources), any object renamed (a pool's
-ground, a bake's projector or flakes: --renames), modifiers, visibility,
+ground, a bake's projector, flakes or modifiers: --renames), modifiers, visibility,
 save and reopen, undo, the command line in-process and in a subprocess), with the invariants
 checked after every step:
 
@@ -1061,6 +1061,13 @@ class Monkey:
         self.copies = {moved.get(k, k): moved.get(v, v) for k, v in self.copies.items()}
         return new
 
+    def do_rename_modifier(self, name, modifier, new):
+        mod = self.obj(name).modifiers.get(modifier)
+        if mod is None:
+            raise Skip(f"no modifier {modifier}")
+        mod.name = new
+        return mod.name
+
     def do_delete(self, name):
         obj = self.obj(name)
         self._gone(obj)
@@ -1519,7 +1526,7 @@ class Monkey:
         if self.scene_ops:
             ops += [("fps", 2), ("scene_range", 4)]
         if self.renames:
-            ops += [("rename_any", 4), ("rename_helper", 3)]
+            ops += [("rename_any", 4), ("rename_helper", 3), ("rename_modifier", 2)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -1555,6 +1562,17 @@ class Monkey:
             return [{"op": op, "name": rng.choice(objs)}]
         if op == "fps":
             return [{"op": op, "fps": rng.choice((24, 25, 30))}]
+        if op == "rename_modifier":  # a pool's Subdivision or Displace, snow's BOX mode's
+            # (to HBKm<n>: the addon knows them by their old name no more, and one left once
+            # nothing is baked is still seen; the glass's Solidify renamed is the artist's)
+            mods = [(o.name, m.name) for o in scene_objects() for m in o.modifiers
+                    if m.name in ("HBK Subdivision", "HBK Displace", "HBK Snow Box") or
+                    m.name.startswith("HBKm")]
+            if not mods:
+                return [{"op": "save"}]
+            self.counter += 1
+            who, mod = rng.choice(mods)
+            return [{"op": op, "name": who, "modifier": mod, "new": f"HBKm{self.counter}"}]
         if op == "rename_helper":  # a bake's projector, grid, flakes or fluid surface
             helpers = sorted(o.name for o in bpy.data.objects if o.library is None and
                              made_name(o.name).startswith("HBK_"))

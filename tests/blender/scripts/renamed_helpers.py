@@ -1,7 +1,8 @@
 """Helper objects a bake adds, renamed by the artist: a pool's projector (object and light)
 and grid Empty, a snow object's falling flakes. A re-bake updates the renamed one (before,
 it added a second projector beside it, lighting the floor twice over), a reopened file still
-knows it, and Free Bake and Remove Deleted Objects' Bakes take it out."""
+knows it, and Free Bake and Remove Deleted Objects' Bakes take it out. So with the modifiers
+a bake adds (a pool's Subdivision and Displace, snow's BOX mode)."""
 import os
 
 import bpy
@@ -50,6 +51,16 @@ assert sun.data.name == "PoolSunLight" and abs(sun.data.energy - 123.0) < 1e-4
 assert pool.modifiers["HBK Displace"].texture_coords_object == bpy.data.objects["PoolGrid"]
 assert [light.name for light in bpy.data.lights if light.users] == ["PoolSunLight"]
 
+# Its Subdivision and Displace renamed, and the height texture: the same pair re-baked, not a
+# second one subdividing the water again and displacing it twice.
+pool.modifiers["HBK Subdivision"].name = "Fine"
+pool.modifiers["HBK Displace"].name = "Waves"
+pool.modifiers["Waves"].texture.name = "Heights"
+bake(pool, "caustics")
+assert [(m.name, m.type) for m in pool.modifiers] == [("Fine", "SUBSURF"),
+                                                      ("Waves", "DISPLACE")], pool.modifiers[:]
+assert pool.modifiers["Waves"].texture.name == "Heights"
+
 # A reopened file still knows them.
 in_blender.reopen()
 pool, s = bpy.data.objects["Pool"], bpy.data.objects["Pool"].hydrobake_caustics
@@ -64,8 +75,9 @@ s.projector = True
 bake(pool, "caustics")
 bpy.data.objects["HBK_Pool_projector"].name = "PoolSun"
 
-# Free Bake takes the renamed ones out, light and all.
+# Free Bake takes the renamed ones out, light, modifiers, texture and all.
 free("Pool", "caustics")
+assert not pool.modifiers and "Heights" not in bpy.data.textures, pool.modifiers[:]
 assert of_type("LIGHT") == [] and of_type("EMPTY") == [], (of_type("LIGHT"), of_type("EMPTY"))
 assert not any(light.name.startswith(("HBK_", "PoolSun")) for light in bpy.data.lights)
 
@@ -85,12 +97,15 @@ sn.write_flakes, sn.snow.contact_mode = True, "BOX"
 bake(rock, "snow")
 flakes = bpy.data.objects["HBK_Rock_flakes"]
 flakes.name = "MyFlakes"
+rock.modifiers["HBK Snow Box"].name = "Box"  # (BOX mode's)
 sn.cache_dir = os.path.join(in_blender.args()[0], "elsewhere", "")  # another folder
 bake(rock, "snow")
 shown = [o for o in bpy.data.objects if o.get("hydrobake_sequence")]
 assert [o.name for o in shown] == ["MyFlakes"], [o.name for o in shown]
 assert "elsewhere" in shown[0]["hydrobake_sequence"], shown[0]["hydrobake_sequence"]
+assert [m.type for m in rock.modifiers] == ["NODES"], rock.modifiers[:]
 free("Rock", "snow")
+assert not rock.modifiers, rock.modifiers[:]
 assert not [o.name for o in bpy.data.objects if o.type == "MESH" and o.name != "Floor"
             and o.name != "Rock"]
 

@@ -477,15 +477,17 @@ class CausticsBlender(BlenderEffect):
         frame.scale = (w / 2, h / 2, 1.0)
         frame.empty_display_type, frame.hide_render = "PLAIN_AXES", True
         frame.hide_viewport = True
-        tex = bpy.data.textures.get(f"HBK_{obj.name}_height") or bpy.data.textures.new(
-            f"HBK_{obj.name}_height", "IMAGE")
+        sub, disp = cls._modifiers(obj, obj.name)
+        tex = (disp.texture if disp is not None and disp.texture is not None and
+               disp.texture.type == "IMAGE" else None) or \
+            bpy.data.textures.get(f"HBK_{obj.name}_height") or \
+            bpy.data.textures.new(f"HBK_{obj.name}_height", "IMAGE")
         tex.image = images.load_sequence(folder, "height", frames[0], len(frames),
                                          name=f"HBK_{obj.name}_height")
         tex.extension = "EXTEND"
         tex.use_clamp = False  # heights below the level are negative: the water goes down too
         images.configure_user(tex.image_user, frames[0], len(frames))
-        sub = obj.modifiers.get("HBK Subdivision") or obj.modifiers.new("HBK Subdivision",
-                                                                        "SUBSURF")
+        sub = sub or obj.modifiers.new("HBK Subdivision", "SUBSURF")
         sub.subdivision_type = "SIMPLE"
         # Enough levels for about a face per grid cell from the faces the mesh already has
         # (each level makes four of one): a dense mesh subdivided as a plane was tens of
@@ -493,7 +495,7 @@ class CausticsBlender(BlenderEffect):
         need = shape[0] * shape[1] / max(len(mesh.polygons), 1)
         sub.levels = sub.render_levels = min(6, max(0, int(np.ceil(np.log(max(need, 1.0)) /
                                                                   np.log(4.0)))))
-        disp = obj.modifiers.get("HBK Displace") or obj.modifiers.new("HBK Displace", "DISPLACE")
+        disp = disp or obj.modifiers.new("HBK Displace", "DISPLACE")
         disp.texture = tex
         disp.texture_coords = "OBJECT"
         disp.texture_coords_object = frame
@@ -564,20 +566,48 @@ class CausticsBlender(BlenderEffect):
         tree.links.new(tex.outputs["Color"], emit.inputs["Color"])
 
     @staticmethod
-    def _remove_modifiers(obj):
-        for name in ("HBK Displace", "HBK Subdivision"):
-            mod = obj.modifiers.get(name)
+    def _modifiers(obj, pool):
+        """(Subdivision, Displace) apply gave the pool baked as ``pool``, or None each: by
+        their names, else (renamed by the artist) the Displace reading the pool's heights or
+        grid and the simple Subdivision just before it. Not found, a re-bake would add a
+        second pair: the water subdivided twice over, and displaced twice."""
+        mods = list(obj.modifiers)
+        disp = obj.modifiers.get("HBK Displace")
+        if disp is None:
+            grids = helper_objects.every("caustics", pool, "grid", "EMPTY")
+            disp = next((m for m in mods if m.type == "DISPLACE" and (
+                (m.texture is not None and m.texture.name == f"HBK_{pool}_height") or
+                (m.texture_coords_object is not None and m.texture_coords_object in grids))),
+                None)
+        sub = obj.modifiers.get("HBK Subdivision")
+        if sub is None and disp is not None and mods.index(disp) > 0:
+            before = mods[mods.index(disp) - 1]
+            if before.type == "SUBSURF" and before.subdivision_type == "SIMPLE":
+                sub = before
+        return sub, disp
+
+    @classmethod
+    def _remove_modifiers(cls, obj, pool):
+        """Takes the pair out; returns the Displace's texture (_undisplace removes it once
+        unused)."""
+        sub, disp = cls._modifiers(obj, pool)
+        tex = disp.texture if disp is not None else None
+        for mod in (disp, sub):
             if mod is not None:
                 obj.modifiers.remove(mod)
+        return tex
 
     @classmethod
     def _undisplace(cls, obj, pool):
         """The Subdivision and Displace modifiers, and the height texture and grid Empty of
         the pool baked as ``pool`` once nothing uses them."""
-        cls._remove_modifiers(obj)
-        height = bpy.data.textures.get(f"HBK_{pool}_height")
-        if height is not None and height.users == 0:
-            bpy.data.textures.remove(height)
+        tex = cls._remove_modifiers(obj, pool)
+        image = getattr(tex, "image", None)
+        if image is None or not image.name.startswith("HBK_"):
+            tex = None  # (the artist's, given to the Displace since)
+        for height in {tex, bpy.data.textures.get(f"HBK_{pool}_height")} - {None}:
+            if height.users == 0:
+                bpy.data.textures.remove(height)
         for grid in helper_objects.every("caustics", pool, "grid", "EMPTY"):
             if not any(m.type == "DISPLACE" and m.texture_coords_object == grid
                        for o in bpy.data.objects for m in o.modifiers):
@@ -585,7 +615,7 @@ class CausticsBlender(BlenderEffect):
 
     @classmethod
     def let_go(cls, context, obj, settings, keep):
-        cls._remove_modifiers(obj)
+        cls._remove_modifiers(obj, cls.baked_name(obj, settings))
         for mat in cls.slot_materials(obj, settings) - set(keep):
             if mat.node_tree:
                 materials.remove_tagged(mat.node_tree, "caustics.")
@@ -689,8 +719,8 @@ class CausticsBlender(BlenderEffect):
     def remove(cls, context, obj, settings):
         pool = cls.baked_name(obj, settings)
         prefix = f"HBK_{pool}"
+        cls._undisplace(obj, pool)  # (first: a renamed Displace is known by the grid)
         cls._remove_helpers(pool)
-        cls._undisplace(obj, pool)
         if obj.type == "MESH" and obj.data.uv_layers.get("HBK_UV"):  # from older bakes
             obj.data.uv_layers.remove(obj.data.uv_layers["HBK_UV"])
         # The water's wiring wherever it is: in the pool's slots, and in materials taken out

@@ -470,7 +470,7 @@ class SnowBlender(BlenderEffect):
             name, "GeometryNodeTree")
         _box_nodes(group, cls.BOX_ATTR, m, normal_matrix, lo, inv_size, (w // 3) / w,
                    (h // 2) / h)
-        mod = obj.modifiers.get(cls.BOX_MODIFIER)  # an earlier bake's (it moves no vertex)
+        mod = cls._box_modifier(obj)  # an earlier bake's (it moves no vertex)
         if mod is not None and obj.modifiers[-1] != mod:  # after modifiers added since
             obj.modifiers.remove(mod)
             mod = None
@@ -482,10 +482,19 @@ class SnowBlender(BlenderEffect):
         return cls.BOX_ATTR
 
     @classmethod
+    def _box_modifier(cls, obj):
+        """BOX mode's modifier, by its name, else (renamed by the artist) by its node group:
+        a re-bake would add a second, and Free leave the first."""
+        return obj.modifiers.get(cls.BOX_MODIFIER) or next((
+            m for m in obj.modifiers if m.type == "NODES" and m.node_group is not None and
+            m.node_group.name.startswith("HBK_") and m.node_group.name.endswith("_SnowBox")),
+            None)
+
+    @classmethod
     def _remove_box(cls, obj):
         """Takes out BOX mode's modifier and node group (and the UV map earlier versions
         made)."""
-        mod = obj.modifiers.get(cls.BOX_MODIFIER)
+        mod = cls._box_modifier(obj)
         if mod is not None:
             group = mod.node_group
             obj.modifiers.remove(mod)
