@@ -113,6 +113,12 @@ def test_copied_records_and_taken_names_leave_the_owners_bake_whole(blender, tmp
     assert "COPIED AND RENAMED OK" in r.stdout
 
 
+def test_a_clean_copy_waits_for_the_shared_materials_other_wiring_whichever_free_comes_first(
+        blender, tmp_path):
+    r = blender.run("copy_waits_any_effect.py", tmp_path)
+    assert "COPY WAITS OK" in r.stdout
+
+
 def test_renamed_helper_objects_are_updated_by_a_rebake_and_taken_out_by_free(blender, tmp_path):
     r = blender.run("renamed_helpers.py", tmp_path)
     assert "RENAMED HELPERS OK" in r.stdout

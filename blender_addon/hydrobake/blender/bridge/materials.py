@@ -153,6 +153,12 @@ def _has_wiring(mat):
     return bool(mat.node_tree) and any(n.get(TAG) for n in mat.node_tree.nodes)
 
 
+def _wiring(mat):
+    """The material's Hydrobake nodes, as (role, owner, image) each."""
+    return {(n[TAG], n.get(OWNER), getattr(getattr(n, "image", None), "name", None))
+            for n in (mat.node_tree.nodes if mat.node_tree else ()) if n.get(TAG)}
+
+
 def give_back(obj, mat, prefix, deleted=False):
     """Free Bake's undo of set_inputs for the effect (role ``prefix``), once none of its
     nodes is left in ``mat`` (one of ``obj``'s, or None); and, once no Hydrobake node of any
@@ -900,6 +906,11 @@ def _put_shared_back(slot, prefix, obj):
     if shared is None or (shared.node_tree and any(
             str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
         return  # another object's bake of the effect in the shared one
+    if _wiring(shared) - _wiring(mat):
+        # ... or of another effect, which the copy does not show: it waits for that one's
+        # Free, not the next Free of any effect (a pool's floor nodes in a pool's shared
+        # water material went on show with a snow object's bake: monkey --renames 2).
+        return
     # Another effect's bake still in the copy waits for its own Free, unless the copy only
     # took it along from the shared one: a bake of an object deleted while baked, whose Free
     # never comes (every flag + --scene --external --relations 756). The shared one goes
