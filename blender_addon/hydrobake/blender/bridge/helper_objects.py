@@ -23,18 +23,18 @@ def _named(name, role, kind):
         else None
 
 
-def find(effect, name, role, kind):
-    """The helper (an object of type ``kind``): by the name apply gave it, else (renamed
-    since) by its tag; or None."""
-    return _named(name, role, kind) or next(iter(_tagged(effect, name, role, kind)), None)
-
-
 def every(effect, name, role, kind):
-    """The helper under its own name and every object tagged as it (renamed; a Shift+D copy
-    of it shows the same bake, and goes with it)."""
+    """The helper (objects of type ``kind``) under the name apply gave it, then every object
+    tagged as it (renamed since; a Shift+D copy of it shows the same bake, and goes with
+    it)."""
     named = _named(name, role, kind)
     found = [named] if named is not None else []
     return found + [o for o in _tagged(effect, name, role, kind) if o not in found]
+
+
+def find(effect, name, role, kind):
+    """The helper: by its name, else by its tag (every's first); or None."""
+    return next(iter(every(effect, name, role, kind)), None)
 
 
 def owners(effect, roles):
