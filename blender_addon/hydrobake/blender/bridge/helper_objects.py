@@ -1,7 +1,8 @@
 """Objects a bake adds beside its object (a pool's projector and grid Empty, the falling
-flakes, a fluid's surface and Volume), named ``HBK_<baked name>_<role>``. The artist may rename them (the projector is a
-light in the Outliner like any other), so each also carries its owner in a property: a
-re-bake updates the renamed one instead of adding a second, and Free Bake finds it."""
+flakes, a fluid's surface and Volume), named ``HBK_<baked name>_<role>``. The artist may
+rename them (the projector is a light in the Outliner like any other), so each also carries
+its owner in a property: a re-bake updates the renamed one instead of adding a second, and
+Free Bake finds it."""
 import bpy
 
 TAG = "hydrobake_helper"  # on the object: "<effect>|<baked name>|<role>"
