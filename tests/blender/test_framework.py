@@ -119,6 +119,12 @@ def test_a_clean_copy_waits_for_the_shared_materials_other_wiring_whichever_free
     assert "COPY WAITS OK" in r.stdout
 
 
+def test_a_renamed_objects_waiting_copy_switches_the_link_back_though_its_old_name_is_taken(
+        blender, tmp_path):
+    r = blender.run("renamed_waiting_copy.py", tmp_path)
+    assert "RENAMED WAITING COPY OK" in r.stdout
+
+
 def test_renamed_helper_objects_are_updated_by_a_rebake_and_taken_out_by_free(blender, tmp_path):
     r = blender.run("renamed_helpers.py", tmp_path)
     assert "RENAMED HELPERS OK" in r.stdout

@@ -647,6 +647,7 @@ def restore(obj, prefix, made=None):
         if _copied_again(slot, obj) or _shared_again(mat):
             continue
         _put_shared_back(slot, prefix, obj)
+    _claim_waiting(obj)
     _put_back_hidden(obj)
     if made is not None:
         _let_go_behind(obj, prefix, made)
@@ -661,6 +662,19 @@ def restore(obj, prefix, made=None):
         if mat is not None and (MADE in mat or COPY_OF in mat) and mat.users == 0 and \
                 not _has_wiring(mat) and SAVED not in mat:
             _remove_copy(mat, prefix, obj)
+
+
+def _claim_waiting(obj):
+    """Clean copies left waiting in the object's slots (the shared material shows another
+    bake) that were made for it under a name it has lost (renamed since): they record its
+    name now. The record of the bake that knew the old name goes with this Free, and an
+    object that took the old name would pass for the one the copy was made for, so a later
+    Free left the slot's Link on Object (monkey every flag + all three + --renames 865)."""
+    for slot in obj.material_slots:
+        mat = slot.material
+        if mat is not None and COPY_OF in mat and mat.get(COPY_FOR, obj.name) != obj.name \
+                and _baked_as(obj, mat[COPY_FOR]):
+            mat[COPY_FOR] = obj.name
 
 
 def _put_back_hidden(obj):
@@ -955,10 +969,14 @@ def _for_no_other(obj, mat):
     since: another object may have taken the old name), or for one that is gone. (A Shift+D
     copy holds its original's record, with the original's name: not its own.)"""
     made_for = mat.get(COPY_FOR, "")
-    if made_for == obj.name or bpy.data.objects.get(made_for) is None:
-        return True
+    return made_for == obj.name or bpy.data.objects.get(made_for) is None or \
+        _baked_as(obj, made_for)
+
+
+def _baked_as(obj, name):
+    """Whether ``obj`` holds a bake of its own made under ``name``."""
     from .. import jobs  # (jobs imports the effects, which import this module)
-    return any(getattr(obj, e).get("baked_as") == made_for and
+    return any(getattr(obj, e).get("baked_as") == name and
                jobs.owns_record(obj, e[len("hydrobake_"):]) for e in EFFECT_SETTINGS)
 
 
