@@ -481,7 +481,6 @@ class Monkey:
         self.sources = False  # --sources: an emitter and a liquid, the fluid's source switched
         self.renames = False  # --renames: any object renamed (a pool's ground), not a target's
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
-        self.roots_gone = set()  # shared materials own() copied that left the file since
         self.left_behind = set()  # bake folders of the files saved elsewhere from
         self.snap_objs, self.snap_mats, self.dirty = {}, {}, set()
         self.copies = {}  # copy name -> name of the object it was copied from
@@ -576,9 +575,6 @@ class Monkey:
                                 f"{folder} holds {sorted(os.listdir(folder))} and no object "
                                 "records it")
         self.check_copies()
-        self.roots_gone |= {m["hydrobake_copy_of"] for m in bpy.data.materials
-                            if "hydrobake_copy_of" in m and
-                            m["hydrobake_copy_of"] not in bpy.data.materials}
         dangling = in_blender.dangling_materials(but=self.purged)
         if dangling and not self.known("dangling-material", dangling):
             raise Violation("dangling-material", f"own-material lists (index, slots) "
@@ -810,13 +806,15 @@ class Monkey:
                 if aspect == "slots" and {repr(have["slots"]), repr(have["slots_alt"])} & \
                         {repr(want["slots"]), repr(want["slots_alt"])}:
                     continue
-                # A clean copy whose shared material left the file since the snapshot becomes
-                # that material, named so (materials._shared_again: every flag + --scene
-                # --external --relations 818).
-                if aspect == "slots" and have["slots"] == [
-                        (link, n[:-len(" (a copy)")] if n and n.endswith(" (a copy)") and
-                         n[:-len(" (a copy)")] in self.roots_gone else n)
-                        for link, n in want["slots"]]:
+                # A clean copy in the snapshot (given by the artist while nothing was baked) is
+                # due to go: any Free puts its shared material back in its place (materials.
+                # put_back_others), the object's own too (seed 2 of caustics,snow --more
+                # --renames), or makes it that material, named so, if that left the file
+                # (materials._shared_again: every flag + --scene --external --relations 818).
+                if aspect == "slots" and len(have["slots"]) == len(want["slots"]) and all(
+                        h == w or (w[1] and w[1].endswith(" (a copy)") and
+                                   h == (w[0], w[1][:-len(" (a copy)")]))
+                        for h, w in zip(have["slots"], want["slots"])):
                     continue
                 if aspect == "mesh" and want["mesh"] and have["mesh"] and \
                         stale_mark_gone(have["mesh"], want["mesh"]):
