@@ -125,6 +125,12 @@ def test_a_renamed_objects_waiting_copy_switches_the_link_back_though_its_old_na
     assert "RENAMED WAITING COPY OK" in r.stdout
 
 
+def test_a_bake_through_lagging_slots_leaves_the_meshs_shared_material_untouched(
+        blender, tmp_path):
+    r = blender.run("lagging_slot_nodes.py", tmp_path)
+    assert "LAGGING SLOT NODES OK" in r.stdout
+
+
 def test_renamed_helper_objects_are_updated_by_a_rebake_and_taken_out_by_free(blender, tmp_path):
     r = blender.run("renamed_helpers.py", tmp_path)
     assert "RENAMED HELPERS OK" in r.stdout

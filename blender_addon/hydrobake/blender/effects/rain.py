@@ -205,9 +205,12 @@ class RainBlender(BlenderEffect):
             mod.use_even_offset = True
         # Every material of the glass gets the drops (a frit band is wet too); the glass
         # values go to the glass-like ones (Glass BSDF, or transmission), else to the first.
+        if not any(s.material for s in obj.material_slots):
+            # A new material (Free Bake takes it away), or the mesh's where the object's slots
+            # lag its list: that one may be another object's too, so it goes through own().
+            materials.ensure_material(obj, cls.made_material_name(obj.name), nodes=False)
         mats = [materials.own(obj, i, cls._unwire) for i in range(len(obj.material_slots))]
-        mats = list(dict.fromkeys(m for m in mats if m is not None)) or \
-            [materials.ensure_material(obj, cls.made_material_name(obj.name))]
+        mats = list(dict.fromkeys(m for m in mats if m is not None))
         for mat in mats:
             materials.use_nodes(mat)
         wired = [m for m in mats if cls._shader(m.node_tree) is not None]

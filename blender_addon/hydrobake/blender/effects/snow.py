@@ -520,7 +520,9 @@ class SnowBlender(BlenderEffect):
             cls._remove_box(obj)  # an earlier BOX bake's
         if not obj.material_slots or obj.material_slots[0].material is None:
             # Snow needs a material to be mixed into: a new one (Free Bake takes it away).
-            materials.ensure_material(obj, cls.made_material_name(obj.name))
+            # Its nodes go on below, in the object's own copy: slots lagging the mesh's are
+            # filled from it, and the mesh's material may be another object's too.
+            materials.ensure_material(obj, cls.made_material_name(obj.name), nodes=False)
         for index in range(len(obj.material_slots)):
             mat = obj.material_slots[index].material
             if mat is None or mat.hydrobake_snow.melts or mat.hydrobake_snow.sheds:
