@@ -2,7 +2,7 @@
 and grid Empty, a snow object's falling flakes. A re-bake updates the renamed one (before,
 it added a second projector beside it, lighting the floor twice over), a reopened file still
 knows it, and Free Bake and Remove Deleted Objects' Bakes take it out. So with the modifiers
-a bake adds (a pool's Subdivision and Displace, snow's BOX mode)."""
+a bake adds (a pool's Subdivision and Displace, snow's BOX mode), and a pool's height texture."""
 import os
 
 import bpy
@@ -66,6 +66,13 @@ in_blender.reopen()
 pool, s = bpy.data.objects["Pool"], bpy.data.objects["Pool"].hydrobake_caustics
 bake(pool, "caustics")
 assert of_type("LIGHT") == ["PoolSun"] and of_type("EMPTY") == ["PoolGrid"]
+
+# The grid Empty deleted as well: the renamed Displace is known by its texture's record.
+bpy.data.objects.remove(bpy.data.objects["PoolGrid"])
+bake(pool, "caustics")
+assert [(m.name, m.type) for m in pool.modifiers] == [("Fine", "SUBSURF"),
+                                                      ("Waves", "DISPLACE")], pool.modifiers[:]
+assert of_type("EMPTY") == ["HBK_Pool_grid"], of_type("EMPTY")
 
 # The projector turned off: the renamed one goes.
 s.projector = False

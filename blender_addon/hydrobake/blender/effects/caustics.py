@@ -14,6 +14,15 @@ from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
 from .base import BlenderEffect, offers
 
+HEIGHTS_OF = "hydrobake_heights_of"  # on a pool's height texture: the name it was baked as
+
+
+def _height_textures(pool):
+    """The height textures of the pool baked as ``pool``: by name, or renamed by the artist,
+    by the record apply put on them."""
+    return [t for t in bpy.data.textures
+            if t.name == f"HBK_{pool}_height" or t.get(HEIGHTS_OF) == pool]
+
 
 class Grid(namedtuple("Grid", "origin angle cell shape level")):
     """The water grid: ``origin`` the world (x, y) of its corner, ``angle`` its u axis's
@@ -482,6 +491,7 @@ class CausticsBlender(BlenderEffect):
                disp.texture.type == "IMAGE" else None) or \
             bpy.data.textures.get(f"HBK_{obj.name}_height") or \
             bpy.data.textures.new(f"HBK_{obj.name}_height", "IMAGE")
+        tex[HEIGHTS_OF] = obj.name  # (found by it, renamed, with the grid deleted)
         tex.image = images.load_sequence(folder, "height", frames[0], len(frames),
                                          name=f"HBK_{obj.name}_height")
         tex.extension = "EXTEND"
@@ -575,8 +585,9 @@ class CausticsBlender(BlenderEffect):
         disp = obj.modifiers.get("HBK Displace")
         if disp is None:
             grids = helper_objects.every("caustics", pool, "grid", "EMPTY")
+            heights = _height_textures(pool)
             disp = next((m for m in mods if m.type == "DISPLACE" and (
-                (m.texture is not None and m.texture.name == f"HBK_{pool}_height") or
+                (m.texture is not None and m.texture in heights) or
                 (m.texture_coords_object is not None and m.texture_coords_object in grids))),
                 None)
         sub = obj.modifiers.get("HBK Subdivision")
@@ -605,7 +616,7 @@ class CausticsBlender(BlenderEffect):
         image = getattr(tex, "image", None)
         if image is None or not image.name.startswith("HBK_"):
             tex = None  # (the artist's, given to the Displace since)
-        for height in {tex, bpy.data.textures.get(f"HBK_{pool}_height")} - {None}:
+        for height in {tex, *_height_textures(pool)} - {None}:
             if height.users == 0:
                 bpy.data.textures.remove(height)
         for grid in helper_objects.every("caustics", pool, "grid", "EMPTY"):
@@ -684,9 +695,9 @@ class CausticsBlender(BlenderEffect):
         grid and images."""
         materials.forget(pool, "caustics.", {f"HBK_{pool}_surface"},
                          lambda tree: materials.remove_tagged(tree, "caustics.", owner=None))
-        height = bpy.data.textures.get(f"HBK_{pool}_height")  # the pool's Displace's
-        if height is not None and height.users == 0:
-            bpy.data.textures.remove(height)  # (first: its image goes with the others then)
+        for height in _height_textures(pool):  # the pool's Displace's
+            if height.users == 0:
+                bpy.data.textures.remove(height)  # (first: its image goes with the others)
         cls._forget_floors(pool)
 
     @staticmethod
