@@ -3,7 +3,9 @@ Blender 3.4 resizes only that one), baked: the mesh's material, which the other 
 too, gets neither its nodes switched on nor the bake's wiring; the bake goes into the copy's
 own copy of it, and Free leaves the material as it was. Snow switched the shared material's
 nodes on before copying it, and they stayed on after every Free (monkey every flag + --scene
-2161); rain wired the shared material itself."""
+2161); rain wired the shared material itself. With no material at all, the one a rain bake
+makes goes through own() too, as snow's does: the other object of the mesh, which shows it,
+does not show the glass's drops."""
 import bpy
 
 import in_blender
@@ -69,4 +71,16 @@ def snowy(obj):
 
 case("snow", lambda n: in_blender.new_box(n, (0.5, 0.5, 0.5), (0.0, 0.0, 0.0)), snowy)
 case("rain", in_blender.uv_plane, in_blender.rain_once)
+in_blender.empty_file("made_shared.blend")
+glass = in_blender.uv_plane("Glass")
+twin = in_blender.duplicate(glass, linked=True)
+in_blender.rain_once(glass)
+run("bake", glass, "rain")
+made = twin.material_slots[0].material
+assert made is not None and "hydrobake_made" in made, made
+assert not any(n.get("hydrobake") for n in made.node_tree.nodes) if made.node_tree else True
+assert glass.material_slots[0].material.get("hydrobake_copy_of") == made.name
+run("free_bake", glass, "rain")
+assert not glass.data.materials and not twin.material_slots, glass.data.materials[:]
+assert not [m.name for m in bpy.data.materials if m.name.startswith("HBK_")]
 print("LAGGING SLOT NODES OK")
