@@ -755,9 +755,13 @@ class Monkey:
                     raise Violation("wiring-left", f"material {m.name!r} still has Hydrobake "
                                                    f"nodes {tagged} with nothing baked")
         for coll, what in ((bpy.data.materials, "material"), (bpy.data.images, "image"),
-                           (bpy.data.objects, "object")):
+                           (bpy.data.objects, "object"), (bpy.data.textures, "texture")):
             left = [(b.name, b.users) for b in coll if (
                 made_name(b.name) if what == "object" else b.name).startswith("HBK")]
+            if what == "texture":  # a pool's height texture, by the name it was baked as
+                left = [(f"HBK_{t['hydrobake_heights_of']}_height"
+                         if "hydrobake_heights_of" in t else name, users)
+                        for name, users in left for t in [bpy.data.textures[name]]]
             if what == "material":  # by design: fluid's Free keeps its textured materials
                 # unused, so that a re-bake in the session takes up the artist's edits
                 left = [x for x in left if not (x[0].endswith(("_textured", "_volume")) and
@@ -1058,6 +1062,13 @@ class Monkey:
         self.all_copies |= {moved[n] for n in self.all_copies if n in moved}
         self.copies = {moved.get(k, k): moved.get(v, v) for k, v in self.copies.items()}
         return new
+
+    def do_rename_texture(self, name, new):
+        tex = bpy.data.textures.get(name)
+        if tex is None:
+            raise Skip(f"no texture {name}")
+        tex.name = new
+        return tex.name
 
     def do_rename_modifier(self, name, modifier, new):
         mod = self.obj(name).modifiers.get(modifier)
@@ -1524,7 +1535,8 @@ class Monkey:
         if self.scene_ops:
             ops += [("fps", 2), ("scene_range", 4)]
         if self.renames:
-            ops += [("rename_any", 4), ("rename_helper", 3), ("rename_modifier", 2)]
+            ops += [("rename_any", 4), ("rename_helper", 3), ("rename_modifier", 2),
+                    ("rename_texture", 2)]
         op = rng.choices([o for o, _ in ops], [w for _, w in ops])[0]
         if op == "link_copy":
             return [{"op": "copy", "name": name, "linked": True},
@@ -1571,6 +1583,13 @@ class Monkey:
             self.counter += 1
             who, mod = rng.choice(mods)
             return [{"op": op, "name": who, "modifier": mod, "new": f"HBKm{self.counter}"}]
+        if op == "rename_texture":  # a pool's height texture (to HBKt<n>: still seen)
+            texs = sorted(t.name for t in bpy.data.textures if t.library is None and
+                          t.name.startswith("HBK"))
+            if not texs:
+                return [{"op": "save"}]
+            self.counter += 1
+            return [{"op": op, "name": rng.choice(texs), "new": f"HBKt{self.counter}"}]
         if op == "rename_helper":  # a bake's projector, grid, flakes or fluid surface
             helpers = sorted(o.name for o in bpy.data.objects if o.library is None and
                              made_name(o.name).startswith("HBK_"))
