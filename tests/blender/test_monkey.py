@@ -222,7 +222,11 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # Alt+D copy whose slots lagged its mesh's (Remove Unused Slots through the other) switched
 # the mesh's material's nodes on before copying it, and they stayed on after every Free
 # (every flag + --scene 2161, 867 steps; fails with the addon of 45f164a;
-# lagging_slot_nodes.py is the short case).
+# lagging_slot_nodes.py is the short case). copy_shared_height: a displaced pool's Shift+D
+# copy, baked, put its heights into the texture its Displace shared with the original's; the
+# original's water moved with the copy's waves and read freed files after the copy's Free
+# (--scene --external 1031, 293 steps; fails with the addon of 45f164a; copied_and_renamed.py
+# is the short case).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
@@ -235,7 +239,7 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
                                   "live_copy_wiring_kept", "renamed_ground",
                                   "copy_root_gone", "renamed_helpers",
                                   "link_left_object", "given_copy_back",
-                                  "nodes_off_copy_chain"))
+                                  "nodes_off_copy_chain", "copy_shared_height"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

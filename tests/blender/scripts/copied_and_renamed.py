@@ -197,4 +197,21 @@ for name in ("Deep", twin.name):
 left = [b.name for blocks in (bpy.data.objects, bpy.data.textures, bpy.data.images,
                               bpy.data.lights) for b in blocks if b.name.startswith("HBK_Deep")]
 assert not left, left
+# Copied again and the copy baked with its Displace: the copy's heights go into a texture of
+# its own. The Displace copied with the object shared the original's texture, and the copy's
+# bake put its own heights there: the original's water moved with the copy's waves, and once
+# the copy was freed it read files that were gone (monkey --scene --external 1031).
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Deep") == {"FINISHED"}
+twin = in_blender.duplicate(deep)
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name=twin.name) == {"FINISHED"}
+mine, theirs = deep.modifiers["HBK Displace"].texture, twin.modifiers["HBK Displace"].texture
+assert mine != theirs and mine.image.name == "HBK_Deep_height", (mine, theirs, mine.image)
+assert theirs.image.name == f"HBK_{twin.name}_height", theirs.image
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=twin.name) == {"FINISHED"}
+assert mine.image.name == "HBK_Deep_height" and os.path.exists(
+    bpy.path.abspath(mine.image.filepath)), mine.image.filepath
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Deep") == {"FINISHED"}
+left = [b.name for blocks in (bpy.data.objects, bpy.data.textures, bpy.data.images,
+                              bpy.data.lights) for b in blocks if b.name.startswith("HBK_Deep")]
+assert not left, left
 print("COPIED AND RENAMED OK")

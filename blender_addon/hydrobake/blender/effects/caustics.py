@@ -487,8 +487,11 @@ class CausticsBlender(BlenderEffect):
         frame.empty_display_type, frame.hide_render = "PLAIN_AXES", True
         frame.hide_viewport = True
         sub, disp = cls._modifiers(obj, obj.name)
+        # The Displace's texture (renamed, maybe), unless another modifier reads it too: a
+        # Shift+D copy's Displace shares the original's, whose water would move with the
+        # copy's waves (monkey --scene --external 1031).
         tex = (disp.texture if disp is not None and disp.texture is not None and
-               disp.texture.type == "IMAGE" else None) or \
+               disp.texture.type == "IMAGE" and disp.texture.users == 1 else None) or \
             bpy.data.textures.get(f"HBK_{obj.name}_height") or \
             bpy.data.textures.new(f"HBK_{obj.name}_height", "IMAGE")
         tex[HEIGHTS_OF] = obj.name  # (found by it, renamed, with the grid deleted)
