@@ -1,11 +1,11 @@
-"""An Alt+D copy whose slots lag behind its mesh's (a slot added through the other object:
-Blender 3.4 resizes only that one), baked: the mesh's material, which the other object shows
-too, gets neither its nodes switched on nor the bake's wiring; the bake goes into the copy's
-own copy of it, and Free leaves the material as it was. Snow switched the shared material's
-nodes on before copying it, and they stayed on after every Free (monkey every flag + --scene
-2161); rain wired the shared material itself. With no material at all, the one a rain bake
-makes goes through own() too, as snow's does: the other object of the mesh, which shows it,
-does not show the glass's drops."""
+"""An Alt+D copy whose slots lag behind its mesh's (slots added and removed through the other
+object: Blender 3.4 resizes only that one there), baked: the mesh's material, which the other
+object shows too, gets neither its nodes switched on nor the bake's wiring; the bake goes into
+the copy's own copy of it, and Free leaves the material as it was. Snow switched the shared
+material's nodes on before copying it, and they stayed on after every Free (monkey every flag
++ --scene 2161); rain wired the shared material itself. With no material at all, the one a
+rain bake makes goes through own() too, as snow's does: the other object of the mesh, which
+shows it, does not show the glass's drops."""
 import bpy
 
 import in_blender
@@ -44,7 +44,8 @@ def lagging_pair(name, make):
 
 def state(mat):
     # (the addon's settings on every material, made when first read, are no record)
-    return mat.use_nodes, sorted(k for k in mat.keys() if k not in type(mat).bl_rna.properties), \
+    keys = sorted(k for k in mat.keys() if k not in type(mat).bl_rna.properties)
+    return mat.use_nodes, keys, \
         [n.name for n in mat.node_tree.nodes if n.get("hydrobake")] if mat.node_tree else []
 
 
