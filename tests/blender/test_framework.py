@@ -197,3 +197,8 @@ def test_linked_objects_and_overrides_are_baked_in_their_library(blender, tmp_pa
 def test_a_bake_another_file_made_in_the_folder_is_left_to_it(blender, tmp_path):
     r = blender.run("other_files_bakes.py", tmp_path)
     assert "OTHER FILES BAKES OK" in r.stdout
+
+
+def test_resume_refuses_a_scene_changed_under_its_kept_frames(blender, tmp_path):
+    r = blender.run("resume_changed_scene.py", tmp_path)
+    assert "RESUME CHANGED SCENE OK" in r.stdout

@@ -10,6 +10,7 @@ at 25 fps), so the simulated velocity is v_manta * cell size * 2.5 m/s. A domain
 slows the simulation: a frame then spans time_scale / fps simulated seconds, so the velocity
 that moves the textures by the liquid's own motion per frame is that times time_scale.
 """
+import hashlib
 import os
 
 import numpy as np
@@ -153,6 +154,23 @@ class CacheSource:
 
     def __contains__(self, frame):
         return int(frame) in self.frames
+
+    def digest(self, frame):
+        """A short SHA-256 of what frame's grids are made from: its cache file's bytes (not
+        the grids, which take far longer to make), the surface's crossings and the domain's
+        placement."""
+        h = hashlib.sha256()
+        try:
+            with open(data_path(self.cache_dir, frame), "rb") as f:
+                for block in iter(lambda: f.read(1 << 20), b""):
+                    h.update(block)
+        except OSError:
+            h.update(b"missing")  # (the step says what is wrong)
+        surf = self.surfaces.get(int(frame))
+        for a in tuple(surf or ()) + (self.domain[0], self.domain[1], self.matrix,
+                                      np.float64(self.time_scale)):
+            h.update(b"none" if a is None else np.ascontiguousarray(a).tobytes())
+        return h.hexdigest()[:16]
 
     def __getitem__(self, frame):
         if frame not in self:

@@ -372,7 +372,19 @@ def _manifest_problem(m):
                 _stream_of(entry["file"]) != "checkpoint" or \
                 not isinstance(entry.get("sha256"), str):
             return f"checkpoint {frame!r}: not a checkpoint of the bake"
+    scene = m.get("scene", {})
+    if not _digests(scene):
+        return "scene: not a list of digests"
+    made_from = m.get("frame_inputs", {})
+    if not isinstance(made_from, dict) or not all(
+            _number(f) and _digests(d) for f, d in made_from.items()):
+        return "frame_inputs: not a list of digests per frame"
     return ""
+
+
+def _digests(d):
+    """Whether ``d`` is a manifest's {name: digest} (what the scene gave the bake)."""
+    return isinstance(d, dict) and all(isinstance(v, str) for v in d.values())
 
 
 def _names(manifest):

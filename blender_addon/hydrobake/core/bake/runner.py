@@ -123,6 +123,7 @@ class BakeRunner:
             raise errors.InvalidArgument(f"checkpoint_every = {checkpoint_every}: must be >= 1")
         self.checkpoint_every = checkpoint_every
         self.resumed_from = None   # frame whose checkpoint a resume started from
+        self._made_from = {}       # frame -> its frame_inputs, until the frame is recorded
         self._progress = _lib.Progress()
         self._cancel = threading.Event()
         self._thread = None
@@ -193,6 +194,7 @@ class BakeRunner:
         return dict(self.header, effect=self.effect.name, streams=list(self.effect.streams),
                     frame_start=s.frame_start, frame_end=s.frame_end,
                     params=self.effect.params_dict(), inputs=self.effect.scalar_inputs(),
+                    scene=self.effect.scene_inputs(), frame_inputs={},
                     seed=self.effect.seed, hydrobake=_lib.version)
 
     def _resume_point(self, header):
@@ -214,6 +216,8 @@ class BakeRunner:
                 raise errors.StateError(
                     f"cannot resume the bake in {self.cache.folder}: {diff}; free it or bake "
                     "anew")
+        if "scene" in m:  # (absent: a bake from before they were recorded)
+            self._same_scene(m["scene"], _normal(header["scene"]), "")
         beyond = sorted(int(f) for f in m["frames"] if int(f) > s.frame_end)
         if beyond:  # a resume continues a bake; shortening one would drop good frames
             raise errors.StateError(
@@ -226,16 +230,19 @@ class BakeRunner:
         while str(last + 1) in m["frames"] and last + 1 not in bad and last + 1 <= s.frame_end:
             last += 1
         if m.get("complete") and last == s.frame_end:  # nothing left to do
+            self._same_frames(m, last)
             self.resumed_from = last
             return m, last + 1
         stateless = self.effect.save_state() is None
         if stateless:
             start_at = last
+            self._same_frames(m, start_at)
         else:
             good = [int(f) for f, c in m.get("checkpoints", {}).items()
                     if int(f) <= last and self.cache.check_file(c["file"], c["sha256"])]
             start_at = max(good, default=s.frame_start - 1)
             if start_at >= s.frame_start:
+                self._same_frames(m, start_at)
                 with open(self.cache.path(m["checkpoints"][str(start_at)]["file"]), "rb") as f:
                     self.effect.load_state(f.read())
         if start_at < s.frame_start:
@@ -243,11 +250,34 @@ class BakeRunner:
         m["frames"] = {f: v for f, v in m["frames"].items() if int(f) <= start_at}
         m["checkpoints"] = {f: v for f, v in m.get("checkpoints", {}).items()
                             if int(f) <= start_at}
+        if "frame_inputs" in m:
+            m["frame_inputs"] = {f: v for f, v in m["frame_inputs"].items()
+                                 if int(f) <= start_at}
         m.update(frame_end=s.frame_end, complete=False)
         self.cache.write_manifest(m)
         self.cache.remove_unlisted_checkpoints(m)
         self.resumed_from = start_at
         return m, start_at + 1
+
+    def _same_scene(self, there, here, where):
+        """Refuses the resume where the recorded digests ``there`` of the scene's inputs (at
+        frame ``where``, "" for the whole bake) differ from this run's ``here``."""
+        for name in sorted(set(there) | set(here)):
+            if there.get(name) != here.get(name):
+                how = ("new" if name not in there else "gone" if name not in here else
+                       "changed")
+                raise errors.StateError(
+                    f"cannot resume the bake in {self.cache.folder}: {name}{where}: {how} "
+                    "since the bake; free it or bake anew")
+
+    def _same_frames(self, manifest, last):
+        """Refuses the resume where what the scene's animation gave a frame up to ``last``
+        (the frames the resume keeps) is not what that frame was baked from."""
+        if "frame_inputs" not in manifest:  # a bake from before they were recorded
+            return
+        for frame in range(self.state.frame_start, last + 1):
+            self._same_scene(manifest["frame_inputs"].get(str(frame), {}),
+                             _normal(self.effect.frame_inputs(frame)), f" at frame {frame}")
 
     def _checkpoint(self, frame, state=None):
         """Writes the simulation state after ``frame`` (``state``, or the effect's now);
@@ -350,6 +380,7 @@ class BakeRunner:
                 self.effect.step(frame, self._progress)
                 if self._cancel.is_set():  # the step may have finished just as cancel came
                     raise errors.Cancelled("bake cancelled")
+                self._made_from[frame] = _normal(self.effect.frame_inputs(frame))
                 due = self._due(frame)
                 outputs = self.effect.outputs(frame)
                 # The state of this frame, taken now: the next step changes it.
@@ -391,6 +422,9 @@ class BakeRunner:
         """Records frame's files (if any) and checkpoint (if any) in the manifest, then
         removes the checkpoints the new one supersedes."""
         gone = self._keep(manifest, frame, entry)
+        made_from = self._made_from.pop(frame, None)
+        if made_from and "frame_inputs" in manifest:  # (absent: resuming an older bake)
+            manifest["frame_inputs"][str(frame)] = made_from
         if files:
             self.cache.add_frame(manifest, frame, files)
         else:

@@ -35,7 +35,7 @@ import numpy as np
 from .. import caustics, errors, image
 from ..water import Water
 from . import register
-from .base import Effect, plain
+from .base import Effect, digest, plain
 
 
 @register
@@ -98,6 +98,25 @@ class CausticsEffect(Effect):
             "heading": float(self.view.get("heading", 0.0))}
         return plain({"map_size": self.map_size, "level": self.level, "loop": self.loop,
                       "view": view})
+
+    def scene_inputs(self):
+        """The ground's heights, the sources, the preview's ground colour and sky, and what
+        floating objects press into a loop's pre-roll."""
+        out = {"ground": digest(self.ground)}
+        if self.inputs.get("sources") is not None:
+            out["sources"] = digest(self.inputs["sources"])
+        if self.view is not None:
+            out["view texture"] = digest(self.view["texture"])
+            out["view sky"] = digest(self.view.get("environment"))
+        if self.loop is not None and self.footprints:  # (the pre-roll is in the checkpoint)
+            first, _, blend = self.loop
+            out["pre-roll footprints"] = digest(*(self.footprints.get(f)
+                                                  for f in range(first - blend, first)))
+        return out
+
+    def frame_inputs(self, frame):
+        """What floating objects press into the water at ``frame``."""
+        return {"footprint": digest(self.footprints.get(frame))}
 
     def step(self, frame, progress):
         if self.loop is not None and self.preroll is None:

@@ -29,7 +29,6 @@ Streams per frame:
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
                       uvw_weight, and sample_k (RGB) for each voxel texture k
 """
-import hashlib
 import os
 
 import numpy as np
@@ -37,21 +36,7 @@ import numpy as np
 from .. import arrays, solid_textures
 from ..fluid import Fluid
 from . import register
-from .base import Effect, plain
-
-
-def _digest(*arrays):
-    """A short SHA-256 of float32 arrays (None counts as none): what a manifest records of
-    an input too large to list."""
-    h = hashlib.sha256()
-    for a in arrays:
-        if a is None:
-            h.update(b"none")
-        else:
-            a = np.ascontiguousarray(a, np.float32)
-            h.update(repr(a.shape).encode())
-            h.update(a.tobytes())
-    return h.hexdigest()[:16]
+from .base import Effect, digest as _digest, plain
 
 
 @register
@@ -115,6 +100,14 @@ class FluidEffect(Effect):
             out["voxel_textures"] = {int(k): _digest(tex)
                                      for k, tex in sorted(self.voxel_textures.items())}
         return plain(out)
+
+    def frame_inputs(self, frame):
+        """The particles (PARTICLES) or the velocity cache (VELOCITY_GRID) set at ``frame``."""
+        source = getattr(self.velocity, "digest", None)  # (a cache: its file's bytes)
+        if source is not None:
+            return {"particles": _digest(None), "velocity": source(frame)}
+        return {"particles": _digest(*self.particles.get(frame, (None, None))),
+                "velocity": _digest(*self.velocity.get(frame, (None, None)))}
 
     def step(self, frame, progress):
         if frame in self.particles:

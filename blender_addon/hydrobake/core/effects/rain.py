@@ -23,7 +23,7 @@ import numpy as np
 from .. import errors, image
 from ..rain import Rain, refraction
 from . import register
-from .base import Effect, plain
+from .base import Effect, digest, plain
 
 
 @register
@@ -61,6 +61,20 @@ class RainEffect(Effect):
     def scalar_inputs(self):
         """Frames per second and substeps: together the time step."""
         return plain({"fps": self.fps, "substeps": self.substeps})
+
+    def scene_inputs(self):
+        """The glass's shape and slope (from the mesh) and the preview's background."""
+        inp = self.inputs
+        out = {}
+        if inp.get("gravity_dir") is not None or inp.get("mask") is not None:
+            out["glass"] = digest(inp.get("gravity_dir"), inp.get("mask"))
+        if self.background is not None:
+            out["background"] = digest(self.background)
+        return out
+
+    def frame_inputs(self, frame):
+        """The wipers' angles and the car's speed set at ``frame``."""
+        return {"wipers": digest(self.wipers.get(frame)), "car": digest(self.car.get(frame))}
 
     def step(self, frame, progress):
         if frame in self.car:

@@ -27,7 +27,7 @@ import numpy as np
 from .. import errors
 from ..snow import Snow
 from . import register
-from .base import Effect, plain
+from .base import Effect, digest, plain
 
 
 @register
@@ -57,6 +57,7 @@ class SnowEffect(Effect):
             self.transforms = inp.get("transforms") or {}
             self._keys = sorted(self.transforms)
             self.parts = self._parts(inp.get("part_vertices"))
+            self._placed = {}  # transform's frame -> digest of the vertices it places
             self._set_mesh(None)
         except BaseException:
             self.snow.close()
@@ -70,6 +71,21 @@ class SnowEffect(Effect):
         materials = self.inputs.get("materials") or [(0.0, False, False)]
         return plain({"substeps": self.substeps, "flakes": self.with_flakes,
                       "materials": [[float(c), bool(m), bool(s)] for c, m, s in materials]})
+
+    def scene_inputs(self):
+        """The mesh's triangles, UVs and slots per triangle."""
+        inp = self.inputs
+        return {"mesh": digest(self.triangles, inp.get("uvs"), inp.get("material_index"))}
+
+    def frame_inputs(self, frame):
+        """Where the mesh's vertices are at ``frame`` (moved by the latest transform given up
+        to it, as step sets them): the same for a mesh given in the world as for one given
+        at rest with transforms that put it there (Blender gives those once it moves)."""
+        i = bisect.bisect_right(self._keys, frame)
+        key = self._keys[i - 1] if i else None
+        if key not in self._placed:
+            self._placed[key] = digest(self._positions(key))
+        return {"mesh position": self._placed[key]}
 
     def _parts(self, counts):
         """Vertex ranges [(start, end)] the per-part transforms move; None: one for all."""
@@ -90,8 +106,8 @@ class SnowEffect(Effect):
         ends = np.cumsum(counts)
         return list(zip((ends - counts).tolist(), ends.tolist()))
 
-    def _set_mesh(self, frame):
-        self._mesh_frame = frame  # whose transform the mesh has (None: at rest)
+    def _positions(self, frame):
+        """The vertices moved by the transform given at ``frame`` (None: at rest)."""
         pos = self.positions
         m = self.transforms.get(frame)
         if m is not None:
@@ -102,7 +118,11 @@ class SnowEffect(Effect):
                 pos = np.concatenate([
                     (pos[a:b].astype(np.float64) @ mk[:3, :3].T + mk[:3, 3]).astype(np.float32)
                     for (a, b), mk in zip(self.parts, m)])
-        self.snow.set_mesh(pos, self.triangles, self.inputs.get("uvs"),
+        return pos
+
+    def _set_mesh(self, frame):
+        self._mesh_frame = frame  # whose transform the mesh has (None: at rest)
+        self.snow.set_mesh(self._positions(frame), self.triangles, self.inputs.get("uvs"),
                            self.inputs.get("material_index"))
 
     def step(self, frame, progress):
