@@ -40,7 +40,7 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         name="Resume", default=False,
         description="Continue an interrupted bake from its last good checkpoint (frames that "
                     "fail their checksum are baked again); the result equals an uninterrupted "
-                    "bake")
+                    "bake. Refused if the settings, or the scene up to that checkpoint, changed")
 
     _job = None
     _timer = None
