@@ -71,7 +71,7 @@ def cut(tmp_path):
     run(snow(), folder, cancel_after=5)
     m = BakeCache(folder).read_manifest()
     assert sorted(map(int, m["frames"])) == [1, 2, 3, 4, 5]
-    assert set(m["scene"]) == {"mesh"}
+    assert set(m["scene"]) == {"mesh", "faces' material slots"}
     # Where the mesh is at each frame: at rest at 1 and 2, moved by frame 3's transform after.
     placed = [m["frame_inputs"][str(f)]["mesh position"] for f in (1, 2, 3, 5)]
     assert placed[0] == placed[1] != placed[2] == placed[3]
@@ -98,6 +98,12 @@ def test_a_changed_mesh_is_refused(cut):
                      "material_index": MI, "substeps": 2, "transforms": {3: MOVED},
                      "materials": [(0.4, False, False), (0.0, False, True)]})
     refused(e, cut, "mesh: changed since the bake")  # every face turned over
+    e = get("snow")({"snow": {"flake_count": 3000, "texture_width": 32, "texture_height": 32,
+                              "wind": (1, 0, 0), "flake_radius": 0.01}},
+                    {"positions": POS, "triangles": TRIS, "uvs": UVS, "material_index": 1 - MI,
+                     "substeps": 2, "transforms": {3: MOVED},
+                     "materials": [(0.4, False, False), (0.0, False, True)]})
+    refused(e, cut, "faces' material slots: changed since the bake")  # the roof's and box's
 
 
 def test_a_mesh_that_starts_moving_after_the_kept_frames_resumes(tmp_path):

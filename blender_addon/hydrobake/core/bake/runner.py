@@ -261,8 +261,9 @@ class BakeRunner:
 
     def _same_scene(self, there, here, where):
         """Refuses the resume where the recorded digests ``there`` of the scene's inputs (at
-        frame ``where``, "" for the whole bake) differ from this run's ``here``."""
-        for name in sorted(set(there) | set(here)):
+        frame ``where``, "" for the whole bake) differ from this run's ``here``, naming the
+        first in the effect's order (the mesh before its faces' slots)."""
+        for name in list(here) + sorted(set(there) - set(here)):
             if there.get(name) != here.get(name):
                 how = ("new" if name not in there else "gone" if name not in here else
                        "changed")

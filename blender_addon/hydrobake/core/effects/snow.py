@@ -73,9 +73,10 @@ class SnowEffect(Effect):
                       "materials": [[float(c), bool(m), bool(s)] for c, m, s in materials]})
 
     def scene_inputs(self):
-        """The mesh's triangles, UVs and slots per triangle."""
+        """The mesh's triangles and UVs, and each triangle's material slot."""
         inp = self.inputs
-        return {"mesh": digest(self.triangles, inp.get("uvs"), inp.get("material_index"))}
+        return {"mesh": digest(self.triangles, inp.get("uvs")),
+                "faces' material slots": digest(inp.get("material_index"))}
 
     def frame_inputs(self, frame):
         """Where the mesh's vertices are at ``frame`` (moved by the latest transform given up
