@@ -98,9 +98,9 @@ class Effect:
 
     def frame_inputs(self, frame):
         """{name: digest()} of what the step of ``frame`` takes from the scene's animation
-        (the mesh's transform then, the wipers' angles), {} for none. The runner records them
-        with each frame; a resume refuses to continue from a checkpoint whose frames were made
-        from other ones (frames after it are baked again, from the scene as it is now)."""
+        (where the snow's mesh is then, the wipers' angles), {} for none. The runner records
+        them with each frame; a resume refuses to continue from a checkpoint whose frames were
+        made from other ones (frames after it are baked again, from the scene as it is now)."""
         return {}
 
     def step(self, frame, progress):
