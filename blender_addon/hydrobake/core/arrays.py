@@ -1,6 +1,7 @@
 """numpy arrays <-> C image views, checked before any call so a wrong dtype, shape or layout
 raises instead of corrupting memory."""
 import ctypes
+import hashlib
 
 import numpy as np
 
@@ -58,3 +59,18 @@ def grid_to_xyz(arr, threads=2):
                              nx, ny, nz, comps, args.integer(threads, "threads"),
                              _lib.Message())
     return out
+
+
+def digest(*arrays):
+    """A short SHA-256 of arrays (None counts as none; floats as float32, other numbers as
+    int64): what a manifest records of an input too large to list."""
+    h = hashlib.sha256()
+    for a in arrays:
+        if a is None:
+            h.update(b"none")
+        else:
+            a = np.asarray(a)
+            a = np.ascontiguousarray(a, np.float32 if a.dtype.kind == "f" else np.int64)
+            h.update(repr(a.shape).encode())
+            h.update(a.tobytes())
+    return h.hexdigest()[:16]

@@ -10,12 +10,13 @@ at 25 fps), so the simulated velocity is v_manta * cell size * 2.5 m/s. A domain
 slows the simulation: a frame then spans time_scale / fps simulated seconds, so the velocity
 that moves the textures by the liquid's own motion per frame is that times time_scale.
 """
-import hashlib
 import os
 
 import numpy as np
 
 from . import errors
+from .arrays import digest
+from .bake.cache import file_checksum
 from .vdb import _vdb
 
 SECONDS_PER_MANTA_TIME = 2.5
@@ -159,18 +160,13 @@ class CacheSource:
         """A short SHA-256 of what frame's grids are made from: its cache file's bytes (not
         the grids, which take far longer to make), the surface's crossings and the domain's
         placement."""
-        h = hashlib.sha256()
         try:
-            with open(data_path(self.cache_dir, frame), "rb") as f:
-                for block in iter(lambda: f.read(1 << 20), b""):
-                    h.update(block)
+            data = np.frombuffer(bytes.fromhex(file_checksum(data_path(self.cache_dir, frame))),
+                                 np.uint8)
         except OSError:
-            h.update(b"missing")  # (the step says what is wrong)
-        surf = self.surfaces.get(int(frame))
-        for a in tuple(surf or ()) + (self.domain[0], self.domain[1], self.matrix,
-                                      np.float64(self.time_scale)):
-            h.update(b"none" if a is None else np.ascontiguousarray(a).tobytes())
-        return h.hexdigest()[:16]
+            data = None  # (the step says what is wrong)
+        surf = self.surfaces.get(int(frame)) or ()
+        return digest(data, *surf, *self.domain, self.matrix, self.time_scale)
 
     def __getitem__(self, frame):
         if frame not in self:

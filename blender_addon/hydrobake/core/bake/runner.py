@@ -123,7 +123,6 @@ class BakeRunner:
             raise errors.InvalidArgument(f"checkpoint_every = {checkpoint_every}: must be >= 1")
         self.checkpoint_every = checkpoint_every
         self.resumed_from = None   # frame whose checkpoint a resume started from
-        self._made_from = {}       # frame -> its frame_inputs, until the frame is recorded
         self._progress = _lib.Progress()
         self._cancel = threading.Event()
         self._thread = None
@@ -236,17 +235,16 @@ class BakeRunner:
         stateless = self.effect.save_state() is None
         if stateless:
             start_at = last
-            self._same_frames(m, start_at)
         else:
             good = [int(f) for f, c in m.get("checkpoints", {}).items()
                     if int(f) <= last and self.cache.check_file(c["file"], c["sha256"])]
             start_at = max(good, default=s.frame_start - 1)
-            if start_at >= s.frame_start:
-                self._same_frames(m, start_at)
-                with open(self.cache.path(m["checkpoints"][str(start_at)]["file"]), "rb") as f:
-                    self.effect.load_state(f.read())
+        self._same_frames(m, start_at)  # (before a checkpoint's state is loaded)
         if start_at < s.frame_start:
             return self.cache.start(header), s.frame_start
+        if not stateless:
+            with open(self.cache.path(m["checkpoints"][str(start_at)]["file"]), "rb") as f:
+                self.effect.load_state(f.read())
         m["frames"] = {f: v for f, v in m["frames"].items() if int(f) <= start_at}
         m["checkpoints"] = {f: v for f, v in m.get("checkpoints", {}).items()
                             if int(f) <= start_at}
@@ -381,7 +379,6 @@ class BakeRunner:
                 self.effect.step(frame, self._progress)
                 if self._cancel.is_set():  # the step may have finished just as cancel came
                     raise errors.Cancelled("bake cancelled")
-                self._made_from[frame] = _normal(self.effect.frame_inputs(frame))
                 due = self._due(frame)
                 outputs = self.effect.outputs(frame)
                 # The state of this frame, taken now: the next step changes it.
@@ -423,9 +420,10 @@ class BakeRunner:
         """Records frame's files (if any) and checkpoint (if any) in the manifest, then
         removes the checkpoints the new one supersedes."""
         gone = self._keep(manifest, frame, entry)
-        made_from = self._made_from.pop(frame, None)
-        if made_from and "frame_inputs" in manifest:  # (absent: resuming an older bake)
-            manifest["frame_inputs"][str(frame)] = made_from
+        if files and "frame_inputs" in manifest:  # (absent: resuming an older bake)
+            made_from = _normal(self.effect.frame_inputs(frame))
+            if made_from:
+                manifest["frame_inputs"][str(frame)] = made_from
         if files:
             self.cache.add_frame(manifest, frame, files)
         else:

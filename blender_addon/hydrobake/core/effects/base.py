@@ -2,26 +2,7 @@
 on a C kernel; the Blender side (blender/effects/) feeds it inputs and wires its outputs."""
 
 
-import hashlib
-
-import numpy as np
-
 from .. import errors
-
-
-def digest(*arrays):
-    """A short SHA-256 of arrays (None counts as none; floats as float32, other numbers as
-    int64): what a manifest records of an input too large to list."""
-    h = hashlib.sha256()
-    for a in arrays:
-        if a is None:
-            h.update(b"none")
-        else:
-            a = np.asarray(a)
-            a = np.ascontiguousarray(a, np.float32 if a.dtype.kind == "f" else np.int64)
-            h.update(repr(a.shape).encode())
-            h.update(a.tobytes())
-    return h.hexdigest()[:16]
 
 
 def plain(value):
@@ -90,14 +71,14 @@ class Effect:
         return {}
 
     def scene_inputs(self):
-        """{name: digest()} of the arrays taken from the scene that shape every frame (the
+        """{name: arrays.digest()} of the arrays taken from the scene that shape every frame (the
         snow's mesh, the pool's ground), named for the artist ("mesh"). The runner records
         them in the manifest, and a resume refuses to continue a bake made from others: its
         frames and checkpoint hold the old ones' snow and water."""
         return {}
 
     def frame_inputs(self, frame):
-        """{name: digest()} of what the step of ``frame`` takes from the scene's animation
+        """{name: arrays.digest()} of what the step of ``frame`` takes from the scene's animation
         (where the snow's mesh is then, the wipers' angles), {} for none. The runner records
         them with each frame; a resume refuses to continue from a checkpoint whose frames were
         made from other ones (frames after it are baked again, from the scene as it is now)."""

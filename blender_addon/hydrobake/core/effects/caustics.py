@@ -33,9 +33,10 @@ import struct
 import numpy as np
 
 from .. import caustics, errors, image
+from ..arrays import digest
 from ..water import Water
 from . import register
-from .base import Effect, digest, plain
+from .base import Effect, plain
 
 
 @register

@@ -36,7 +36,7 @@ import numpy as np
 from .. import arrays, solid_textures
 from ..fluid import Fluid
 from . import register
-from .base import Effect, digest as _digest, plain
+from .base import Effect, plain
 
 
 @register
@@ -93,11 +93,11 @@ class FluidEffect(Effect):
                             for f, strokes in sorted(self.paint.items())}
         if self.paint_points:
             out["paint_points"] = {
-                int(f): [[int(t), _digest(pos, cov), float(r), float(fall)]
+                int(f): [[int(t), arrays.digest(pos, cov), float(r), float(fall)]
                          for t, pos, cov, r, fall in strokes]
                 for f, strokes in sorted(self.paint_points.items())}
         if self.voxel_textures:
-            out["voxel_textures"] = {int(k): _digest(tex)
+            out["voxel_textures"] = {int(k): arrays.digest(tex)
                                      for k, tex in sorted(self.voxel_textures.items())}
         return plain(out)
 
@@ -105,9 +105,9 @@ class FluidEffect(Effect):
         """The particles (PARTICLES) or the velocity cache (VELOCITY_GRID) set at ``frame``."""
         source = getattr(self.velocity, "digest", None)  # (a cache: its file's bytes)
         if source is not None:
-            return {"particles": _digest(None), "velocity": source(frame)}
-        return {"particles": _digest(*self.particles.get(frame, (None, None))),
-                "velocity": _digest(*self.velocity.get(frame, (None, None)))}
+            return {"particles": arrays.digest(None), "velocity": source(frame)}
+        return {"particles": arrays.digest(*self.particles.get(frame, (None, None))),
+                "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
 
     def step(self, frame, progress):
         if frame in self.particles:

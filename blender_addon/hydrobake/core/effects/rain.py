@@ -21,9 +21,10 @@ Streams per frame:
 import numpy as np
 
 from .. import errors, image
+from ..arrays import digest
 from ..rain import Rain, refraction
 from . import register
-from .base import Effect, digest, plain
+from .base import Effect, plain
 
 
 @register

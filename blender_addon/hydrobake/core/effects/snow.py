@@ -25,9 +25,10 @@ import bisect
 import numpy as np
 
 from .. import errors
+from ..arrays import digest
 from ..snow import Snow
 from . import register
-from .base import Effect, digest, plain
+from .base import Effect, plain
 
 
 @register
