@@ -202,3 +202,9 @@ def test_a_bake_another_file_made_in_the_folder_is_left_to_it(blender, tmp_path)
 def test_resume_refuses_a_scene_changed_under_its_kept_frames(blender, tmp_path):
     r = blender.run("resume_changed_scene.py", tmp_path)
     assert "RESUME CHANGED SCENE OK" in r.stdout
+
+
+def test_shapes_are_read_at_the_bakes_first_frame(blender, tmp_path):
+    """Fails with the addon of c460edc: a bake pressed on frame 9 read the shapes there."""
+    r = blender.run("first_frame_shapes.py", tmp_path)
+    assert "FIRST FRAME SHAPES OK" in r.stdout

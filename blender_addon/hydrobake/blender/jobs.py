@@ -13,6 +13,7 @@ import bpy
 
 from ..core.bake import BakeRunner, BakeCache
 from . import effects, paths, properties
+from .bridge import animation
 from .effects.base import BakeWarning, unoffered
 
 ACTIVE = {}  # (object name, effect name) -> Job, while running or waiting to be finalized
@@ -232,7 +233,12 @@ class Job:
             if "threads" in spec.by_name:
                 params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
-        with scene_context(context, scene), warnings.catch_warnings(record=True) as caught:
+        # Shapes (a deforming mesh, a ground, a glass) are read at the bake's first frame, not
+        # at whatever frame the scene is on: the same bake whichever frame Bake is pressed on,
+        # and a resume reads what the bake it continues read.
+        self.start = start
+        with scene_context(context, scene), animation.at_frame(scene, start), \
+                warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", BakeWarning)
             params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
         self.warnings = [str(w.message) for w in caught if issubclass(w.category, BakeWarning)]
@@ -325,7 +331,8 @@ class Job:
             superseded_no_more(self.folder, self.effect_name)
             scene = bpy.data.scenes.get(self.scene_name) or context.scene
             try:
-                with scene_context(context, scene):
+                with scene_context(context, scene), animation.at_frame(scene, self.start):
+                    # (wiring measured on the shapes the bake read: a BOX atlas, a pool's grid)
                     self.beffect.apply(context, obj, settings, self.folder, manifest)
             finally:  # recorded as wired, even in part: Free Bake then undoes what was done
                 settings["baked_as"] = obj.name

@@ -1,4 +1,5 @@
 """A scene's animation sampled frame by frame, for the inputs a bake reads per frame."""
+import contextlib
 
 
 def per_frame(scene, first, last, fn):
@@ -13,3 +14,21 @@ def per_frame(scene, first, last, fn):
     finally:
         scene.frame_set(keep)
     return out
+
+
+@contextlib.contextmanager
+def at_frame(scene, frame):
+    """The scene set to ``frame`` for the block (its shapes and places evaluated there), and
+    set back to the frame and subframe it was on afterwards, also when the block raises. A
+    scene already there is not set again: setting a frame evaluates the whole scene, and
+    would undo edits not keyed yet, which a bake on the frame it was pressed on has always
+    read."""
+    keep, sub = scene.frame_current, scene.frame_subframe
+    if keep == frame and sub == 0.0:
+        yield
+        return
+    scene.frame_set(frame)
+    try:
+        yield
+    finally:
+        scene.frame_set(keep, subframe=sub)

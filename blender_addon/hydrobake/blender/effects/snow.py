@@ -1,7 +1,7 @@
-"""Snow in Blender: the object's evaluated mesh (its shape at the current frame, moved by its
-animation over the bake's frames; its active UV map, or in BOX mode a projection of its own)
-is the target; objects in a collider collection shelter it; each material says how well it
-catches snow and whether it melts or sheds flakes. The coverage and depth sequences are
+"""Snow in Blender: the object's evaluated mesh (its shape at the bake's first frame, moved by
+its animation over the bake's frames; its active UV map, or in BOX mode a projection of its
+own) is the target; objects in a collider collection shelter it; each material says how well
+it catches snow and whether it melts or sheds flakes. The coverage and depth sequences are
 mixed into every material of the object non-destructively (Free Bake takes them out
 again)."""
 import math
@@ -388,8 +388,8 @@ class SnowBlender(BlenderEffect):
         tris = np.concatenate([p[1] for p in parts])
         uvs = np.concatenate([p[2] for p in parts])
         mi = np.clip(np.concatenate([p[3] for p in parts]), 0, len(slots) - 1)
-        # Each object's world matrix over the bake's frames, not the frame the scene is on:
-        # the object (and a collider) may move. Shapes are taken at the current frame.
+        # Each object's world matrix over the bake's frames: the object (and a collider) may
+        # move. Shapes are taken at the bake's first frame (the frame the scene is on here).
 
         def matrices(f=None):
             return np.array([np.array(o.matrix_world, np.float64) for o in movers])
@@ -511,11 +511,9 @@ class SnowBlender(BlenderEffect):
         if box:  # the atlas, not the UVs
             # As many blocks as prepare gave slots: at least one, and the colliders' own.
             slots = max(len(obj.material_slots), 1) + (1 if settings.colliders else 0)
-            # The boxes as the bake measured them on its first frame, wherever the object is
-            # now.
-            matrix = animation.per_frame(context.scene, frames[0], frames[0], lambda f:
-                                         np.array(obj.matrix_world, np.float64))[frames[0]]
-            cls._box_projection(context, obj, settings.snow, slots, matrix)
+            # The boxes as the bake measured them: the scene is on its first frame here.
+            cls._box_projection(context, obj, settings.snow, slots,
+                                np.array(obj.matrix_world, np.float64))
         else:
             cls._remove_box(obj)  # an earlier BOX bake's
         if not obj.material_slots or obj.material_slots[0].material is None:
