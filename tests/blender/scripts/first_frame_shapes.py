@@ -67,8 +67,7 @@ def bake_on(current, effect, obj, settings, wiring=lambda: None, resume=False):
     assert bpy.ops.hydrobake.bake(effect=effect, object_name=obj.name,
                                   resume=resume) == {"FINISHED"}
     assert scene.frame_current == current, (effect, scene.frame_current)
-    got = (*frames_of(settings), wiring())
-    return got
+    return (*frames_of(settings), wiring())
 
 
 def free(effect, obj):
@@ -109,10 +108,11 @@ def box_atlas():
     """The BOX atlas coordinates the bake's modifier gives the cube on frame 1."""
     keep = scene.frame_current
     scene.frame_set(1)
-    mesh = cube.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    ev = cube.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = ev.to_mesh()
     uv = np.empty(len(mesh.loops) * 3, np.float32)
     mesh.attributes["HBK_SnowBox"].data.foreach_get("vector", uv)
-    cube.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh_clear()
+    ev.to_mesh_clear()
     scene.frame_set(keep)
     return uv.round(6).tolist()
 
