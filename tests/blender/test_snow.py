@@ -109,3 +109,9 @@ def test_overrides_of_what_auto_volume_sets_are_refused(blender, tmp_path):
                                                       "volume_max": [9, 9, 9]}}}, None),
     ]
     override_cases(blender, os.path.join(ROOT, "examples.blend"), car, cases, tmp_path)
+
+
+def test_snow_follows_a_deforming_mesh_frame_by_frame(blender, tmp_path):
+    """Fails with the addon of 63dbdf7, which moved the first frame's shape rigidly."""
+    r = blender.run("snow_deforming.py", tmp_path)
+    assert "SNOW DEFORMING OK" in r.stdout

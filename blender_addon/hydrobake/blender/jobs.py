@@ -233,9 +233,9 @@ class Job:
             if "threads" in spec.by_name:
                 params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
-        # Shapes (a deforming mesh, a ground, a glass) are read at the bake's first frame, not
-        # at whatever frame the scene is on: the same bake whichever frame Bake is pressed on,
-        # and a resume reads what the bake it continues read.
+        # Shapes (a ground, a glass, the faces of a snowy mesh) are read at the bake's first
+        # frame, not at whatever frame the scene is on: the same bake whichever frame Bake is
+        # pressed on, and a resume reads what the bake it continues read.
         self.start = start
         with scene_context(context, scene), animation.at_frame(scene, start), \
                 warnings.catch_warnings(record=True) as caught:

@@ -1,5 +1,5 @@
-"""Every effect reads the scene's shapes at its bake's first frame, whatever frame the scene is
-on when Bake or Resume is pressed: a cube squashed by an animated shape key (snow, by UV and
+"""Every effect reads the scene's shapes from its bake's frames (the first, or for the snow's
+mesh each), whatever frame the scene is on when Bake or Resume is pressed: a cube squashed by an animated shape key (snow, by UV and
 in BOX mode), a floor that tilts under a pool that slides (caustics), a glass that widens
 (rain) and a water column that moves (fluid) bake the same bytes and wiring from frame 1 and
 from frame 9, and the scene is left on its frame. A snow bake extended by a Resume pressed on

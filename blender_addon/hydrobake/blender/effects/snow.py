@@ -1,10 +1,11 @@
-"""Snow in Blender: the object's evaluated mesh (its shape at the bake's first frame, moved by
-its animation over the bake's frames; its active UV map, or in BOX mode a projection of its
-own) is the target; objects in a collider collection shelter it; each material says how well
-it catches snow and whether it melts or sheds flakes. The coverage and depth sequences are
-mixed into every material of the object non-destructively (Free Bake takes them out
+"""Snow in Blender: the object's evaluated mesh (moved and deformed by its animation over the
+bake's frames, its faces as at the first; its active UV map, or in BOX mode a projection of
+its own) is the target; objects in a collider collection shelter it; each material says how
+well it catches snow and whether it melts or sheds flakes. The coverage and depth sequences
+are mixed into every material of the object non-destructively (Free Bake takes them out
 again)."""
 import math
+import warnings
 
 import bpy
 import numpy as np
@@ -14,7 +15,7 @@ from ..bridge import animation, frame_meshes, helper_objects, images, materials,
     points
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
-from .base import BlenderEffect, warn_uv_overlap
+from .base import BakeWarning, BlenderEffect, warn_uv_overlap
 
 # Flakes per cubic metre of the C default: 200 000 in its 4 x 4 x 4 m volume. Auto Volume
 # keeps the density, not the count, so a house gets as much snow per square metre as a car.
@@ -132,6 +133,29 @@ def _may_move(obj):
             return True
         obj = obj.parent
     return False
+
+
+# Modifiers whose result depends on the mesh alone: the shape they give changes only when
+# something animates their settings, which _may_move sees (an action on the object).
+_STILL_MODIFIERS = {"SUBSURF", "MULTIRES", "SOLIDIFY", "BEVEL", "TRIANGULATE", "EDGE_SPLIT",
+                    "WELD", "DECIMATE", "REMESH", "WEIGHTED_NORMAL", "SKIN", "WIREFRAME"}
+
+
+def _may_deform(obj):
+    """Whether the object's evaluated shape may change from frame to frame: a modifier that
+    can take the frame or another object's motion (an armature, a cloth, a wave, a lattice,
+    geometry nodes), or animated shape keys or mesh data. BOX mode's own modifier moves no
+    vertex."""
+    if obj.type != "MESH":
+        return False
+    for m in obj.modifiers:
+        if not m.show_viewport or m.type in _STILL_MODIFIERS or m == SnowBlender._box_modifier(obj):
+            continue
+        if m.type == "MIRROR" and m.mirror_object is None:
+            continue
+        return True
+    animated = [obj.data, obj.data.shape_keys]
+    return any(d is not None and d.animation_data is not None for d in animated)
 
 
 def _corners(points):
@@ -373,6 +397,7 @@ class SnowBlender(BlenderEffect):
         slots = [catch_of(s.material) for s in obj.material_slots] or [catch_of(None)]
         movers = [obj]
         parts = [(pos, tris, uvs, mi)]
+        local = [(pos, tris)]  # each object's own vertices and triangles
         n = len(pos)
         if settings.colliders:
             shelter = len(slots)
@@ -382,26 +407,30 @@ class SnowBlender(BlenderEffect):
                     continue
                 p, t, _, _ = mesh_data.triangles(o, dg, world=False, role="Colliders")
                 movers.append(o)
+                local.append((p, t))
                 parts.append((p, t + n, np.zeros((len(t), 3, 2), np.float32),
                               np.full(len(t), shelter, np.int32)))
                 n += len(p)
         tris = np.concatenate([p[1] for p in parts])
         uvs = np.concatenate([p[2] for p in parts])
         mi = np.clip(np.concatenate([p[3] for p in parts]), 0, len(slots) - 1)
-        # Each object's world matrix over the bake's frames: the object (and a collider) may
-        # move. Shapes are taken at the bake's first frame (the frame the scene is on here).
-
-        def matrices(f=None):
-            return np.array([np.array(o.matrix_world, np.float64) for o in movers])
-        if any(_may_move(o) for o in movers):
-            mats = animation.per_frame(scene, frames[0], frames[1], matrices)
-        else:  # nothing animates a matrix: no need to step the scene through the range
-            here = matrices()
-            mats = {f: here for f in range(frames[0], frames[1] + 1)}
+        mats, shapes = cls._motion(context, movers, local, frames)
         first = mats[frames[0]]
         moving = any(not np.array_equal(m, first) for m in mats.values())
         inputs = {}
-        if moving:  # rest positions in each object's own space, moved every frame
+        if shapes:  # a deforming mesh: its world vertices on every frame they change
+            def world(f):
+                return np.concatenate([(p @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+                                       for p, m in zip(shapes[f], mats[f])])
+            pos = last = world(frames[0])
+            given = {}
+            for f in range(frames[0] + 1, frames[1] + 1):
+                here = world(f)
+                if not np.array_equal(here, last):
+                    given[f] = last = here
+            inputs["frame_positions"] = given
+            reach = np.concatenate([pos] + list(given.values()))
+        elif moving:  # rest positions in each object's own space, moved every frame
             pos = np.concatenate([p[0] for p in parts])
             inputs.update(transforms=mats, part_vertices=[len(p[0]) for p in parts])
             boxes = [(k, _corners(p[0])) for k, p in enumerate(parts) if len(p[0])]
@@ -421,6 +450,44 @@ class SnowBlender(BlenderEffect):
         inputs.update(positions=pos, triangles=tris, uvs=uvs, material_index=mi,
                       materials=slots, substeps=substeps, flakes=settings.write_flakes)
         return params, inputs
+
+    @staticmethod
+    def _motion(context, movers, local, frames):
+        """({frame: (P, 4, 4) world matrices}, {frame: [(V_k, 3) own-space vertices per
+        object]} or {} when no shape changes) over the bake's frames: the objects (and
+        colliders) may move and deform. The scene is stepped through the frames only when
+        something may change. A shape whose faces change (a Remesh under an armature) cannot
+        carry its snow from frame to frame: it is taken at the first frame, with a warning."""
+        scene = context.scene
+        deform = any(_may_deform(o) for o in movers)
+
+        def sample(_f=None):
+            mats = np.array([np.array(o.matrix_world, np.float64) for o in movers])
+            if not deform:
+                return mats, None
+            dg = evaluated_depsgraph(context)
+            return mats, [mesh_data.triangles(o, dg, world=False, role=None if k == 0 else
+                                              "Colliders")[:2] for k, o in enumerate(movers)]
+        if not deform and not any(_may_move(o) for o in movers):
+            here = sample()[0]  # nothing animates: no need to step the scene through the range
+            return {f: here for f in range(frames[0], frames[1] + 1)}, {}
+        got = animation.per_frame(scene, frames[0], frames[1], sample)
+        mats = {f: m for f, (m, _) in got.items()}
+        if not deform:
+            return mats, {}
+        for f, meshes in got.items():
+            for o, (p, t), (p0, t0) in zip(movers, meshes[1], local):
+                if p.shape != p0.shape or not np.array_equal(t, t0):
+                    warnings.warn(f"{o.name}: its mesh has {len(t)} triangles on {len(p)} "
+                                  f"vertices at frame {f}, {len(t0)} on {len(p0)} at frame "
+                                  f"{frames[0]}: snow cannot follow faces that change, so its "
+                                  f"shape is taken at frame {frames[0]} (moved with the "
+                                  "object, not deformed)", BakeWarning)
+                    return mats, {}
+        shapes = {f: [p for p, _ in meshes] for f, (_, meshes) in got.items()}
+        still = all(np.array_equal(p, p0) for v in shapes.values() for p, (p0, _) in
+                    zip(v, local))
+        return mats, ({} if still else shapes)
 
     @classmethod
     def substeps(cls, scene, time_step):

@@ -12,6 +12,9 @@ Inputs:
                    {frame: (P, 4, 4)}: one matrix per part
     part_vertices  (P,) int vertex counts of consecutive parts of positions (objects that
                    move each their own way: a person and the roof over them); optional
+    frame_positions {frame: (V, 3) float32} world-space vertices of a mesh that deforms (a
+                   walking person), from that frame until the next one given; instead of
+                   transforms (optional)
     substeps       solver steps per frame (default 1)
     flakes         True to also write the falling flakes as points per frame
 
@@ -56,8 +59,9 @@ class SnowEffect(Effect):
                                              "[1, 100000]")
             self.snow.set_materials(inp.get("materials") or [(0.0, False, False)])
             self.transforms = inp.get("transforms") or {}
-            self._keys = sorted(self.transforms)
             self.parts = self._parts(inp.get("part_vertices"))
+            self.shapes = self._shapes(inp.get("frame_positions") or {})
+            self._keys = sorted(self.shapes or self.transforms)
             self._placed = {}  # transform's frame -> digest of the vertices it places
             self._set_mesh(None)
         except BaseException:
@@ -80,7 +84,7 @@ class SnowEffect(Effect):
                 "faces' material slots": digest(inp.get("material_index"))}
 
     def frame_inputs(self, frame):
-        """Where the mesh's vertices are at ``frame`` (moved by the latest transform given up
+        """Where the mesh's vertices are at ``frame`` (the latest shape or transform given up
         to it, as step sets them): the same for a mesh given in the world as for one given
         at rest with transforms that put it there (Blender gives those once it moves)."""
         i = bisect.bisect_right(self._keys, frame)
@@ -108,8 +112,25 @@ class SnowEffect(Effect):
         ends = np.cumsum(counts)
         return list(zip((ends - counts).tolist(), ends.tolist()))
 
+    def _shapes(self, given):
+        """The deformed meshes by frame, each checked to be the mesh's vertices."""
+        if given and self.transforms:
+            raise errors.InvalidArgument("frame_positions: give them or transforms, not both "
+                                         "(frame_positions are in world space)")
+        out = {}
+        for f, p in given.items():
+            p = np.ascontiguousarray(p, np.float32)
+            if p.shape != self.positions.shape:
+                raise errors.InvalidArgument(f"frame_positions[{f}]: shape {p.shape}, need "
+                                             f"{self.positions.shape} (the mesh's vertices)")
+            out[f] = p
+        return out
+
     def _positions(self, frame):
-        """The vertices moved by the transform given at ``frame`` (None: at rest)."""
+        """The vertices at the shape or moved by the transform given at ``frame`` (None: at
+        rest)."""
+        if frame in self.shapes:
+            return self.shapes[frame]
         pos = self.positions
         m = self.transforms.get(frame)
         if m is not None:
@@ -128,9 +149,9 @@ class SnowEffect(Effect):
                            self.inputs.get("material_index"))
 
     def step(self, frame, progress):
-        # The transform of the latest frame given up to this one: what a bake that never
-        # stopped has set by now. A checkpoint holds no mesh, so a bake resumed between two
-        # given frames sets it here too (it stepped the mesh at rest).
+        # The shape or transform of the latest frame given up to this one: what a bake that
+        # never stopped has set by now. A checkpoint holds no mesh, so a bake resumed between
+        # two given frames sets it here too (it stepped the mesh at rest).
         i = bisect.bisect_right(self._keys, frame)
         key = self._keys[i - 1] if i else None
         if key != self._mesh_frame:
