@@ -234,10 +234,12 @@ class Job:
                 params[g]["threads"] = scene.hydrobake.threads if threads is None else threads
         start, end = frames or frame_range(scene, settings)
         # Shapes (a ground, a glass, the faces of a snowy mesh) are read at the bake's first
-        # frame, not at whatever frame the scene is on: the same bake whichever frame Bake is
-        # pressed on, and a resume reads what the bake it continues read.
+        # frame as the animation gives it, not at whatever frame the scene is on (nor with an
+        # animated value changed there and not keyed, which the frames after it would not
+        # have): the same bake whichever frame Bake is pressed on, and a resume reads what the
+        # bake it continues read.
         self.start = start
-        with scene_context(context, scene), animation.at_frame(scene, start), \
+        with scene_context(context, scene), animation.at_frame(scene, start, always=True), \
                 warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", BakeWarning)
             params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))

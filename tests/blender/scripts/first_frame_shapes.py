@@ -1,9 +1,11 @@
 """Every effect reads the scene's shapes from its bake's frames (the first, or for the snow's
-mesh each), whatever frame the scene is on when Bake or Resume is pressed: a cube squashed by an animated shape key (snow, by UV and
-in BOX mode), a floor that tilts under a pool that slides (caustics), a glass that widens
-(rain) and a water column that moves (fluid) bake the same bytes and wiring from frame 1 and
-from frame 9, and the scene is left on its frame. A snow bake extended by a Resume pressed on
-frame 9 equals the bake of the whole range."""
+mesh each), whatever frame the scene is on when Bake or Resume is pressed: a cube squashed by
+an animated shape key (snow, by UV and in BOX mode), a floor that tilts under a pool that
+slides (caustics), a glass that widens (rain) and a water column that moves (fluid) bake the
+same bytes and wiring from frame 1 and from frame 9, and the scene is left on its frame. An
+animated value changed on the first frame and not keyed is not read (the frames after it
+would not have it). A snow bake extended by a Resume pressed on frame 9 equals the bake of
+the whole range."""
 import hashlib
 import json
 import os
@@ -152,6 +154,11 @@ morph(glass, "Wide", lambda co: (co.x * 2.0, co.y, co.z))
 r = in_blender.rain_once(glass)  # 5 cm cells
 rain = same_on_1_and_9("rain", glass, r)
 assert rain[1]["rain"]["width"] == 40, rain[1]["rain"]["width"]  # the 2 m glass of frame 1
+scene.frame_set(1)
+glass.data.shape_keys.key_blocks["Wide"].value = 1.0  # changed on frame 1 and not keyed
+assert bpy.ops.hydrobake.bake(effect="rain", object_name="Glass") == {"FINISHED"}
+assert frames_of(r) == rain[:2], "the bake read a value its animation does not have there"
+free("rain", glass)
 r.enabled = False
 
 # --- fluid: a water column that slides along the domain -----------------------------------

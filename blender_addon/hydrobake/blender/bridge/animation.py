@@ -17,14 +17,13 @@ def per_frame(scene, first, last, fn):
 
 
 @contextlib.contextmanager
-def at_frame(scene, frame):
-    """The scene set to ``frame`` for the block (its shapes and places evaluated there), and
-    set back to the frame and subframe it was on afterwards, also when the block raises. A
-    scene already there is not set again: setting a frame evaluates the whole scene, and
-    would undo edits not keyed yet, which a bake on the frame it was pressed on has always
-    read."""
+def at_frame(scene, frame, always=False):
+    """The scene set to ``frame`` for the block (its shapes and places evaluated there from
+    the animation), and set back to the frame and subframe it was on afterwards, also when
+    the block raises. A scene already there is set again only ``always``: setting a frame
+    evaluates the whole scene, and undoes changes to animated properties not keyed yet."""
     keep, sub = scene.frame_current, scene.frame_subframe
-    if keep == frame and sub == 0.0:
+    if keep == frame and sub == 0.0 and not always:
         yield
         return
     scene.frame_set(frame)

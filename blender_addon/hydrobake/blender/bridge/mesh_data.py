@@ -35,3 +35,19 @@ def triangles(obj, depsgraph=None, world=True, uv_name=None, role=None):
         return pos, tris.reshape(nt, 3), uvs, mi
     finally:
         ev.to_mesh_clear()
+
+
+def shape(obj, depsgraph, role=None):
+    """(positions (V, 3) in the object's own space, faces) of the evaluated object: faces are
+    the loops' vertex indices, equal on two frames whose faces are the same. (Its triangles
+    may differ then: a quad bent past its other diagonal is split along that one.)"""
+    ev = evaluated_object(obj, depsgraph, role)
+    mesh = ev.to_mesh()
+    try:
+        pos = np.empty(len(mesh.vertices) * 3, np.float32)
+        mesh.vertices.foreach_get("co", pos)
+        faces = np.empty(len(mesh.loops), np.int32)
+        mesh.loops.foreach_get("vertex_index", faces)
+        return pos.reshape(-1, 3), faces
+    finally:
+        ev.to_mesh_clear()

@@ -397,7 +397,7 @@ class SnowBlender(BlenderEffect):
         slots = [catch_of(s.material) for s in obj.material_slots] or [catch_of(None)]
         movers = [obj]
         parts = [(pos, tris, uvs, mi)]
-        local = [(pos, tris)]  # each object's own vertices and triangles
+        local = [pos]  # each object's vertices in its own space, at the first frame
         n = len(pos)
         if settings.colliders:
             shelter = len(slots)
@@ -407,7 +407,7 @@ class SnowBlender(BlenderEffect):
                     continue
                 p, t, _, _ = mesh_data.triangles(o, dg, world=False, role="Colliders")
                 movers.append(o)
-                local.append((p, t))
+                local.append(p)
                 parts.append((p, t + n, np.zeros((len(t), 3, 2), np.float32),
                               np.full(len(t), shelter, np.int32)))
                 n += len(p)
@@ -466,8 +466,8 @@ class SnowBlender(BlenderEffect):
             if not deform:
                 return mats, None
             dg = evaluated_depsgraph(context)
-            return mats, [mesh_data.triangles(o, dg, world=False, role=None if k == 0 else
-                                              "Colliders")[:2] for k, o in enumerate(movers)]
+            return mats, [mesh_data.shape(o, dg, role=None if k == 0 else "Colliders")
+                          for k, o in enumerate(movers)]
         if not deform and not any(_may_move(o) for o in movers):
             here = sample()[0]  # nothing animates: no need to step the scene through the range
             return {f: here for f in range(frames[0], frames[1] + 1)}, {}
@@ -475,18 +475,18 @@ class SnowBlender(BlenderEffect):
         mats = {f: m for f, (m, _) in got.items()}
         if not deform:
             return mats, {}
-        for f, meshes in got.items():
-            for o, (p, t), (p0, t0) in zip(movers, meshes[1], local):
-                if p.shape != p0.shape or not np.array_equal(t, t0):
-                    warnings.warn(f"{o.name}: its mesh has {len(t)} triangles on {len(p)} "
-                                  f"vertices at frame {f}, {len(t0)} on {len(p0)} at frame "
-                                  f"{frames[0]}: snow cannot follow faces that change, so its "
-                                  f"shape is taken at frame {frames[0]} (moved with the "
+        faces = got[frames[0]][1]
+        for f, (_, meshes) in got.items():
+            for o, (p, loops), p0, (_, loops0) in zip(movers, meshes, local, faces):
+                if p.shape != p0.shape or not np.array_equal(loops, loops0):
+                    warnings.warn(f"{o.name}: its mesh has {len(p)} vertices in {len(loops)} "
+                                  f"face corners at frame {f}, {len(p0)} in {len(loops0)} at "
+                                  f"frame {frames[0]}: snow cannot follow faces that change, "
+                                  f"so its shape is taken at frame {frames[0]} (moved with the "
                                   "object, not deformed)", BakeWarning)
                     return mats, {}
         shapes = {f: [p for p, _ in meshes] for f, (_, meshes) in got.items()}
-        still = all(np.array_equal(p, p0) for v in shapes.values() for p, (p0, _) in
-                    zip(v, local))
+        still = all(np.array_equal(p, p0) for v in shapes.values() for p, p0 in zip(v, local))
         return mats, ({} if still else shapes)
 
     @classmethod
