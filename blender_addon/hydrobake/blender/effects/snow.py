@@ -419,17 +419,18 @@ class SnowBlender(BlenderEffect):
         moving = any(not np.array_equal(m, first) for m in mats.values())
         inputs = {}
         if shapes:  # a deforming mesh: its world vertices on every frame they change
-            def world(f):
-                return np.concatenate([(p @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
-                                       for p, m in zip(shapes[f], mats[f])])
-            pos = last = world(frames[0])
-            given = {}
-            for f in range(frames[0] + 1, frames[1] + 1):
-                here = world(f)
-                if not np.array_equal(here, last):
+            shape, given, last = local, {}, None
+            lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+            for f in range(frames[0], frames[1] + 1):
+                shape = shapes.get(f, shape)
+                here = np.concatenate([(p @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+                                       for p, m in zip(shape, mats[f])])
+                if last is None or not np.array_equal(here, last):
                     given[f] = last = here
+                    lo, hi = np.minimum(lo, here.min(axis=0)), np.maximum(hi, here.max(axis=0))
+            pos = given.pop(frames[0])
             inputs["frame_positions"] = given
-            reach = np.concatenate([pos] + list(given.values()))
+            reach = np.array([lo, hi])
         elif moving:  # rest positions in each object's own space, moved every frame
             pos = np.concatenate([p[0] for p in parts])
             inputs.update(transforms=mats, part_vertices=[len(p[0]) for p in parts])
@@ -454,40 +455,44 @@ class SnowBlender(BlenderEffect):
     @staticmethod
     def _motion(context, movers, local, frames):
         """({frame: (P, 4, 4) world matrices}, {frame: [(V_k, 3) own-space vertices per
-        object]} or {} when no shape changes) over the bake's frames: the objects (and
-        colliders) may move and deform. The scene is stepped through the frames only when
-        something may change. A shape whose faces change (a Remesh under an armature) cannot
-        carry its snow from frame to frame: it is taken at the first frame, with a warning."""
-        scene = context.scene
+        object]} on the frames where a shape differs from the frame before, or {} when none
+        does) over the bake's frames: the objects (and colliders) may move and deform. The
+        scene is stepped through the frames only when something may change. A shape whose
+        faces change (a Remesh under an armature) cannot carry its snow from frame to frame:
+        it is taken at the first frame, with a warning."""
         deform = any(_may_deform(o) for o in movers)
+        state = {"faces": None, "last": list(local), "broken": not deform}
 
-        def sample(_f=None):
+        def sample(f=None):
             mats = np.array([np.array(o.matrix_world, np.float64) for o in movers])
-            if not deform:
+            if state["broken"]:
                 return mats, None
             dg = evaluated_depsgraph(context)
-            return mats, [mesh_data.shape(o, dg, role=None if k == 0 else "Colliders")
-                          for k, o in enumerate(movers)]
-        if not deform and not any(_may_move(o) for o in movers):
-            here = sample()[0]  # nothing animates: no need to step the scene through the range
-            return {f: here for f in range(frames[0], frames[1] + 1)}, {}
-        got = animation.per_frame(scene, frames[0], frames[1], sample)
-        mats = {f: m for f, (m, _) in got.items()}
-        if not deform:
-            return mats, {}
-        faces = got[frames[0]][1]
-        for f, (_, meshes) in got.items():
-            for o, (p, loops), p0, (_, loops0) in zip(movers, meshes, local, faces):
+            shapes = [mesh_data.shape(o, dg, role=None if k == 0 else "Colliders")
+                      for k, o in enumerate(movers)]
+            faces = state["faces"] = state["faces"] or [loops for _, loops in shapes]
+            for o, (p, loops), p0, loops0 in zip(movers, shapes, local, faces):
                 if p.shape != p0.shape or not np.array_equal(loops, loops0):
                     warnings.warn(f"{o.name}: its mesh has {len(p)} vertices in {len(loops)} "
                                   f"face corners at frame {f}, {len(p0)} in {len(loops0)} at "
                                   f"frame {frames[0]}: snow cannot follow faces that change, "
                                   f"so its shape is taken at frame {frames[0]} (moved with the "
                                   "object, not deformed)", BakeWarning)
-                    return mats, {}
-        shapes = {f: [p for p, _ in meshes] for f, (_, meshes) in got.items()}
-        still = all(np.array_equal(p, p0) for v in shapes.values() for p, p0 in zip(v, local))
-        return mats, ({} if still else shapes)
+                    state["broken"] = True
+                    return mats, None
+            here = [p for p, _ in shapes]
+            if all(np.array_equal(p, q) for p, q in zip(here, state["last"])):
+                return mats, None
+            state["last"] = here
+            return mats, here  # kept only where it differs from the frame before
+        if not deform and not any(_may_move(o) for o in movers):
+            here = sample()[0]  # nothing animates: no need to step the scene through the range
+            return {f: here for f in range(frames[0], frames[1] + 1)}, {}
+        got = animation.per_frame(context.scene, frames[0], frames[1], sample)
+        if state["broken"]:
+            return {f: m for f, (m, _) in got.items()}, {}
+        return {f: m for f, (m, _) in got.items()}, {f: s for f, (_, s) in got.items()
+                                                     if s is not None}
 
     @classmethod
     def substeps(cls, scene, time_step):
