@@ -1147,6 +1147,8 @@ class Monkey:
                 mod.levels = mod.render_levels = 1
             if mtype == "SOLIDIFY":
                 mod.thickness = 0.01
+            if mtype == "WAVE":
+                mod.height = 0.05
             return mod.name
         if index >= len(obj.modifiers):
             raise Skip("no such modifier")
@@ -1662,7 +1664,9 @@ class Monkey:
             kind = rng.choice(("add", "toggle", "toggle", "remove")) if n else "add"
             return [{"op": "modifier", "name": who, "kind": kind,
                      "index": rng.randint(0, max(0, n - 1)),
-                     "mtype": rng.choice(("SOLIDIFY", "SUBSURF", "TRIANGULATE")),
+                     # (a Wave deforms the shape frame by frame: snow follows it, the
+                     # others read it at their first frame)
+                     "mtype": rng.choice(("SOLIDIFY", "SUBSURF", "TRIANGULATE", "WAVE")),
                      "attr": rng.choice(("show_render", "show_viewport"))}]
         if op == "visibility":
             attrs = ["hide_render", "visible_shadow", "hide_set", "hide_viewport"]
