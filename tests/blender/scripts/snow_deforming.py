@@ -1,9 +1,10 @@
 """Snow on a mesh that deforms (shape keys, an armature, a cloth) is simulated on its shape of
 every frame: a cube squashed by an animated shape key, and also moving, is given to the core
-as its world vertices on each frame they change, exactly the evaluated mesh's; a still mesh
-under a Subdivision is given once; a shape whose faces change from frame to frame (a Remesh
-of the squashing cube, in BOX mode) is taken at the first frame with a warning naming the
-object and the frame. The operator's bake records the shapes frame by frame."""
+as its world vertices on each frame they change, exactly the evaluated mesh's, and so is one
+whose Bevel width is keyed; a still mesh under a Subdivision is given once; a shape whose
+faces change from frame to frame (a Remesh of the squashing cube, in BOX mode) is taken at the
+first frame with a warning naming the object and the frame. The operator's bake records the
+shapes frame by frame."""
 import json
 import os
 
@@ -53,6 +54,17 @@ cube.modifiers.new("Smooth", "SUBSURF").levels = 1
 inputs, placed, warned = job_inputs()
 assert "frame_positions" not in inputs and "transforms" not in inputs, sorted(inputs)
 assert len(set(placed.values())) == 1 and warned == []
+
+# A Bevel whose width is keyed: the shape changes though no modifier takes the frame.
+shell = cube.modifiers.new("Rounded", "BEVEL")
+for frame, width in ((1, 0.02), (6, 0.2)):
+    shell.width = width
+    shell.keyframe_insert("width", frame=frame)
+inputs, placed, warned = job_inputs()
+assert sorted(inputs.get("frame_positions", ())) == [2, 3, 4, 5, 6], sorted(inputs)
+assert len(set(placed.values())) == 6 and warned == []
+cube.animation_data_clear()
+cube.modifiers.remove(shell)
 
 # Squashed to a fifth of its height from frame 1 to 5 by a shape key, and moving from 1 to 6.
 cube.shape_key_add(name="Basis")

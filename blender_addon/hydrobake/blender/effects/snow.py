@@ -136,7 +136,7 @@ def _may_move(obj):
 
 
 # Modifiers whose result depends on the mesh alone: the shape they give changes only when
-# something animates their settings, which _may_move sees (an action on the object).
+# something animates their settings (the object's own animation data).
 _STILL_MODIFIERS = {"SUBSURF", "MULTIRES", "SOLIDIFY", "BEVEL", "TRIANGULATE", "EDGE_SPLIT",
                     "WELD", "DECIMATE", "REMESH", "WEIGHTED_NORMAL", "SKIN", "WIREFRAME"}
 
@@ -144,18 +144,19 @@ _STILL_MODIFIERS = {"SUBSURF", "MULTIRES", "SOLIDIFY", "BEVEL", "TRIANGULATE", "
 def _may_deform(obj):
     """Whether the object's evaluated shape may change from frame to frame: a modifier that
     can take the frame or another object's motion (an armature, a cloth, a wave, a lattice,
-    geometry nodes), or animated shape keys or mesh data. BOX mode's own modifier moves no
-    vertex."""
+    geometry nodes), any modifier of an object with animation data (a keyed Subdivision
+    level), or animated shape keys or mesh data. BOX mode's own modifier moves no vertex."""
     if obj.type != "MESH":
         return False
-    for m in obj.modifiers:
-        if not m.show_viewport or m.type in _STILL_MODIFIERS or m == SnowBlender._box_modifier(obj):
-            continue
-        if m.type == "MIRROR" and m.mirror_object is None:
-            continue
+    box = SnowBlender._box_modifier(obj)
+    mods = [m for m in obj.modifiers if m.show_viewport and m != box]
+    if mods and obj.animation_data is not None:
         return True
-    animated = [obj.data, obj.data.shape_keys]
-    return any(d is not None and d.animation_data is not None for d in animated)
+    if any(m.type not in _STILL_MODIFIERS and not (m.type == "MIRROR" and m.mirror_object is None)
+           for m in mods):
+        return True
+    return any(d is not None and d.animation_data is not None
+               for d in (obj.data, obj.data.shape_keys))
 
 
 def _corners(points):
