@@ -62,13 +62,25 @@ def frame_range(scene, settings):
     return settings.frame_start, settings.frame_end
 
 
+@contextlib.contextmanager
 def scene_context(context, scene):
-    """Makes ``scene`` the context's scene (and its first view layer) while reading scene data:
-    frame_set on another scene would not evaluate its animation, and evaluated data would come
-    from the wrong depsgraph (a batch bake of a scene other than the window's)."""
+    """Makes ``scene`` the context's scene (and its first view layer) while reading scene data,
+    so evaluated data comes from its own depsgraph (a batch bake of a scene other than the
+    window's)."""
     if scene == context.scene:
-        return contextlib.nullcontext()
-    return context.temp_override(scene=scene, view_layer=scene.view_layers[0])
+        yield
+        return
+    layer = scene.view_layers[0]
+    with context.temp_override(scene=scene, view_layer=layer):
+        # Evaluation writes back to the data the bake reads (wiper angles, an Empty's place)
+        # only through an active depsgraph, and Blender makes another scene's active only when
+        # asked for it, as a view layer's update() does; a graph built earlier by frame_set
+        # was not, and left such data as the file had it (identity matrices): it is evaluated
+        # again, transforms and all.
+        for o in scene.objects:
+            o.update_tag(refresh={"OBJECT"})
+        layer.update()
+        yield
 
 
 def _same_folder(a, b):
