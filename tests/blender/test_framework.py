@@ -2,6 +2,8 @@
 import os
 import shutil
 
+import pytest
+
 from hydrobake_paths import ROOT
 
 
@@ -37,6 +39,14 @@ def test_ui_addon_disabled_while_baking_keeps_frames_and_lets_go(blender, tmp_pa
 def test_a_bake_in_another_scene_reads_that_scene_animation(blender, tmp_path):
     r = blender.run("other_scene.py", tmp_path, blend=os.path.join(ROOT, "examples.blend"))
     assert "OTHER SCENE OK" in r.stdout
+
+
+@pytest.mark.parametrize("scene", ["Rain", "Fluid"])
+def test_a_bake_of_the_scene_given_on_the_command_line_reads_its_animation(blender, tmp_path,
+                                                                           scene):
+    r = blender.run("scene_from_command_line.py", blend=os.path.join(ROOT, "examples.blend"),
+                    extra=("--scene", scene))
+    assert f"COMMAND LINE SCENE OK {scene}" in r.stdout
 
 
 def test_a_project_moved_with_its_bakes_still_finds_them(blender, tmp_path):

@@ -64,19 +64,20 @@ def frame_range(scene, settings):
 
 @contextlib.contextmanager
 def scene_context(context, scene):
-    """Makes ``scene`` the context's scene (and its first view layer) while reading scene data,
-    so evaluated data comes from its own depsgraph (a batch bake of a scene other than the
-    window's)."""
-    if scene == context.scene:
-        yield
-        return
-    layer = scene.view_layers[0]
-    with context.temp_override(scene=scene, view_layer=layer):
-        # Evaluation writes back to the data the bake reads (wiper angles, an Empty's place)
-        # only through an active depsgraph, and Blender makes another scene's active only when
-        # asked for it, as a view layer's update() does; a graph built earlier by frame_set
-        # was not, and left such data as the file had it (identity matrices): it is evaluated
-        # again, transforms and all.
+    """Makes ``scene`` the context's scene (its first view layer, when it is not the context's
+    own) while reading scene data, so evaluated data comes from its own depsgraph (a batch
+    bake of a scene other than the window's), and evaluates it.
+
+    Evaluation writes back to the data a bake reads (wiper angles, an Empty's place) only
+    through an active depsgraph, and Blender makes one active only when asked for it, as a
+    view layer's update() does. A scene that is not the window's, or one made the window's by
+    ``blender -b --scene``, has none until then; a graph built earlier by a script's
+    frame_set was not made active either, and left such data as the file had it (identity
+    matrices, rest angles), so the objects' transforms are evaluated again."""
+    own = scene == context.scene
+    layer = context.view_layer if own else scene.view_layers[0]
+    with contextlib.nullcontext() if own else context.temp_override(scene=scene,
+                                                                    view_layer=layer):
         for o in scene.objects:
             o.update_tag(refresh={"OBJECT"})
         layer.update()
