@@ -31,6 +31,11 @@ def test_ui_bake_is_modal_and_esc_cancels(blender, tmp_path):
     assert "UI MODAL CANCEL OK" in r.stdout
 
 
+def test_ui_reading_the_scene_shows_progress_unless_another_bake_does(blender, tmp_path):
+    r = blender.run_ui("ui_reading_progress.py", tmp_path)
+    assert "UI READING PROGRESS OK" in r.stdout
+
+
 def test_ui_addon_disabled_while_baking_keeps_frames_and_lets_go(blender, tmp_path):
     r = blender.run_ui("ui_disable_midbake.py", tmp_path)
     assert "UI DISABLE MIDBAKE OK" in r.stdout

@@ -115,3 +115,8 @@ def test_snow_follows_a_deforming_mesh_frame_by_frame(blender, tmp_path):
     """Fails with the addon of 63dbdf7, which moved the first frame's shape rigidly."""
     r = blender.run("snow_deforming.py", tmp_path)
     assert "SNOW DEFORMING OK" in r.stdout
+
+
+def test_a_bake_stepping_the_scene_says_how_far_it_has_got(blender, tmp_path):
+    r = blender.run("reading_progress.py", tmp_path)
+    assert "READING PROGRESS OK 6" in r.stdout

@@ -15,6 +15,7 @@ from ..core.bake import BakeRunner, BakeCache
 from . import effects, paths, properties
 from .bridge import animation
 from .effects.base import BakeWarning, unoffered
+from .reading_progress import ReadingProgress
 
 ACTIVE = {}  # (object name, effect name) -> Job, while running or waiting to be finalized
 
@@ -252,7 +253,10 @@ class Job:
         # have): the same bake whichever frame Bake is pressed on, and a resume reads what the
         # bake it continues read.
         self.start = start
-        with scene_context(context, scene), animation.at_frame(scene, start, always=True), \
+        # Stepping the frames shows progress (the cursor, unless another bake's shows).
+        progress = ReadingProgress(f"{obj.name}/{effect_name}", busy=bool(ACTIVE))
+        with contextlib.closing(progress), animation.reporting(progress), \
+                scene_context(context, scene), animation.at_frame(scene, start, always=True), \
                 warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", BakeWarning)
             params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))

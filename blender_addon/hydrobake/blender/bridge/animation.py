@@ -2,6 +2,21 @@
 import contextlib
 
 
+_reporter = None  # called (frame, done, total) after each frame per_frame takes
+
+
+@contextlib.contextmanager
+def reporting(fn):
+    """per_frame reports each frame it takes to ``fn(frame, done, total)`` within the block:
+    stepping a heavy scene through a bake's frames can take a while on the main thread."""
+    global _reporter
+    outer, _reporter = _reporter, fn
+    try:
+        yield
+    finally:
+        _reporter = outer
+
+
 def per_frame(scene, first, last, fn):
     """{frame: fn(frame)} for every frame from first to last, each taken with the scene set to
     that frame; the scene's own frame is restored afterwards, also when fn raises."""
@@ -11,6 +26,8 @@ def per_frame(scene, first, last, fn):
         for f in range(first, last + 1):
             scene.frame_set(f)
             out[f] = fn(f)
+            if _reporter is not None:
+                _reporter(f, f - first + 1, last - first + 1)
     finally:
         scene.frame_set(keep)
     return out
