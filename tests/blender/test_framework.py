@@ -223,3 +223,8 @@ def test_shapes_are_read_at_the_bakes_first_frame(blender, tmp_path):
     """Fails with the addon of c460edc: a bake pressed on frame 9 read the shapes there."""
     r = blender.run("first_frame_shapes.py", tmp_path)
     assert "FIRST FRAME SHAPES OK" in r.stdout
+
+
+def test_what_a_bake_reads_once_is_named_when_it_may_move(blender, tmp_path):
+    r = blender.run("read_once_warnings.py", tmp_path)
+    assert "READ ONCE WARNINGS OK" in r.stdout

@@ -48,3 +48,41 @@ def at_frame(scene, frame, always=False):
         yield
     finally:
         scene.frame_set(keep, subframe=sub)
+
+
+def may_move(obj):
+    """Whether the object's world matrix may change from frame to frame: it or a parent is
+    animated (action, NLA, drivers), constrained, a rigid body, or parented to a bone or to
+    vertices. (A frame change handler moving it is not seen.)"""
+    while obj is not None:
+        ad = obj.animation_data
+        if ad is not None and (ad.action is not None or len(ad.drivers) or
+                               len(ad.nla_tracks)):
+            return True
+        if len(obj.constraints) or obj.rigid_body is not None or obj.parent_type != "OBJECT":
+            return True
+        obj = obj.parent
+    return False
+
+
+# Modifiers whose result depends on the mesh alone: the shape they give changes only when
+# something animates their settings (the object's own animation data).
+STILL_MODIFIERS = {"SUBSURF", "MULTIRES", "SOLIDIFY", "BEVEL", "TRIANGULATE", "EDGE_SPLIT",
+                   "WELD", "DECIMATE", "REMESH", "WEIGHTED_NORMAL", "SKIN", "WIREFRAME"}
+
+
+def may_deform(obj, skip=None):
+    """Whether the object's evaluated shape may change from frame to frame: a modifier (but
+    ``skip``) that can take the frame or another object's motion (an armature, a cloth, a
+    wave, a lattice, geometry nodes), any modifier of an object with animation data (a keyed
+    Subdivision level), or animated shape keys or mesh data."""
+    if obj.type != "MESH":
+        return False
+    mods = [m for m in obj.modifiers if m.show_viewport and m != skip]
+    if mods and obj.animation_data is not None:
+        return True
+    if any(m.type not in STILL_MODIFIERS and not (m.type == "MIRROR" and m.mirror_object is None)
+           for m in mods):
+        return True
+    return any(d is not None and d.animation_data is not None
+               for d in (obj.data, obj.data.shape_keys))

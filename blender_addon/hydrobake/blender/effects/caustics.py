@@ -12,7 +12,7 @@ from mathutils import Vector
 from ..bridge import animation, helper_objects, images, materials, meshes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
-from .base import BlenderEffect, offers
+from .base import BlenderEffect, offers, warn_read_once
 
 HEIGHTS_OF = "hydrobake_heights_of"  # on a pool's height texture: the name it was baked as
 
@@ -221,6 +221,7 @@ class CausticsBlender(BlenderEffect):
         params["water"].update(height=shape[0], cell_size=cell)
         depsgraph = evaluated_depsgraph(context)
         if settings.ground_object:
+            warn_read_once([settings.ground_object], "Ground", frames[0])
             ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
                                            "DOWN", depsgraph, angle=grid.angle, role="Ground")
             ground[np.isnan(ground)] = level - 1.0 if np.all(np.isnan(ground)) else \

@@ -15,7 +15,7 @@ from .. import paths
 from ..bridge import animation, frame_meshes, helper_objects, meshes, tileable, volumes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
-from .base import BakeWarning, BlenderEffect, offers
+from .base import BakeWarning, BlenderEffect, offers, warn_read_once
 from .fluid_paint import FEATURES
 
 
@@ -222,6 +222,7 @@ class FluidBlender(BlenderEffect):
                     raise ValueError(f"Obstacles: {settings.obstacles.name!r} holds "
                                      f"{len(found)} objects: must hold at most "
                                      f"{MAX_OBSTACLES} (each is a box the fluid flows around)")
+                warn_read_once(found, "Obstacles", frames[0])
                 obs = []
                 for o in found:
                     olo, ohi = meshes.world_bounds(o)

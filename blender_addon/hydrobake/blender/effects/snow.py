@@ -120,43 +120,9 @@ def _is_box(contact_mode):
     return contact_mode == 1 or str(contact_mode).upper() == "BOX"
 
 
-def _may_move(obj):
-    """Whether the object's world matrix may change from frame to frame: it or a parent is
-    animated (action, NLA, drivers), constrained, a rigid body, or parented to a bone or to
-    vertices. (A frame change handler moving it is not seen.)"""
-    while obj is not None:
-        ad = obj.animation_data
-        if ad is not None and (ad.action is not None or len(ad.drivers) or
-                               len(ad.nla_tracks)):
-            return True
-        if len(obj.constraints) or obj.rigid_body is not None or obj.parent_type != "OBJECT":
-            return True
-        obj = obj.parent
-    return False
-
-
-# Modifiers whose result depends on the mesh alone: the shape they give changes only when
-# something animates their settings (the object's own animation data).
-_STILL_MODIFIERS = {"SUBSURF", "MULTIRES", "SOLIDIFY", "BEVEL", "TRIANGULATE", "EDGE_SPLIT",
-                    "WELD", "DECIMATE", "REMESH", "WEIGHTED_NORMAL", "SKIN", "WIREFRAME"}
-
-
 def _may_deform(obj):
-    """Whether the object's evaluated shape may change from frame to frame: a modifier that
-    can take the frame or another object's motion (an armature, a cloth, a wave, a lattice,
-    geometry nodes), any modifier of an object with animation data (a keyed Subdivision
-    level), or animated shape keys or mesh data. BOX mode's own modifier moves no vertex."""
-    if obj.type != "MESH":
-        return False
-    box = SnowBlender._box_modifier(obj)
-    mods = [m for m in obj.modifiers if m.show_viewport and m != box]
-    if mods and obj.animation_data is not None:
-        return True
-    if any(m.type not in _STILL_MODIFIERS and not (m.type == "MIRROR" and m.mirror_object is None)
-           for m in mods):
-        return True
-    return any(d is not None and d.animation_data is not None
-               for d in (obj.data, obj.data.shape_keys))
+    """animation.may_deform, but BOX mode's own modifier moves no vertex."""
+    return animation.may_deform(obj, skip=SnowBlender._box_modifier(obj))
 
 
 def _corners(points):
@@ -486,7 +452,7 @@ class SnowBlender(BlenderEffect):
                 return mats, None
             state["last"] = here
             return mats, here  # kept only where it differs from the frame before
-        if not deform and not any(_may_move(o) for o in movers):
+        if not deform and not any(animation.may_move(o) for o in movers):
             here = sample()[0]  # nothing animates: no need to step the scene through the range
             return {f: here for f in range(frames[0], frames[1] + 1)}, {}
         got = animation.per_frame(context.scene, frames[0], frames[1], sample)
