@@ -3,7 +3,8 @@ every frame: a cube squashed by an animated shape key, and also moving, is given
 as its world vertices on each frame they change, exactly the evaluated mesh's, and so is one
 whose Bevel width is keyed; a still mesh under a Subdivision is given once; a shape whose
 faces change from frame to frame (a Remesh of the squashing cube, in BOX mode) is taken at the
-first frame with a warning naming the object and the frame. The operator's bake records the
+first frame with a warning naming the object and the frame, and BOX mode on a deforming
+shape warns that its boxes are the first frame's. The operator's bake records the
 shapes frame by frame."""
 import json
 import os
@@ -88,6 +89,16 @@ assert len(set(placed.values())) == 6
 squashed = placed
 top = world_vertices(5)[:, 2].max()
 assert top < 0.2, top  # squashed (the Subdivision's top is a little under the cage's 0.2)
+
+# In BOX mode the snow is shown by the first frame's boxes: the squash is followed, with a
+# warning that the boxes do not follow it.
+s.snow.contact_mode = "BOX"
+inputs, placed, warned = job_inputs()
+assert sorted(inputs["frame_positions"]) == [2, 3, 4, 5, 6], sorted(inputs)
+assert warned == ["Cube: Contact Mode BOX shows the snow by the boxes of the bake's first "
+                  "frame (1), but the shape deforms after it, so the snow drifts from where it "
+                  "landed: use TRIANGLES (with a UV map) for a deforming shape"], warned
+s.snow.contact_mode = "TRIANGLES"
 
 # A Remesh over the squash: the faces change from frame to frame.
 remesh = cube.modifiers.new("Blocks", "REMESH")

@@ -385,6 +385,11 @@ class SnowBlender(BlenderEffect):
         first = mats[frames[0]]
         moving = any(not np.array_equal(m, first) for m in mats.values())
         inputs = {}
+        if box and any(not np.array_equal(sh[0], local[0]) for sh in shapes.values()):
+            warnings.warn(f"{obj.name}: Contact Mode BOX shows the snow by the boxes of the "
+                          f"bake's first frame ({frames[0]}), but the shape deforms after it, "
+                          "so the snow drifts from where it landed: use TRIANGLES (with a UV "
+                          "map) for a deforming shape", BakeWarning)
         if shapes:  # a deforming mesh: its world vertices on every frame they change
             shape, given, last = local, {}, None
             lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
