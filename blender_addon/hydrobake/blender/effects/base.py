@@ -4,7 +4,7 @@ import warnings
 
 import bpy
 
-from ..bridge import materials
+from ..bridge import animation, materials
 
 
 class BakeWarning(UserWarning):
@@ -29,7 +29,6 @@ def warn_read_once(objs, role, frame):
     """A BakeWarning for each object that may move or change shape over the bake's frames
     (animated, constrained, deformed) but is read once, at its first frame: the bake would
     not follow it, and without a word the artist would not know why."""
-    from ..bridge import animation
     for o in objs:
         if animation.may_move(o) or animation.may_deform(o):
             warnings.warn(f"{role}: {o.name!r} is animated, constrained or deformed, but is "
