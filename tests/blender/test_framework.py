@@ -228,3 +228,8 @@ def test_shapes_are_read_at_the_bakes_first_frame(blender, tmp_path):
 def test_what_a_bake_reads_once_is_named_when_it_may_move(blender, tmp_path):
     r = blender.run("read_once_warnings.py", tmp_path)
     assert "READ ONCE WARNINGS OK" in r.stdout
+
+
+def test_a_bake_leaves_the_scenes_simulation_caches_alone(blender, tmp_path):
+    r = blender.run("cloth_cache_kept.py", tmp_path)
+    assert "CLOTH CACHE KEPT OK" in r.stdout

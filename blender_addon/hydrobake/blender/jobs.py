@@ -74,14 +74,21 @@ def scene_context(context, scene):
     view layer's update() does. A scene that is not the window's, or one made the window's by
     ``blender -b --scene``, has none until then; a graph built earlier by a script's
     frame_set was not made active either, and left such data as the file had it (identity
-    matrices, rest angles), so the objects' transforms are evaluated again."""
+    matrices, rest angles). The objects whose world matrix differs from the evaluated one are
+    evaluated again; only those: a transform tagged on every object marked a cloth's cache
+    outdated, and the next frame cut it short."""
     own = scene == context.scene
     layer = context.view_layer if own else scene.view_layers[0]
     with contextlib.nullcontext() if own else context.temp_override(scene=scene,
                                                                     view_layer=layer):
-        for o in scene.objects:
-            o.update_tag(refresh={"OBJECT"})
         layer.update()
+        graph = layer.depsgraph
+        stale = [o for o in scene.objects
+                 if o.matrix_world != o.evaluated_get(graph).matrix_world]
+        for o in stale:
+            o.update_tag(refresh={"OBJECT"})
+        if stale:
+            layer.update()
         yield
 
 
