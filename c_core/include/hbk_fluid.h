@@ -145,9 +145,18 @@ typedef struct hbk_fluid_obstacle {
     float center[3];    /* m */
     float extent[3];    /* m: sphere radius in [0]; box half-sizes */
 } hbk_fluid_obstacle_t;
-/* Replaces the obstacle list (count 0..64; NULL with 0 clears). */
+/* Replaces the obstacle list (count 0..64; NULL with 0 clears), still where they are, and
+ * drops a move not stepped yet. */
 HBK_EXPORT hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs,
                                                 int32_t count);
+/* Moving obstacles: where each obstacle is at the end of the next step (one per obstacle, in
+ * order, of the same type). The step carries each there in a straight line over its dt
+ * (centre and extent at a constant rate), and the fluid meets the moving surface: a particle
+ * it reaches is pushed out and leaves no slower along the normal than the surface moves
+ * (free slip along it). A completed step makes them the obstacles; a cancelled one keeps
+ * them where they were, the move still pending. Not part of the saved state. */
+HBK_EXPORT hbk_result_t hbk_fluid_move_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *to,
+                                                 int32_t count);
 
 /* VELOCITY_GRID source: V_m at the vertices (vertex_count x 3 floats, m/s) and optionally a
  * surface field (vertex_count floats, e.g. a density or liquid fraction; the surface is where

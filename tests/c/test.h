@@ -193,7 +193,12 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, sph_lattice_rest_density) \
     X(fluid, features_known_fields)    \
     X(fluid, crossfade_schedule)       \
-    X(fluid, blend_advect_shift)
+    X(fluid, blend_advect_shift) \
+    X(fluid, obstacles_move_refused)    \
+    X(fluid, obstacles_moving_wall)     \
+    X(fluid, obstacles_growing_sphere)  \
+    X(fluid, obstacles_move_deterministic) \
+    X(fluid, obstacles_move_cancel_resume)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

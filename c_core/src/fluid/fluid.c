@@ -180,11 +180,6 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
 
 const char *hbk_fluid_message(const hbk_fluid_t *h) { return h ? h->msg.text : "handle is NULL"; }
 
-#define ENTER(h)                                      \
-    do {                                              \
-        if (!(h)) return HBK_ERR_INVALID_ARGUMENT;    \
-        hbk_message_clear(&(h)->msg);                 \
-    } while (0)
 
 /* Every value finite and, for positions, inside the box. */
 static hbk_result_t check_vectors(hbk_fluid_t *h, const float *v, size_t n, const char *name,
@@ -205,7 +200,7 @@ static hbk_result_t check_vectors(hbk_fluid_t *h, const float *v, size_t n, cons
 hbk_result_t hbk_fluid_set_particles(hbk_fluid_t *h, const float *pos, const float *vel,
                                      int32_t count)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     if (count < 0 || count > h->p.max_particles)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "count = %d: must be in [0, %d] "
                         "(max_particles)", count, h->p.max_particles);
@@ -222,7 +217,7 @@ hbk_result_t hbk_fluid_set_particles(hbk_fluid_t *h, const float *pos, const flo
 
 hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float hi[3], float jitter)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     if (!lo || !hi) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "lo, hi: must not be NULL");
     if (!(jitter >= 0.0f && jitter <= 0.5f))
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "jitter = %g: must be in [0, 0.5]",
@@ -269,7 +264,7 @@ int32_t hbk_fluid_particle_count(const hbk_fluid_t *h) { return h ? h->count : 0
 
 hbk_result_t hbk_fluid_get_particles(hbk_fluid_t *h, float *pos, float *vel, int32_t capacity)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     if (capacity < h->count)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "capacity = %d: must be >= particle count %d", capacity, h->count);
@@ -278,51 +273,9 @@ hbk_result_t hbk_fluid_get_particles(hbk_fluid_t *h, float *pos, float *vel, int
     return HBK_OK;
 }
 
-/* 0 if o is an obstacle the step can take; else non-zero, and (if what is not NULL) the
- * field and its allowed range in what (96 bytes). Also used by hbk_fluid_load_state. */
-int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
-{
-    if (o->type != 0 && o->type != 1) {
-        if (what) snprintf(what, 96, "type = %d: must be 0 (sphere) or 1 (box)", o->type);
-        return 1;
-    }
-    for (int a = 0; a < 3; ++a) {
-        if (!(fabsf(o->center[a]) <= 1e6f)) {
-            if (what)
-                snprintf(what, 96, "center[%d] = %g: must be a finite number in [-1e6, 1e6] m",
-                         a, (double)o->center[a]);
-            return 1;
-        }
-        if (!(o->extent[a] >= 0.0f && o->extent[a] <= 1e6f) && (o->type == 1 || a == 0)) {
-            if (what)
-                snprintf(what, 96, "extent[%d] = %g: must be in [0, 1e6] m", a,
-                         (double)o->extent[a]);
-            return 1;
-        }
-    }
-    return 0;
-}
-
-hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs, int32_t count)
-{
-    ENTER(h);
-    if (count < 0 || count > HBK_FLUID_MAX_OBSTACLES)
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "count = %d: must be in [0, %d]", count,
-                        HBK_FLUID_MAX_OBSTACLES);
-    if (count && !obs) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "obs: must not be NULL");
-    for (int32_t i = 0; i < count; ++i) {
-        char what[96];
-        if (hbk_fluid_obstacle_problem(&obs[i], what))
-            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "obs[%d].%s", i, what);
-    }
-    if (count) memcpy(h->obs, obs, (size_t)count * sizeof *obs);
-    h->n_obs = count;
-    return HBK_OK;
-}
-
 hbk_result_t hbk_fluid_set_velocity_grid(hbk_fluid_t *h, const float *velocity, const float *surface)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     const size_t nv = h->n_vert;
     if (!velocity) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "velocity: must not be NULL");
     hbk_result_t r = check_vectors(h, velocity, nv, "velocity", 0, 1e4f);
@@ -398,7 +351,7 @@ static void commit_fields(hbk_fluid_t *h)
 
 hbk_result_t hbk_fluid_update_fields(hbk_fluid_t *h)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     const int threads = HBK_OMP_THREADS(h);
     const int had = h->have_fields;
     h->have_fields = 0; /* no time passes: the rates are zero */
@@ -418,7 +371,7 @@ static void restore_particles(hbk_fluid_t *h, int sim)
 
 hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     const int threads = HBK_OMP_THREADS(h);
     const int sim = h->p.source == HBK_FLUID_SIMULATE;
     double t0 = omp_get_wtime();
@@ -431,6 +384,7 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
          * for the particles' speeds now; at least `substeps` of them. */
         const double frame_dt = h->p.dt, longest = frame_dt / h->p.substeps;
         double left = frame_dt;
+        hbk_fluid_obstacles_at(h, 0.0); /* their speed, for the stable step */
         while (left > 0.0) {
             if (hbk_cancelled(progress)) {
                 restore_particles(h, sim);
@@ -442,6 +396,8 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
             const double room = (double)(HBK_FLUID_MAX_SUBSTEPS - taken);
             parts = parts < 1.0 ? 1.0 : parts > room ? room : parts;
             step = parts == 1.0 ? left : left / parts;
+            /* collide places the particles at the substep's end: the obstacles too */
+            hbk_fluid_obstacles_at(h, parts == 1.0 ? 1.0 : (frame_dt - (left - step)) / frame_dt);
             hbk_result_t r = hbk_fluid_sph_substep(h, (float)step, threads);
             if (r) {
                 restore_particles(h, sim);
@@ -498,6 +454,7 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     h->v = h->scratch;
     h->scratch = tmp;
     commit_fields(h);
+    if (sim) hbk_fluid_obstacles_moved(h);
     if (h->paint_active && !paint_active) hbk_fluid_paint_off(h); /* the last paint faded */
     h->paint_active = paint_active;
     h->frame = frame;
@@ -536,7 +493,7 @@ size_t hbk_fluid_volume_size(const hbk_fluid_t *h, int32_t volume)
 
 hbk_result_t hbk_fluid_get_volume(hbk_fluid_t *h, int32_t volume, float *out, size_t count)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     const size_t need = hbk_fluid_volume_size(h, volume);
     if (!need)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "volume = %d: must be in [0, %d]",
@@ -577,7 +534,7 @@ hbk_result_t hbk_fluid_get_volume(hbk_fluid_t *h, int32_t volume, float *out, si
 
 hbk_result_t hbk_fluid_sample_uvw(hbk_fluid_t *h, int32_t which, const float pos[3], float uvw[3])
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     if (which != 0 && which != 1)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "which = %d: must be 0 (A) or 1 (B)", which);
     if (!pos || !uvw) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "pos, uvw: must not be NULL");

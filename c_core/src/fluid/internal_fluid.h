@@ -46,7 +46,14 @@ struct hbk_fluid {
     int32_t count;
     float *pos, *vel;           /* max_particles x 3 */
     int32_t n_obs;
-    hbk_fluid_obstacle_t obs[HBK_FLUID_MAX_OBSTACLES];
+    hbk_fluid_obstacle_t obs[HBK_FLUID_MAX_OBSTACLES]; /* where they are after the last step */
+    /* Not state: a move_obstacles not stepped yet (where the next step takes them), and the
+     * obstacles as the substep under way meets them (obstacles.c). */
+    int32_t obs_moving;
+    hbk_fluid_obstacle_t obs_to[HBK_FLUID_MAX_OBSTACLES];
+    hbk_fluid_obstacle_t obs_now[HBK_FLUID_MAX_OBSTACLES];
+    float obs_rate[HBK_FLUID_MAX_OBSTACLES][6]; /* m/s: centre, then extent */
+    float obs_speed;            /* m/s: the fastest any obstacle's surface moves (stable dt) */
     float *in_vel, *in_surface; /* VELOCITY_GRID inputs (nv x 3, nv), or NULL */
     hbk_fluid_vols_t v;
     float *motion;              /* nv x 3, V_m */
@@ -123,6 +130,12 @@ struct hbk_fluid {
 };
 
 #define HBK_OMP_THREADS(h) hbk_threads((h)->p.threads)
+/* An entry point's start: a NULL handle refused, the last call's message cleared. */
+#define HBK_FLUID_ENTER(h)                         \
+    do {                                           \
+        if (!(h)) return HBK_ERR_INVALID_ARGUMENT; \
+        hbk_message_clear(&(h)->msg);              \
+    } while (0)
 
 /* SPH kernels (Mueller et al. 2003, as Harada et al. 2007 use them). */
 static inline double hbk_poly6(double r2, double h)
@@ -158,8 +171,13 @@ static inline float hbk_fluid_acos(float x)
 hbk_result_t hbk_fluid_cells_build(hbk_fluid_cells_t *c, const float *pos, int32_t count,
                                    const float lo[3], const float hi[3], float size, int threads);
 void hbk_fluid_cells_free(hbk_fluid_cells_t *c);
-/* fluid.c: 0 if an obstacle is one the step takes, else its problem in what (96 bytes). */
+/* obstacles.c: 0 if an obstacle is one the step takes, else its problem in what (96 bytes).
+ * obstacles_at: obs_now, obs_rate and obs_speed at the moment `t` (0..1) into the step (the
+ * obstacles as they are, still, unless a move is pending). obstacles_moved: the step is done,
+ * its move made. */
 int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what);
+void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t);
+void hbk_fluid_obstacles_moved(hbk_fluid_t *h);
 static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, int a)
 {
     /* Clamped as a float: a particle far outside the grid (a loaded state's) would overflow

@@ -196,12 +196,6 @@ void hbk_fluid_rules_row(hbk_fluid_t *h, const hbk_fluid_rules_t *rl, float *bas
     if (changed) h->same_rows[r] = 0; /* no longer the other buffer's base */
 }
 
-#define ENTER(h)                                      \
-    do {                                              \
-        if (!(h)) return HBK_ERR_INVALID_ARGUMENT;    \
-        hbk_message_clear(&(h)->msg);                 \
-    } while (0)
-
 static hbk_result_t check_texture(hbk_fluid_t *h, int32_t texture)
 {
     if (texture < 0 || texture >= h->K)
@@ -255,7 +249,7 @@ static hbk_result_t stroke(hbk_fluid_t *h, int32_t texture, const float *mask,
 
 hbk_result_t hbk_fluid_paint_mask(hbk_fluid_t *h, int32_t texture, const float *mask)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     hbk_result_t r = check_texture(h, texture);
     if (r) return r;
     if (!mask) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "mask: must not be NULL");
@@ -269,7 +263,7 @@ hbk_result_t hbk_fluid_paint_mask(hbk_fluid_t *h, int32_t texture, const float *
 hbk_result_t hbk_fluid_paint_sphere(hbk_fluid_t *h, int32_t texture, const float center[3],
                                     float radius, float falloff)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     hbk_result_t r = check_texture(h, texture);
     if (r) return r;
     if (!center) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "center: must not be NULL");
@@ -290,7 +284,7 @@ hbk_result_t hbk_fluid_paint_points(hbk_fluid_t *h, int32_t texture, int32_t cou
                                     const float *pos, const float *coverage, float radius,
                                     float falloff)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     hbk_result_t r = check_texture(h, texture);
     if (r) return r;
     if (count < 0)
@@ -365,7 +359,7 @@ void hbk_fluid_paint_off(hbk_fluid_t *h)
 
 hbk_result_t hbk_fluid_clear_paint(hbk_fluid_t *h)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     hbk_fluid_paint_off(h);
     return HBK_OK;
 }
@@ -374,7 +368,7 @@ hbk_result_t hbk_fluid_set_feature_rule(hbk_fluid_t *h, int32_t texture,
                                         const float lo[HBK_FLUID_FEATURE_COUNT],
                                         const float hi[HBK_FLUID_FEATURE_COUNT])
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     hbk_result_t r = check_texture(h, texture);
     if (r) return r;
     if (!lo || !hi)
@@ -392,7 +386,7 @@ hbk_result_t hbk_fluid_set_feature_rule(hbk_fluid_t *h, int32_t texture,
 
 hbk_result_t hbk_fluid_clear_feature_rule(hbk_fluid_t *h, int32_t texture)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     hbk_result_t r = check_texture(h, texture);
     if (r) return r;
     h->rule_on[texture] = 0;
@@ -401,7 +395,7 @@ hbk_result_t hbk_fluid_clear_feature_rule(hbk_fluid_t *h, int32_t texture)
 
 hbk_result_t hbk_fluid_capture_feature_rule(hbk_fluid_t *h, int32_t texture, const float *mask)
 {
-    ENTER(h);
+    HBK_FLUID_ENTER(h);
     hbk_result_t r = check_texture(h, texture);
     if (r) return r;
     if (!mask) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "mask: must not be NULL");

@@ -14,7 +14,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Pushes a particle out of the walls and obstacles and removes the velocity into them. */
+/* Pushes a particle out of the walls and obstacles and removes the velocity into them: into a
+ * moving obstacle, what it has below the speed of the surface along the normal. */
 static void collide(const hbk_fluid_t *h, float *x, float *v)
 {
     const float m = 0.5f * h->p.particle_spacing;
@@ -24,15 +25,17 @@ static void collide(const hbk_fluid_t *h, float *x, float *v)
         if (!(x[a] <= hi)) { x[a] = hi; if (v[a] > 0.0f) v[a] = 0.0f; }
     }
     for (int32_t o = 0; o < h->n_obs; ++o) {
-        const hbk_fluid_obstacle_t *ob = &h->obs[o];
+        const hbk_fluid_obstacle_t *ob = &h->obs_now[o];
+        const float *w = h->obs_rate[o]; /* centre, extent: m/s */
         float q[3] = {x[0] - ob->center[0], x[1] - ob->center[1], x[2] - ob->center[2]};
-        float n[3] = {0, 0, 0}, push = 0.0f;
+        float n[3] = {0, 0, 0}, push = 0.0f, wn;
         if (ob->type == 0) {
             const float d = sqrtf(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]), R = ob->extent[0] + m;
             if (d >= R) continue;
             if (d > 1e-12f) for (int a = 0; a < 3; ++a) n[a] = q[a] / d;
             else n[2] = 1.0f;
             push = R - d;
+            wn = w[0] * n[0] + w[1] * n[1] + w[2] * n[2] + w[3];
         } else {
             int best = -1;
             for (int a = 0; a < 3; ++a) {
@@ -42,9 +45,11 @@ static void collide(const hbk_fluid_t *h, float *x, float *v)
             }
             if (best < 0) continue;
             n[best] = q[best] < 0.0f ? -1.0f : 1.0f;
+            wn = n[best] * w[best] + w[3 + best]; /* the face at centre + n extent */
         }
         float vn = 0.0f;
         for (int a = 0; a < 3; ++a) { x[a] += n[a] * push; vn += v[a] * n[a]; }
+        vn -= wn; /* still obstacles: wn = 0, the plain reflection-free stop */
         if (vn < 0.0f) for (int a = 0; a < 3; ++a) v[a] -= vn * n[a];
     }
 }
@@ -114,7 +119,8 @@ double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads)
         const float s2 = vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2];
         v2 = s2 > v2 ? s2 : v2;
     }
-    double dt = 0.4 * H / (sqrt((double)p->stiffness) + sqrt((double)v2));
+    /* an obstacle moving into the fluid sets particles moving at its speed */
+    double dt = 0.4 * H / (sqrt((double)p->stiffness) + sqrt((double)v2) + h->obs_speed);
     if (p->viscosity > 0.0f) {
         const double dv = 0.125 * H * H * p->rest_density / p->viscosity;
         dt = dv < dt ? dv : dt;

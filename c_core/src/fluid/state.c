@@ -191,6 +191,7 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     }
     h->count = hd.count;
     h->n_obs = hd.n_obs;
+    h->obs_moving = 0; /* a pending move was made for the obstacles replaced */
     h->have_fields = hd.have_fields;
     h->paint_active = hd.paint_active;
     h->frame = hd.frame;
