@@ -324,3 +324,53 @@ def test_features_of_a_known_flow():
         f.step()
         np.testing.assert_allclose(f.volume("motion"), np.broadcast_to((3.0, 4.0, 0.0), v3.shape),
                                    atol=1e-5)
+
+
+def test_moving_obstacles_are_checked_by_name():
+    with fluid.Fluid({"resolution": (8, 8, 8)}) as f:
+        f.set_obstacles([("box", (0.5, 0.5, 0.5), (0.1, 0.1, 0.1))])
+        with pytest.raises(errors.InvalidArgument, match=r"to\[0\]\.type = 0: must be obstacle "
+                                                         r"0's type 1"):
+            f.move_obstacles([("sphere", (0.5, 0.5, 0.5), 0.1)])
+        with pytest.raises(errors.InvalidArgument, match=r"count = 2: must be the obstacle "
+                                                         r"count 1"):
+            f.move_obstacles([("box", (0.5, 0.5, 0.5), (0.1, 0.1, 0.1))] * 2)
+        with pytest.raises(errors.InvalidArgument, match=r"to\[0\]\.centre: must have 3"):
+            f.move_obstacles([("box", (0.5, 0.5), (0.1, 0.1, 0.1))])
+    with pytest.raises(errors.InvalidArgument, match=r"obstacle_path\[3\]: kinds \['sphere'\] "
+                                                     r"must be the obstacles' \['box'\]"):
+        get("fluid")({"fluid": {"resolution": (8, 8, 8)}},
+                     {"fill": ((0, 0, 0), (0.3, 0.3, 0.3)),
+                      "obstacles": [("box", (0.7, 0.5, 0.1), (0.1, 0.1, 0.1))],
+                      "obstacle_path": {3: [("sphere", (0.5, 0.5, 0.5), 0.1)]}})
+
+
+def test_a_moving_paddle_pushes_the_fluid_and_keeps_none_inside():
+    """A box swept along -x at 1.2 m/s into shallow water: the water in front of it moves
+    with its face (at its speed), none is left inside it, and the flow is several times that
+    of the same box standing still."""
+    params = {"fluid": {"resolution": (16, 16, 16), "max_particles": 20000, "substeps": 4}}
+    box = lambda x: [("box", (x, 0.5, 0.1), (0.05, 0.3, 0.15))]  # noqa: E731
+    fill = ((0, 0, 0), (0.8, 1, 0.12))
+    moving = get("fluid")(params, {"fill": fill, "obstacles": box(0.9),
+                                   "obstacle_path": {f: box(0.9 - 0.05 * f)
+                                                     for f in range(1, 9)}})
+    still = get("fluid")(params, {"fill": fill, "obstacles": box(0.9)})
+    try:
+        for f in range(1, 9):
+            moving.step(f, None)
+            still.step(f, None)
+        pos, vel = moving.fluid.particles()
+        x = 0.9 - 0.05 * 8
+        inside = ((np.abs(pos[:, 0] - x) < 0.05 + 0.0099) & (np.abs(pos[:, 1] - 0.5) < 0.3) &
+                  (pos[:, 2] < 0.25))
+        assert not inside.any()
+        front = (pos[:, 0] > x - 0.05 - 0.03) & (pos[:, 0] < x - 0.05) & \
+            (np.abs(pos[:, 1] - 0.5) < 0.2)
+        assert front.sum() > 100
+        assert -1.25 < np.median(vel[front, 0]) < -1.15
+        svel = still.fluid.particles()[1]
+        assert np.abs(vel[:, 0]).mean() > 2.5 * np.abs(svel[:, 0]).mean()
+    finally:
+        moving.close()
+        still.close()

@@ -12,6 +12,7 @@ import pytest
 from hydrobake.core import errors, mantaflow, vdb
 from hydrobake.core.bake import BakeCache, BakeRunner
 from hydrobake.core.effects import get
+from test_fluid_binding import grid_values
 from test_snow_binding import box_with_roof
 
 POS, TRIS, UVS, MI = box_with_roof()
@@ -249,3 +250,33 @@ def test_a_mantaflow_frame_digest_is_its_files_bytes(tmp_path):
     assert turned.digest(1) != a.digest(1)
     os.remove(mantaflow.data_path(str(moved), 1))
     assert b.digest(1) != a.digest(1)  # (a missing file: the step says what is wrong)
+
+
+SPH = {"resolution": (16, 16, 16), "max_particles": 4000, "substeps": 4, "seed": 7}
+STILL = [("box", (0.7, 0.15, 0.1), (0.1, 0.05, 0.1))]
+
+
+def paddle(path):
+    return get("fluid")({"fluid": SPH}, {"fill": ((0, 0, 0), (0.3, 0.3, 0.3)),
+                                         "obstacles": STILL, "obstacle_path": path})
+
+
+def test_fluid_moving_obstacles_per_frame(tmp_path):
+    """Where the obstacles move to is recorded per frame: a resume keeps the frames whose path
+    is unchanged and continues them to the same bytes, and refuses a path changed in them."""
+    path = {f: [("box", (0.7 - 0.06 * f, 0.15, 0.1), (0.1, 0.05, 0.1))] for f in (2, 3, 4, 5, 6)}
+    whole, cut = tmp_path / "whole", tmp_path / "cut"
+    run(paddle(path), whole, end=6)
+    run(paddle(path), cut, end=6, cancel_after=3)
+    assert 3 <= run(paddle(path), cut, end=6, resume=True).resumed_from < 6
+    assert snapshot(cut).keys() == snapshot(whole).keys()
+    for f in range(1, 7):  # (a VDB file holds a fresh UUID: its grids' values are compared)
+        name = f"surface_{f:04d}.npz"
+        assert (cut / name).read_bytes() == (whole / name).read_bytes(), name
+        name = f"fluid_{f:04d}.vdb"
+        assert grid_values(cut / name) == grid_values(whole / name), name
+    m = BakeCache(whole).read_manifest()
+    placed = [m["frame_inputs"][str(f)]["obstacles"] for f in range(1, 7)]
+    assert len(set(placed)) == 6
+    refused(paddle({**path, 2: STILL}), whole, "obstacles at frame 2: changed since the bake",
+            end=6)

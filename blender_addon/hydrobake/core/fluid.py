@@ -34,6 +34,7 @@ Handle.declare("fluid", [
     ("fill_box", [P(_V3), P(_V3), ctypes.c_float]),
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
+    ("move_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("set_velocity_grid", [_f32, ctypes.c_void_p]),
     ("step", [P(Progress)]), ("update_fields", []),
     ("get_volume", [ctypes.c_int32, _f32, ctypes.c_size_t]),
@@ -62,6 +63,33 @@ _lib.declare([
      [_f32, ctypes.c_int32, ctypes.c_int32, ctypes.c_int32, ctypes.c_float, ctypes.c_uint64,
       P(Message)], check_message),
 ])
+
+
+def obstacle_list(obstacles, what):
+    """[(kind, centre (3 floats), size (radius, or 3 half-sizes))] of obstacles given as
+    (kind, centre, size), each checked by name."""
+    out = []
+    for i, ob in enumerate(args.sequence(obstacles, what, what="obstacles")):
+        name = f"{what}[{i}]"
+        kind, c, e = args.sequence(ob, name, 3, "values (kind, centre, size)")
+        # Checked by name: any other kind would be taken as a box (type 1).
+        kind = args.choice(kind, f"{name}.kind", OBSTACLE_KINDS)
+        if kind == "sphere":
+            size = args.number(e, f"{name}.radius")
+        else:
+            size = tuple(args.numbers(e, f"{name}.half_sizes", 3))
+        out.append((kind, tuple(args.numbers(c, f"{name}.centre", 3)), size))
+    return out
+
+
+def _obstacles(obstacles, what):
+    """(hbk_fluid_obstacle_t array, count) of [(kind, centre, size)], checked by name."""
+    obstacles = obstacle_list(obstacles, what)
+    arr = (Obstacle * max(len(obstacles), 1))()
+    for i, (kind, c, e) in enumerate(obstacles):
+        ext = _V3(e, 0.0, 0.0) if kind == "sphere" else _V3(*e)
+        arr[i] = Obstacle(OBSTACLE_KINDS.index(kind), _V3(*c), ext)
+    return arr, len(obstacles)
 
 
 class Fluid(Handle):
@@ -93,21 +121,17 @@ class Fluid(Handle):
         return pos, vel
 
     def set_obstacles(self, obstacles):
-        """obstacles: [("sphere", centre, radius) | ("box", centre, half_sizes)]."""
-        obstacles = args.sequence(obstacles, "obstacles", what="obstacles")
-        arr = (Obstacle * max(len(obstacles), 1))()
-        for i, ob in enumerate(obstacles):
-            name = f"obstacles[{i}]"
-            kind, c, e = args.sequence(ob, name, 3, "values (kind, centre, size)")
-            # Checked by name: any other kind would be taken as a box (type 1).
-            kind = args.choice(kind, f"{name}.kind", OBSTACLE_KINDS)
-            if kind == "sphere":
-                ext = _V3(args.number(e, f"{name}.radius"), 0.0, 0.0)
-            else:
-                ext = args.numbers(e, f"{name}.half_sizes", 3)
-            arr[i] = Obstacle(OBSTACLE_KINDS.index(kind), args.numbers(c, f"{name}.centre", 3),
-                              ext)
-        self.call("set_obstacles", arr, len(obstacles))
+        """obstacles: [("sphere", centre, radius) | ("box", centre, half_sizes)], still where
+        they are (a move not stepped yet is dropped)."""
+        arr, n = _obstacles(obstacles, "obstacles")
+        self.call("set_obstacles", arr, n)
+
+    def move_obstacles(self, to):
+        """Where the obstacles are at the end of the next step (a list like set_obstacles',
+        one per obstacle, in order, of the same kinds): the step carries them there in a
+        straight line and the fluid meets them moving."""
+        arr, n = _obstacles(to, "to")
+        self.call("move_obstacles", arr, n)
 
     def _per_vertex(self, name, values, components=1):
         """values as a flat float32 array of one entry per grid vertex (the C side reads that

@@ -4,7 +4,10 @@ an OpenVDB file and the textured surface mesh.
 
 Inputs:
     fill         (lo, hi): particles filling a box at rest (SIMULATE)
-    obstacles    [("sphere"|"box", centre, size)] (SIMULATE)
+    obstacles    [("sphere"|"box", centre, size)] (SIMULATE): as they are at the first frame
+    obstacle_path {frame: obstacles}: where the obstacles are at the frames they move to (the
+                 same count and kinds); each frame's step carries them from the frame before's
+                 place (the latest given, else ``obstacles``) to its own
     particles    {frame: (positions (N, 3), velocities (N, 3))} (PARTICLES)
     velocity     {frame: (V_m (nz+1, ny+1, nx+1, 3), surface field or None)} (VELOCITY_GRID)
     paint        {frame: [(texture, centre, radius, falloff)]}: local paint strokes, laid
@@ -29,12 +32,13 @@ Streams per frame:
     surface_####.npz  positions, normals, triangles, uvw_a, uvw_b, blend, features,
                       uvw_weight, and sample_k (RGB) for each voxel texture k
 """
+import bisect
 import os
 
 import numpy as np
 
-from .. import arrays, solid_textures
-from ..fluid import Fluid
+from .. import arrays, errors, solid_textures
+from ..fluid import Fluid, OBSTACLE_KINDS, obstacle_list
 from . import register
 from .base import Effect, plain
 
@@ -65,6 +69,8 @@ class FluidEffect(Effect):
         except BaseException:
             self.fluid.close()
             raise
+        self.path = self._path(inp.get("obstacles") or [], inp.get("obstacle_path") or {})
+        self._path_keys = sorted(self.path)
         self.particles = inp.get("particles") or {}
         self.velocity = inp.get("velocity") or {}
         self.paint = inp.get("paint") or {}
@@ -74,6 +80,27 @@ class FluidEffect(Effect):
         lo, hi = np.array(p.box_min[:]), np.array(p.box_max[:])
         self.cell = (hi - lo) / np.array(p.resolution[:])
         self.origin = lo
+
+    @staticmethod
+    def _path(first, path):
+        """{frame: checked obstacles} of the obstacle path: as many as ``obstacles``, of the
+        same kinds (each frame's step moves them, it cannot add or change one)."""
+        kinds = [ob[0] for ob in obstacle_list(first, "obstacles")]
+        out = {}
+        for f, obs in path.items():
+            name = f"obstacle_path[{f}]"
+            obs = obstacle_list(obs, name)
+            if [ob[0] for ob in obs] != kinds:
+                raise errors.InvalidArgument(
+                    f"{name}: kinds {[ob[0] for ob in obs]} must be the obstacles' {kinds} "
+                    "(the same obstacles, moved)")
+            out[int(f)] = obs
+        return out
+
+    def _obstacles_at(self, frame):
+        """The obstacles where the path has them at ``frame``."""
+        i = bisect.bisect_right(self._path_keys, frame)
+        return self.path[self._path_keys[i - 1]] if i else self.inputs.get("obstacles") or []
 
     def scalar_inputs(self):
         """The filled box, its jitter and the obstacles (the SPH's start); and, when there
@@ -102,12 +129,21 @@ class FluidEffect(Effect):
         return plain(out)
 
     def frame_inputs(self, frame):
-        """The particles (PARTICLES) or the velocity cache (VELOCITY_GRID) set at ``frame``."""
+        """The particles (PARTICLES) or the velocity cache (VELOCITY_GRID) set at ``frame``,
+        and where moving obstacles are then."""
         source = getattr(self.velocity, "digest", None)  # (a cache: its file's bytes)
         if source is not None:
-            return {"particles": arrays.digest(None), "velocity": source(frame)}
-        return {"particles": arrays.digest(*self.particles.get(frame, (None, None))),
-                "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
+            out = {"particles": arrays.digest(None), "velocity": source(frame)}
+        else:
+            out = {"particles": arrays.digest(*self.particles.get(frame, (None, None))),
+                   "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
+        if self.path:
+            obs = self._obstacles_at(frame)
+            out["obstacles"] = arrays.digest(
+                np.array([OBSTACLE_KINDS.index(k) for k, _, _ in obs], np.int64),
+                np.array([list(c) + ([e, 0.0, 0.0] if k == "sphere" else list(e))
+                          for k, c, e in obs], np.float32).reshape(-1, 6))
+        return out
 
     def step(self, frame, progress):
         if frame in self.particles:
@@ -118,6 +154,8 @@ class FluidEffect(Effect):
             self.fluid.set_velocity_grid(vel, surf)
         for texture, centre, radius, falloff in self.paint.get(frame, []):
             self.fluid.paint_sphere(texture, centre, radius, falloff)
+        if self.path:
+            self.fluid.move_obstacles(self._obstacles_at(frame))
         self.fluid.step(progress)
         # Points are painted on the frame's own surface (as the artist saw it), so they land
         # after its step.
