@@ -53,3 +53,8 @@ def test_strokes_obstacles_and_renamed_objects(blender, tmp_path):
     r = blender.run("fluid_strokes_and_names.py", tmp_path)
     for part in ("STROKES", "RENAMED DOMAIN", "RENAMED OBJECTS", "DERIVED"):
         assert f"FLUID {part} OK" in r.stdout, r.stdout
+
+
+def test_a_keyed_obstacle_is_followed_frame_by_frame(blender, tmp_path):
+    r = blender.run("fluid_moving_obstacles.py", tmp_path)
+    assert "FLUID MOVING OBSTACLES OK" in r.stdout

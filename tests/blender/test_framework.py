@@ -225,7 +225,7 @@ def test_shapes_are_read_at_the_bakes_first_frame(blender, tmp_path):
     assert "FIRST FRAME SHAPES OK" in r.stdout
 
 
-def test_what_a_bake_reads_once_is_named_when_it_may_move(blender, tmp_path):
+def test_a_ground_read_once_is_named_and_obstacles_are_followed(blender, tmp_path):
     r = blender.run("read_once_warnings.py", tmp_path)
     assert "READ ONCE WARNINGS OK" in r.stdout
 

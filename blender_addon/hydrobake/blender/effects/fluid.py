@@ -15,7 +15,7 @@ from .. import paths
 from ..bridge import animation, frame_meshes, helper_objects, meshes, tileable, volumes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
-from .base import BakeWarning, BlenderEffect, offers, warn_read_once
+from .base import BakeWarning, BlenderEffect, offers
 from .fluid_paint import FEATURES
 
 
@@ -222,12 +222,8 @@ class FluidBlender(BlenderEffect):
                     raise ValueError(f"Obstacles: {settings.obstacles.name!r} holds "
                                      f"{len(found)} objects: must hold at most "
                                      f"{MAX_OBSTACLES} (each is a box the fluid flows around)")
-                warn_read_once(found, "Obstacles", frames[0])
-                obs = []
-                for o in found:
-                    olo, ohi = meshes.world_bounds(o)
-                    obs.append(("box", tuple((olo + ohi) / 2), tuple((ohi - olo) / 2)))
-                inputs["obstacles"] = obs
+                inputs["obstacles"], inputs["obstacle_path"] = cls._obstacles(
+                    context, found, frames)
         elif fp["source"] == 1:
             if settings.particle_object is None:
                 raise ValueError("Particles: PARTICLES needs an object with a particle system")
@@ -322,6 +318,34 @@ class FluidBlender(BlenderEffect):
         fp["surface_threshold"] = 0.5  # the crossings' field is 0.5 on the liquid surface
         return mantaflow.CacheSource(cache, range(frames[0], frames[1] + 1), dlo, dhi, lo, hi,
                                      res, surfaces, d.time_scale, matrix)
+
+    @staticmethod
+    def _obstacles(context, found, frames):
+        """The obstacles at the first frame, each its world bounding box, and {frame: all
+        of them} for the later frames where one that is animated, constrained or deformed
+        stands otherwise than the frame before (the fluid meets it moving there)."""
+        movers = {k for k, o in enumerate(found)
+                  if animation.may_move(o) or animation.may_deform(o)}
+
+        def boxes(_f=None):
+            dg = evaluated_depsgraph(context) if movers else None
+            out = []
+            for k, o in enumerate(found):
+                # the evaluated shape and place of what moves (its modifiers at this frame)
+                olo, ohi = meshes.world_bounds(evaluated_object(o, dg, "Obstacles")
+                                               if k in movers else o)
+                out.append(("box", tuple(map(float, (olo + ohi) / 2)),
+                            tuple(map(float, (ohi - olo) / 2))))
+            return out
+        first = boxes()
+        if not movers or frames[1] <= frames[0]:
+            return first, {}
+        path, last = {}, first
+        for f, here in animation.per_frame(context.scene, frames[0] + 1, frames[1],
+                                           boxes).items():
+            if here != last:
+                path[f] = last = here
+        return first, path
 
     @staticmethod
     def _particles(context, pobj, frames, lo, hi):
