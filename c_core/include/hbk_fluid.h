@@ -131,7 +131,9 @@ HBK_EXPORT hbk_result_t hbk_fluid_set_particles(hbk_fluid_t *h, const float *pos
                                                 const float *vel, int32_t count);
 /* Adds particles at rest on a lattice of particle_spacing filling [lo, hi] (clipped to the box,
  * half a spacing from its walls), each moved by up to `jitter` spacings (0..0.5) with the RNG
- * keyed by seed. HBK_ERR_INVALID_ARGUMENT also when they would exceed max_particles. */
+ * keyed by seed, leaving out those inside an obstacle set before (within half a spacing, as
+ * the step keeps them out). HBK_ERR_INVALID_ARGUMENT also when they would exceed
+ * max_particles. */
 HBK_EXPORT hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float hi[3],
                                            float jitter);
 HBK_EXPORT int32_t hbk_fluid_particle_count(const hbk_fluid_t *h); /* 0 for NULL */

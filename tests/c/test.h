@@ -198,7 +198,8 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, obstacles_moving_wall)     \
     X(fluid, obstacles_growing_sphere)  \
     X(fluid, obstacles_move_deterministic) \
-    X(fluid, obstacles_move_cancel_resume)
+    X(fluid, obstacles_move_cancel_resume) \
+    X(fluid, obstacles_fill_around)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

@@ -225,7 +225,6 @@ hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float h
     const float s = h->p.particle_spacing;
     double a0[3];
     int32_t n[3];
-    size_t total = 1;
     for (int a = 0; a < 3; ++a) {
         if (!isfinite(lo[a]) || !isfinite(hi[a]))
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "lo[%d], hi[%d]: must be finite", a, a);
@@ -233,29 +232,41 @@ hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float h
         const double u = fmin(hi[a], h->p.box_max[a]) - 0.5 * s;
         a0[a] = l;
         n[a] = u >= l ? (int32_t)floor((u - l) / s + 1e-6) + 1 : 0;
-        total *= (size_t)n[a];
     }
-    if ((size_t)h->count + total > (size_t)h->p.max_particles)
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                        "fill_box: %zu particles plus the %d present exceed max_particles = %d",
-                        total, h->count, h->p.max_particles);
+    /* Two passes, the first counting: lattice points inside an obstacle are left out (there
+     * the collision would throw them out at once, a burst of spray at the first step), and
+     * the rest must fit. Each point's jitter is keyed by its place in the lattice. */
     size_t id = (size_t)h->count;
-    for (int32_t k = 0; k < n[2]; ++k)
-        for (int32_t j = 0; j < n[1]; ++j)
-            for (int32_t i = 0; i < n[0]; ++i, ++id) {
-                uint32_t rnd[4];
-                hbk_philox(h->p.seed, HBK_FLUID_STREAM_JITTER, (uint64_t)id, rnd);
-                const int32_t ijk[3] = {i, j, k};
-                for (int a = 0; a < 3; ++a) {
-                    const float jit = jitter * s * (2.0f * hbk_u32_to_unit(rnd[a]) - 1.0f);
-                    float x = (float)(a0[a] + (double)ijk[a] * s) + jit;
-                    const float m = 0.5f * s;
-                    x = x < h->p.box_min[a] + m ? h->p.box_min[a] + m : x;
-                    x = x > h->p.box_max[a] - m ? h->p.box_max[a] - m : x;
-                    h->pos[3 * id + (size_t)a] = x;
-                    h->vel[3 * id + (size_t)a] = 0.0f;
+    for (int pass = 0; pass < 2; ++pass) {
+        size_t at = (size_t)h->count, lattice = (size_t)h->count;
+        for (int32_t k = 0; k < n[2]; ++k)
+            for (int32_t j = 0; j < n[1]; ++j)
+                for (int32_t i = 0; i < n[0]; ++i, ++lattice) {
+                    uint32_t rnd[4];
+                    hbk_philox(h->p.seed, HBK_FLUID_STREAM_JITTER, (uint64_t)lattice, rnd);
+                    const int32_t ijk[3] = {i, j, k};
+                    float x[3];
+                    for (int a = 0; a < 3; ++a) {
+                        const float jit = jitter * s * (2.0f * hbk_u32_to_unit(rnd[a]) - 1.0f);
+                        const float m = 0.5f * s;
+                        x[a] = (float)(a0[a] + (double)ijk[a] * s) + jit;
+                        x[a] = x[a] < h->p.box_min[a] + m ? h->p.box_min[a] + m : x[a];
+                        x[a] = x[a] > h->p.box_max[a] - m ? h->p.box_max[a] - m : x[a];
+                    }
+                    if (hbk_fluid_in_obstacle(h, x)) continue;
+                    if (pass)
+                        for (int a = 0; a < 3; ++a) {
+                            h->pos[3 * at + (size_t)a] = x[a];
+                            h->vel[3 * at + (size_t)a] = 0.0f;
+                        }
+                    ++at;
                 }
-            }
+        if (!pass && at > (size_t)h->p.max_particles)
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                            "fill_box: %zu particles plus the %d present exceed max_particles = %d",
+                            at - (size_t)h->count, h->count, h->p.max_particles);
+        id = at;
+    }
     h->count = (int32_t)id;
     return HBK_OK;
 }

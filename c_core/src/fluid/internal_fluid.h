@@ -178,6 +178,8 @@ void hbk_fluid_cells_free(hbk_fluid_cells_t *c);
 int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what);
 void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t);
 void hbk_fluid_obstacles_moved(hbk_fluid_t *h);
+/* 1 if x is where the step's collision would push a particle out of an obstacle (still). */
+int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3]);
 static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, int a)
 {
     /* Clamped as a float: a particle far outside the grid (a loaded state's) would overflow

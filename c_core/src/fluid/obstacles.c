@@ -111,3 +111,20 @@ void hbk_fluid_obstacles_moved(hbk_fluid_t *h)
     memcpy(h->obs, h->obs_to, (size_t)h->n_obs * sizeof *h->obs);
     h->obs_moving = 0;
 }
+
+int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3])
+{
+    const float m = 0.5f * h->p.particle_spacing; /* as collide keeps particles out */
+    for (int32_t o = 0; o < h->n_obs; ++o) {
+        const hbk_fluid_obstacle_t *ob = &h->obs[o];
+        const float q[3] = {x[0] - ob->center[0], x[1] - ob->center[1], x[2] - ob->center[2]};
+        if (ob->type == 0) {
+            const float R = ob->extent[0] + m;
+            if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < R * R) return 1;
+        } else if (fabsf(q[0]) < ob->extent[0] + m && fabsf(q[1]) < ob->extent[1] + m &&
+                   fabsf(q[2]) < ob->extent[2] + m) {
+            return 1;
+        }
+    }
+    return 0;
+}
