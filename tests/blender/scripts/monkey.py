@@ -4,7 +4,8 @@ re-bakes with a changed setting, Shift+D copies, renames, deletes, material slot
 tidied with --moves), Join, Make Single User and Link Materials (--relations), File >
 External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
 Cache Folder (--external), the scene's frame rate and range (--scene), the fluid's source
-(a particle emitter and a Mantaflow liquid, --sources), any object renamed (a pool's
+(a particle emitter and a Mantaflow liquid, --sources), the fluid's obstacles, one keyed
+(--obstacles), any object renamed (a pool's
 ground, a bake's projector, flakes or modifiers: --renames), modifiers, visibility,
 save and reopen, undo, the command line in-process and in a subprocess), with the invariants
 checked after every step:
@@ -28,7 +29,7 @@ checked after every step:
 
     blender -b --factory-startup --python monkey.py -- TMPDIR SEED [--steps N]
         [--effects caustics,rain,snow,fluid] [--replay FILE.json] [--delete-baked] [--more]
-        [--elsewhere] [--moves] [--relations] [--external] [--scene] [--sources]
+        [--elsewhere] [--moves] [--relations] [--external] [--scene] [--sources] [--obstacles]
         [--renames] [--no-subprocess]
         [--no-render] [--known] [--trace]
 
@@ -153,11 +154,13 @@ def setup_snow(obj, rng_or_tex):
     in_blender.snow(obj, (1, 3), 40.0, rng_or_tex)
 
 
-def build_scene(seed, effects, tmp, sources=False):
+def build_scene(seed, effects, tmp, sources=False, obstacles=False):
     """The seed's small scene: the effects' objects, a camera and a sun. Deterministic.
     ``sources`` (--sources) adds an emitter of particles in the fluid domain, the domain's
     source (PARTICLES) half the time, and a baked Mantaflow liquid "Tank" (its cache in
-    //manta/), textured by its own velocity (VELOCITY_GRID) half the time."""
+    //manta/), textured by its own velocity (VELOCITY_GRID) half the time. ``obstacles``
+    (--obstacles) gives the fluid an Obstacles collection of a still rock and a paddle keyed
+    to move into the water (followed frame by frame)."""
     rng = random.Random(seed * 7919 + 1)
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
                  bpy.data.lights):
@@ -201,6 +204,16 @@ def build_scene(seed, effects, tmp, sources=False):
         domain, fill, s = in_blender.dam_break((24, 12, 12), textures=2, frames=(1, 2))
         for o in (domain, fill):
             o.location.y += 3.0
+        if obstacles:
+            rocks = bpy.data.collections.new("Rocks")
+            bpy.context.scene.collection.children.link(rocks)
+            rocks.objects.link(in_blender.new_box("Rock", (0.1, 0.1, 0.1), (0.8, 3.1, 0.05)))
+            paddle = in_blender.new_box("Paddle", (0.05, 0.3, 0.3), (0.9, 3.3, 0.15))
+            rocks.objects.link(paddle)
+            for frame, x in ((1, 0.9), (3, 0.5)):
+                paddle.location.x = x
+                paddle.keyframe_insert("location", index=0, frame=frame)
+            s.obstacles = rocks
         if sources:  # its own generator: the fixed seeds' scenes stay as they were
             emitter = in_blender.new_box("Emitter", (0.3, 0.3, 0.05), (0.5, 3.25, 0.4))
             ps = emitter.modifiers.new("Drops", "PARTICLE_SYSTEM").particle_system.settings
@@ -479,6 +492,7 @@ class Monkey:
         self.external = False  # --external: paths absolute / relative, pack, unpack, purge
         self.scene_ops = False  # --scene: the scene's frame rate and range
         self.sources = False  # --sources: an emitter and a liquid, the fluid's source switched
+        self.obstacles = False  # --obstacles: a still rock and a keyed paddle in the fluid
         self.renames = False  # --renames: any object renamed (a pool's ground), not a target's
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
         self.left_behind = set()  # bake folders of the files saved elsewhere from
@@ -1706,7 +1720,8 @@ class Monkey:
 
     # --- the run -----------------------------------------------------------------------------
     def start(self):
-        self.blend = build_scene(self.seed, self.effects, self.tmp, self.sources)
+        self.blend = build_scene(self.seed, self.effects, self.tmp, self.sources,
+                                 self.obstacles)
         self.check("setup")
 
     def step(self, a, k):
@@ -1824,6 +1839,8 @@ def main():
     p.add_argument("--sources", action="store_true",
                    help="also a particle emitter and a baked Mantaflow liquid, the fluid's "
                         "source switched among them")
+    p.add_argument("--obstacles", action="store_true",
+                   help="also the fluid's obstacles: a still rock and a keyed paddle")
     p.add_argument("--renames", action="store_true",
                    help="also any object renamed (a pool's ground, a collider, a bake's helpers)")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
@@ -1855,10 +1872,12 @@ def main():
     m.scene_ops = args.scene or bool(replay and replay.get("scene"))
     m.sources = args.sources or bool(replay and replay.get("sources"))
     m.renames = args.renames or bool(replay and replay.get("renames"))
+    m.obstacles = args.obstacles or bool(replay and replay.get("obstacles"))
     record = {"seed": args.seed, "effects": effects, "delete_baked": m.delete_baked,
               "more": m.more, "elsewhere": m.elsewhere, "moves": m.moves,
               "relations": m.relations, "external": m.external, "scene": m.scene_ops,
-              "sources": m.sources, "renames": m.renames, "actions": m.log}
+              "sources": m.sources, "renames": m.renames, "obstacles": m.obstacles,
+              "actions": m.log}
     m.record = record
     status = "OK"
     try:
