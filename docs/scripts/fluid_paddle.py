@@ -1,10 +1,12 @@
 """Renders docs/images/fluid_paddle.png's halves: a paddle keyed to sweep through shallow water
 (frames 1-24), the fluid textured and baked at 64 cells along the tank, rendered at frame 20 in
 Cycles. Run with the addon of a8423d4 for the left half (the paddle read once, where it stands
-at frame 1), with d388f7a or later for the right (followed frame by frame).
+at frame 1), with d388f7a or later for the right (followed frame by frame). With ``ball``:
+docs/images/fluid_ball.png, a ball keyed to drop into the water (frames 1-12; a sphere
+obstacle since the commit after 7090d39), rendered at frame 14.
 
     BLENDER_USER_SCRIPTS=<dir holding addons/hydrobake> blender -b --factory-startup \\
-        --python-exit-code 1 --python docs/scripts/fluid_paddle.py -- OUTDIR
+        --python-exit-code 1 --python docs/scripts/fluid_paddle.py -- OUTDIR [ball]
 """
 import math
 import os
@@ -14,9 +16,10 @@ import addon_utils
 import bpy
 
 out = os.path.abspath(sys.argv[sys.argv.index("--") + 1])
+ball = sys.argv[-1] == "ball"
 bpy.ops.wm.read_factory_settings(use_empty=True)
 addon_utils.enable("hydrobake", default_set=True)
-bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, "paddle.blend"))
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, "ball.blend" if ball else "paddle.blend"))
 scene = bpy.context.scene
 
 
@@ -39,11 +42,17 @@ def material(name, colour, roughness=0.6):
 tank = box("Tank", (1.6, 0.6, 0.5), (0.8, 0.3, 0.25))
 water = box("Water", (1.6, 0.6, 0.12), (0.8, 0.3, 0.06))
 water.hide_render = True
-paddle = box("Paddle", (0.06, 0.4, 0.45), (1.4, 0.3, 0.2))
+if ball:
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.15, location=(0.8, 0.3, 0.9))
+    paddle = bpy.context.active_object
+    keys, axis = ((1, 0.9), (12, 0.08)), 2  # falling, then resting on the floor
+else:
+    paddle = box("Paddle", (0.06, 0.4, 0.45), (1.4, 0.3, 0.2))
+    keys, axis = ((1, 1.4), (24, 0.4)), 0
 paddle.data.materials.append(material("Wood", (0.35, 0.18, 0.07, 1.0)))
-for frame, x in ((1, 1.4), (24, 0.4)):
-    paddle.location.x = x
-    paddle.keyframe_insert("location", index=0, frame=frame)
+for frame, x in keys:
+    paddle.location[axis] = x
+    paddle.keyframe_insert("location", index=axis, frame=frame)
 for k in paddle.animation_data.action.fcurves[0].keyframe_points:
     k.interpolation = "LINEAR"
 paddles = bpy.data.collections.new("Paddles")
@@ -59,7 +68,7 @@ s.fluid.resolution = (64, 24, 20)
 scene.frame_set(1)
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Tank") == {"FINISHED"}
 
-scene.frame_set(20)
+scene.frame_set(14 if ball else 20)
 cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
 scene.collection.objects.link(cam)
 cam.location, cam.rotation_euler = (0.8, -1.3, 1.7), (math.radians(45), 0.0, 0.0)
@@ -74,6 +83,6 @@ scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.4, 
 scene.render.engine = "CYCLES"
 scene.cycles.samples, scene.cycles.use_denoising = 32, False
 scene.render.resolution_x, scene.render.resolution_y = 480, 300
-scene.render.filepath = os.path.join(out, "fluid_paddle.png")
+scene.render.filepath = os.path.join(out, "fluid_ball.png" if ball else "fluid_paddle.png")
 bpy.ops.render.render(write_still=True)
 print("RENDERED", scene.render.filepath)

@@ -46,6 +46,38 @@ finally:
     job.runner.effect.close()
     del domain.hydrobake_fluid[jobs.BAKING]
 
+# A ball is a sphere, followed as it drops: its centre where its keys put it, its radius kept.
+bpy.ops.mesh.primitive_uv_sphere_add(radius=0.1, location=(0.7, 0.25, 0.45))
+ball = bpy.context.active_object
+ball.rotation_euler = (0.3, 0.5, 0.0)  # (turned: still round)
+ball.keyframe_insert("location", index=2, frame=1)
+ball.location.z = 0.15
+ball.keyframe_insert("location", index=2, frame=12)
+for k in ball.animation_data.action.fcurves[0].keyframe_points:
+    k.interpolation = "LINEAR"
+bpy.ops.mesh.primitive_ico_sphere_add(radius=0.05, subdivisions=2, location=(0.2, 0.4, 0.1))
+pebble = bpy.context.active_object
+for o in (ball, pebble):
+    paddles.objects.link(o)
+job = jobs.Job(bpy.context, domain, "fluid")
+try:
+    inp = job.runner.effect.inputs
+    kinds = {o.name: ob[0] for o, ob in zip(paddles.all_objects, inp["obstacles"])}
+    assert kinds == {"Paddle": "box", "Sphere": "sphere", "Icosphere": "sphere"}, kinds
+    at = {o.name: k for k, o in enumerate(paddles.all_objects)}
+    kind, c, r = inp["obstacles"][at["Icosphere"]]
+    assert np.allclose(c, (0.2, 0.4, 0.1), atol=1e-6) and abs(r - 0.05) < 1e-6, (c, r)
+    for frame, obs in [(1, inp["obstacles"])] + sorted(inp["obstacle_path"].items()):
+        kind, c, r = obs[at["Sphere"]]
+        z = 0.45 - 0.3 * (frame - 1) / 11 if frame < 12 else 0.15
+        assert np.allclose(c, (0.7, 0.25, z), atol=1e-5) and abs(r - 0.1) < 1e-5, (frame, c, r)
+        assert obs[at["Icosphere"]] == inp["obstacles"][at["Icosphere"]]
+finally:
+    job.runner.effect.close()
+    del domain.hydrobake_fluid[jobs.BAKING]
+for o in (ball, pebble):
+    bpy.data.objects.remove(o)
+
 
 def water_in_paddle():
     """The baked density, at frame 12, in the voxels of the paddle's middle slab there."""

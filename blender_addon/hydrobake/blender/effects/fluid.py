@@ -24,6 +24,31 @@ SHOWN = "shown_as"  # in the settings: the domain's (display_type, hide_render) 
 MAX_OBSTACLES = 64  # HBK_FLUID_MAX_OBSTACLES
 
 
+def _round(obj, depsgraph):
+    """(centre, radius) in the world of a mesh whose evaluated vertices all lie within 2% of
+    one distance from the centre of their box (a UV or ico sphere, however turned or
+    uniformly scaled), else None: such an obstacle is a sphere, not its bounding box (a ball
+    would push the water as a cube does)."""
+    if obj.type != "MESH":
+        return None
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    try:
+        pos = np.empty(len(mesh.vertices) * 3, np.float64)
+        mesh.vertices.foreach_get("co", pos)
+    finally:
+        ev.to_mesh_clear()
+    if len(pos) < 3 * 12:  # a box has 8: no sphere
+        return None
+    m = np.array(ev.matrix_world, np.float64)
+    world = pos.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    centre = (world.min(axis=0) + world.max(axis=0)) / 2
+    d = np.linalg.norm(world - centre, axis=1)
+    if d.max() <= 0.0 or d.max() - d.min() > 0.02 * d.max():
+        return None
+    return tuple(map(float, centre)), float(d.max())
+
+
 class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
     """Feature paint (paper §3.1): where a feature lies in [low, high], use the texture."""
     texture: bpy.props.IntProperty(name="Texture", default=1, min=0, max=7,
@@ -321,28 +346,38 @@ class FluidBlender(BlenderEffect):
 
     @staticmethod
     def _obstacles(context, found, frames):
-        """The obstacles at the first frame, each its world bounding box, and {frame: all
-        of them} for the later frames where one that is animated, constrained or deformed
-        stands otherwise than the frame before (the fluid meets it moving there)."""
+        """The obstacles at the first frame, and {frame: all of them} for the later frames
+        where one that is animated, constrained or deformed stands otherwise than the frame
+        before (the fluid meets it moving there). A round mesh (a ball) is a sphere, decided
+        at the first frame; any other object is its world bounding box."""
         movers = {k for k, o in enumerate(found)
                   if animation.may_move(o) or animation.may_deform(o)}
+        dg = evaluated_depsgraph(context)
+        round_ = [_round(o, dg) for o in found]
 
-        def boxes(_f=None):
-            dg = evaluated_depsgraph(context) if movers else None
+        def obstacles(_f=None):
+            graph = evaluated_depsgraph(context) if _f is not None else dg
             out = []
             for k, o in enumerate(found):
-                # the evaluated shape and place of what moves (its modifiers at this frame)
-                olo, ohi = meshes.world_bounds(evaluated_object(o, dg, "Obstacles")
-                                               if k in movers else o)
+                # what moves: its evaluated shape and place at this frame (refused by name if
+                # the view layer does not evaluate it); a still one as before
+                ev = evaluated_object(o, graph, "Obstacles") if k in movers else o
+                olo, ohi = meshes.world_bounds(ev)
+                if round_[k] is not None:
+                    # (a ball that stops being round is the sphere around its box's centre)
+                    ball = _round(o, graph) if k in movers else round_[k]
+                    out.append(("sphere",) + (ball or (tuple(map(float, (olo + ohi) / 2)),
+                                                       float(np.max(ohi - olo) / 2))))
+                    continue
                 out.append(("box", tuple(map(float, (olo + ohi) / 2)),
                             tuple(map(float, (ohi - olo) / 2))))
             return out
-        first = boxes()
+        first = obstacles()
         if not movers or frames[1] <= frames[0]:
             return first, {}
         path, last = {}, first
         for f, here in animation.per_frame(context.scene, frames[0] + 1, frames[1],
-                                           boxes).items():
+                                           obstacles).items():
             if here != last:
                 path[f] = last = here
         return first, path
