@@ -36,6 +36,12 @@ def test_ui_reading_the_scene_shows_progress_unless_another_bake_does(blender, t
     assert "UI READING PROGRESS OK" in r.stdout
 
 
+def test_ui_esc_stops_a_bake_while_it_reads_the_scene(blender, tmp_path):
+    r = blender.run_ui("ui_reading_cancel.py", tmp_path)
+    assert "UI READING CANCEL OK" in r.stdout, r.stdout
+    print(next(ln for ln in r.stdout.splitlines() if ln.startswith("UI reading cancelled")))
+
+
 def test_ui_addon_disabled_while_baking_keeps_frames_and_lets_go(blender, tmp_path):
     r = blender.run_ui("ui_disable_midbake.py", tmp_path)
     assert "UI DISABLE MIDBAKE OK" in r.stdout

@@ -4,6 +4,7 @@ Scene data is read on the main thread when the job is made; the worker thread th
 only the core (C and files); wiring the result back happens on the main thread again.
 Jobs are keyed by object and effect *names*, never by Python references to Blender data."""
 import contextlib
+import inspect
 import json
 import os
 import uuid
@@ -201,9 +202,79 @@ def name_holder(obj, effect_name, folder):
     return None
 
 
+READING = set()  # Readings under way (a UI bake reads from a timer): cancel_all stops them
+
+
+class Reading:
+    """A Job being made: step() runs its reading of the scene to the next frame taken (None
+    once the Job is made), showing progress (the cursor, unless another bake's shows) and
+    keeping the prepare's BakeWarnings in job.warnings; close() stops it, the scene set back
+    on its frame. Warnings are caught a step at a time: between steps the event loop runs,
+    and other code's warnings are not the bake's."""
+
+    def __init__(self, job, label, steps):
+        self.job, self.steps, self.label = job, steps, label  # label: "Object/effect"
+        job.warnings = []
+        self.progress = ReadingProgress(label, busy=bool(ACTIVE))
+        self.last = None  # the step taken last: (frame, done, total)
+        self.closed = False
+        self.ui_end = None  # a UI bake's: lets its timer and status text go at close
+        READING.add(self)
+
+    def step(self):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", BakeWarning)
+            try:
+                self.last = next(self.steps)
+            except StopIteration:
+                self.last = None
+            finally:
+                keep = list(caught)
+        self.job.warnings += [str(w.message) for w in keep
+                              if issubclass(w.category, BakeWarning)]
+        for w in keep:  # the others as they would have gone without the catch
+            if not issubclass(w.category, BakeWarning):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        if self.last is not None:
+            self.progress(*self.last)
+        return self.last
+
+    def close(self):
+        if self.closed:
+            return
+        self.closed = True
+        READING.discard(self)
+        try:
+            self.steps.close()  # (the scene back on its frame)
+        finally:
+            self.progress.close()
+            if self.ui_end is not None:
+                self.ui_end()
+
+
 class Job:
     def __init__(self, context, obj, effect_name, frames=None, folder_override=None,
                  threads=None, scene=None, resume=False):
+        """Reads the scene and makes the bake's runner at once (background mode, scripts,
+        the command line). Job.stepwise reads the scene's frames one at a time."""
+        reading = Reading(self, f"{obj.name}/{effect_name}", self._read(
+            context, obj, effect_name, frames, folder_override, threads, scene, resume))
+        with contextlib.closing(reading):
+            while reading.step() is not None:
+                pass
+
+    @classmethod
+    def stepwise(cls, context, obj, effect_name, resume=False):
+        """A Reading that makes the Job as it is stepped, a frame of the scene's animation at
+        a time (a UI bake steps it from a timer, so Esc can stop it between frames)."""
+        job = cls.__new__(cls)
+        return Reading(job, f"{obj.name}/{effect_name}",
+                       job._read(context, obj, effect_name, resume=resume))
+
+    def _read(self, context, obj, effect_name, frames=None, folder_override=None,
+              threads=None, scene=None, resume=False):
+        """The checks, the scene read by the effect's prepare (a generator of its frames'
+        steps) and the runner made: yields after each frame it reads."""
         scene = scene or context.scene
         if foreign(obj):
             raise ValueError(foreign(obj))
@@ -260,17 +331,9 @@ class Job:
         # have): the same bake whichever frame Bake is pressed on, and a resume reads what the
         # bake it continues read.
         self.start = start
-        # Stepping the frames shows progress (the cursor, unless another bake's shows).
-        progress = ReadingProgress(f"{obj.name}/{effect_name}", busy=bool(ACTIVE))
-        with contextlib.closing(progress), animation.reporting(progress), \
-                scene_context(context, scene), animation.at_frame(scene, start, always=True), \
-                warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", BakeWarning)
-            params, inputs = self.beffect.prepare(context, obj, settings, params, (start, end))
-        self.warnings = [str(w.message) for w in caught if issubclass(w.category, BakeWarning)]
-        for w in caught:  # the others as they would have gone without the catch
-            if not issubclass(w.category, BakeWarning):
-                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        with scene_context(context, scene), animation.at_frame(scene, start, always=True):
+            got = self.beffect.prepare(context, obj, settings, params, (start, end))
+            params, inputs = (yield from got) if inspect.isgenerator(got) else got
         self.scene_name = scene.name
         effect = self.beffect.core_class()(params, inputs)
         self.recorded = paths.stored(self.folder, settings, folder_override)  # in the file
@@ -292,6 +355,7 @@ class Job:
     @property
     def key(self):
         return (self.object_name, self.effect_name)
+
 
     def _beside(self, folder):
         """Whether ``folder`` is another object name's folder of this bake's cache (not an
@@ -594,7 +658,10 @@ def free(context, obj, effect_name):
 
 
 def cancel_all(timeout=5.0):
-    """Cancels every running bake and waits for the threads (their frames stay valid)."""
+    """Cancels every running bake and waits for the threads (their frames stay valid); stops
+    the bakes still reading the scene."""
+    for reading in list(READING):
+        reading.close()
     for job in list(ACTIVE.values()):
         job.runner.cancel()
         if job.runner.join(timeout):  # never free a handle a live thread still uses

@@ -1,6 +1,7 @@
 """Thin operators: bake (modal with progress and Esc in the UI, blocking in background mode and
 from scripts), cancel, free, presets, and the removal of deleted objects' bakes."""
 import functools
+import time
 import traceback
 
 import bpy
@@ -44,8 +45,14 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
 
     _job = None
     _timer = None
+    _reading = None  # a UI bake's Job being made, a frame of the scene at a time
+    READ_FIRST = 0.2  # s of reading in invoke: most bakes are made then, as at once
+    READ_TICK = 0.15  # s of reading per timer tick after: Esc is read between ticks
 
-    def _make_job(self, context):
+    REFUSALS = (errors.HydrobakeError, paths.CacheFolderError, KeyError, ValueError)
+
+    def _checked(self, context):
+        """The object to bake, or None after reporting why not."""
         obj = _target(context, self)
         if obj is None:
             return None
@@ -57,18 +64,48 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
             if jobs.running(obj, self.effect) is not None:
                 self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake is already running")
                 return None
-            if (obj.name, self.effect) in jobs.ACTIVE:  # and into the folder of that name
-                self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake of another object "
-                            "first called by this name (renamed since) is running; wait for "
-                            "it or cancel it")
-                return None
-            job = jobs.Job(context, obj, self.effect, resume=self.resume)
-            for text in job.warnings:
-                self.report({"WARNING"}, text)
-            return job
-        except (errors.HydrobakeError, paths.CacheFolderError, KeyError, ValueError) as exc:
+        except self.REFUSALS as exc:
             self.report({"ERROR"}, f"{obj.name} {self.effect}: {exc}")
             return None
+        if (obj.name, self.effect) in jobs.ACTIVE:  # and into the folder of that name
+            self.report({"ERROR"}, f"{obj.name}: a {self.effect} bake of another object "
+                        "first called by this name (renamed since) is running; wait for "
+                        "it or cancel it")
+            return None
+        return obj
+
+    def _made(self, job):
+        for text in job.warnings:
+            self.report({"WARNING"}, text)
+        return job
+
+    def _make_job(self, context):
+        obj = self._checked(context)
+        if obj is None:
+            return None
+        try:
+            return self._made(jobs.Job(context, obj, self.effect, resume=self.resume))
+        except self.REFUSALS as exc:
+            self.report({"ERROR"}, f"{obj.name} {self.effect}: {exc}")
+            return None
+
+    def _read(self, seconds):
+        """Steps the reading for about ``seconds``: "done" (the Job is made), "more", or
+        "failed" (reported; the reading closed)."""
+        reading, t0 = self._reading, time.monotonic()
+        try:
+            while time.monotonic() - t0 < seconds:
+                if reading.step() is None:
+                    reading.close()
+                    return "done"
+            return "more"
+        except self.REFUSALS as exc:
+            reading.close()
+            self.report({"ERROR"}, f"{reading.label.replace('/', ' ')}: {exc}")
+            return "failed"
+        except BaseException:
+            reading.close()
+            raise
 
     def execute(self, context):
         """Blocking bake: background mode, scripts and the command line."""
@@ -114,9 +151,60 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
-        job = self._make_job(context)
-        if job is None:
+        obj = self._checked(context)
+        if obj is None:
             return {"CANCELLED"}
+        # A bake that steps the scene through many frames reads them from a timer, a few
+        # at a time, so that Esc stops it (Blender reads no events while Python runs).
+        self._reading = jobs.Job.stepwise(context, obj, self.effect, resume=self.resume)
+        got = self._read(self.READ_FIRST)
+        if got == "failed":
+            return {"CANCELLED"}
+        wm = context.window_manager
+        if got == "more":
+            timer = self._timer = wm.event_timer_add(0.01, window=context.window)
+            window = context.window.as_pointer()
+            self._reading.ui_end = lambda: _end_status(wm, timer, window)
+            wm.modal_handler_add(self)
+            self._reading_status(context)
+            return {"RUNNING_MODAL"}
+        reading, self._reading = self._reading, None
+        return self._start(context, self._made(reading.job))
+
+    def _reading_status(self, context):
+        last = self._reading.last
+        if last is not None:
+            f, done, total = last
+            context.workspace.status_text_set(
+                f"Hydrobake: {self._reading.label} reading the scene: frame {f} "
+                f"({done}/{total}) - Esc to cancel")
+
+    def _modal_reading(self, context, event):
+        """The scene being read: Esc stops it; other input waits (the scene must not change
+        under the frames being read), timers go on (another bake's too)."""
+        if self._reading.closed:  # stopped by cancel_all (the addon disabled)
+            self._reading = None
+            return {"CANCELLED"}
+        if event.type == "ESC" and event.value == "PRESS":
+            self._reading.close()
+            self._reading = None
+            self.report({"WARNING"}, "Bake cancelled while reading the scene: nothing baked")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"RUNNING_MODAL"}
+        got = self._read(self.READ_TICK)  # (closes the reading when done or failed)
+        if got == "more":
+            self._reading_status(context)
+            return {"PASS_THROUGH"}
+        reading, self._reading = self._reading, None
+        if got == "failed":
+            return {"CANCELLED"}
+        job = self._made(reading.job)
+        self._start(context, job, modal=False)
+        return {"PASS_THROUGH"}
+
+    def _start(self, context, job, modal=True):
+        """The bake's thread to start at the next tick, its progress shown."""
         self._job = job
         jobs.ACTIVE[job.key] = job
         # The thread starts at the first timer tick, not here: after invoke returns, Blender
@@ -125,7 +213,8 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 1000)
-        wm.modal_handler_add(self)
+        if modal:
+            wm.modal_handler_add(self)
         # Disabling the addon or opening a file cancels the bake and drops this handler
         # unasked: the progress, the status text and the timer still go then.
         job.ui_end = functools.partial(_end_progress, wm, self._timer,
@@ -133,6 +222,8 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
+        if self._reading is not None:
+            return self._modal_reading(context, event)
         job = self._job
         if event.type == "ESC" and event.value == "PRESS":
             job.runner.cancel()
@@ -164,15 +255,20 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
         return self._report(job) if wired else {"CANCELLED"}
 
 
-def _end_progress(wm, timer, window):
-    """A modal bake's timer, progress and status text (in the window of that pointer, if it
-    is still open) let go."""
+def _end_status(wm, timer, window):
+    """A reading's timer and status text let go (the status in the window of that pointer,
+    if it is still open)."""
     wm.event_timer_remove(timer)
-    wm.progress_end()
     win = next((w for w in wm.windows if w.as_pointer() == window), None)
     if win is not None:
         with bpy.context.temp_override(window=win):
             bpy.context.workspace.status_text_set(None)
+
+
+def _end_progress(wm, timer, window):
+    """A modal bake's timer, progress and status text let go."""
+    wm.progress_end()
+    _end_status(wm, timer, window)
 
 
 class HYDROBAKE_OT_cancel_bake(_EffectTarget, bpy.types.Operator):

@@ -1,14 +1,15 @@
 """What a bake shows while it steps the scene through its frames on the main thread, before
 its thread starts (a deforming mesh sampled over a long range can take a minute): Blender's
-progress cursor in the UI, a line every few seconds in background mode. It cannot be
-cancelled: Blender reads no events until the stepping is done."""
+progress cursor in the UI, a line every few seconds in background mode. (In the UI the
+operator reads from a timer and shows Esc to cancel in the status bar: jobs.Reading.)"""
 import time
 
 import bpy
 
 
 class ReadingProgress:
-    """A reporter for bridge.animation.reporting; close() lets the cursor go."""
+    """Called (frame, done, total) for each frame a Reading takes; close() lets the cursor
+    go."""
     EVERY = 5.0  # s between lines in background mode
     AFTER = 0.5  # s before the cursor shows: most bakes read their frames sooner
 

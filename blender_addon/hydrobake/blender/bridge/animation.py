@@ -1,36 +1,39 @@
 """A scene's animation sampled frame by frame, for the inputs a bake reads per frame."""
 import contextlib
-
-
-_reporter = None  # called (frame, done, total) after each frame per_frame takes
-
-
-@contextlib.contextmanager
-def reporting(fn):
-    """per_frame reports each frame it takes to ``fn(frame, done, total)`` within the block:
-    stepping a heavy scene through a bake's frames can take a while on the main thread."""
-    global _reporter
-    outer, _reporter = _reporter, fn
-    try:
-        yield
-    finally:
-        _reporter = outer
+import inspect
 
 
 def per_frame(scene, first, last, fn):
-    """{frame: fn(frame)} for every frame from first to last, each taken with the scene set to
-    that frame; the scene's own frame is restored afterwards, also when fn raises."""
+    """A generator (``got = yield from per_frame(...)``) giving {frame: fn(frame)} for every
+    frame from first to last, each taken with the scene set to that frame. After each frame
+    it yields (frame, done, total), so that whoever drives it shows progress and can stop it
+    between frames (Blender reads no events while Python runs: a UI bake steps it from a
+    timer, and Esc closes it). The scene's own frame is restored afterwards, also when fn
+    raises or the generator is closed."""
     keep = scene.frame_current
     out = {}
     try:
         for f in range(first, last + 1):
             scene.frame_set(f)
             out[f] = fn(f)
-            if _reporter is not None:
-                _reporter(f, f - first + 1, last - first + 1)
+            yield f, f - first + 1, last - first + 1
     finally:
         scene.frame_set(keep)
     return out
+
+
+def run(result, report=None):
+    """The value of a generator of per_frame steps, run to its end with each step given to
+    ``report(frame, done, total)``; any other value as it is."""
+    if not inspect.isgenerator(result):
+        return result
+    try:
+        while True:
+            step = next(result)
+            if report is not None:
+                report(*step)
+    except StopIteration as stop:
+        return stop.value
 
 
 @contextlib.contextmanager

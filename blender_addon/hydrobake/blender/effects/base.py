@@ -118,7 +118,9 @@ class BlenderEffect:
     def prepare(cls, context, obj, settings, params, frames):
         """Main thread, before the bake: returns (params, inputs) for the core effect.
         ``params`` ({group: {name: value}}) may be adjusted from the scene (e.g. the grid
-        size from the object's dimensions); ``inputs`` holds arrays read from the scene."""
+        size from the object's dimensions); ``inputs`` holds arrays read from the scene. One
+        that steps the scene through frames is a generator (``yield from
+        animation.per_frame(...)``) returning them: the Job steps it, a frame at a time."""
         return params, {}
 
     @classmethod

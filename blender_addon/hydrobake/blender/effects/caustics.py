@@ -263,7 +263,7 @@ class CausticsBlender(BlenderEffect):
                 press = np.clip(level - np.nan_to_num(under, nan=level), 0.0,
                                 settings.disturber_depth).astype(np.float32)
                 return press if press.any() else None
-            footprints = animation.per_frame(scene, frames[0], frames[1], footprint)
+            footprints = yield from animation.per_frame(scene, frames[0], frames[1], footprint)
         sources = None
         if settings.source_object:
             under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",

@@ -247,15 +247,15 @@ class FluidBlender(BlenderEffect):
                     raise ValueError(f"Obstacles: {settings.obstacles.name!r} holds "
                                      f"{len(found)} objects: must hold at most "
                                      f"{MAX_OBSTACLES} (each is a box the fluid flows around)")
-                inputs["obstacles"], inputs["obstacle_path"] = cls._obstacles(
+                inputs["obstacles"], inputs["obstacle_path"] = yield from cls._obstacles(
                     context, found, frames)
         elif fp["source"] == 1:
             if settings.particle_object is None:
                 raise ValueError("Particles: PARTICLES needs an object with a particle system")
-            inputs["particles"] = cls._particles(context, settings.particle_object, frames,
-                                                 lo, hi)
+            inputs["particles"] = yield from cls._particles(
+                context, settings.particle_object, frames, lo, hi)
         else:
-            inputs["velocity"] = cls._mantaflow(context, obj, settings, fp, frames)
+            inputs["velocity"] = yield from cls._mantaflow(context, obj, settings, fp, frames)
         ntex = fp["textures"]
         if len(settings.samples) > ntex:
             raise ValueError(f"Sample Textures: {len(settings.samples)} entries for textures "
@@ -333,9 +333,10 @@ class FluidBlender(BlenderEffect):
         if d.use_mesh:
             xs = np.linspace(lo[0], hi[0], res[0] + 1)
             ys = np.linspace(lo[1], hi[1], res[1] + 1)
-            surfaces = animation.per_frame(context.scene, frames[0], frames[1], lambda f: (
-                meshes.z_crossings(dom, xs, ys, lo[2], hi[2], evaluated_depsgraph(context),
-                                   role="Liquid Domain")))
+            surfaces = yield from animation.per_frame(
+                context.scene, frames[0], frames[1], lambda f: meshes.z_crossings(
+                    dom, xs, ys, lo[2], hi[2], evaluated_depsgraph(context),
+                    role="Liquid Domain"))
         else:
             warnings.warn(f"Liquid Domain: {dom.name} has Mesh off, so there is no liquid "
                           "surface: the textured fluid stays empty and the grids fill the whole "
@@ -376,8 +377,8 @@ class FluidBlender(BlenderEffect):
         if not movers or frames[1] <= frames[0]:
             return first, {}
         path, last = {}, first
-        for f, here in animation.per_frame(context.scene, frames[0] + 1, frames[1],
-                                           obstacles).items():
+        got = yield from animation.per_frame(context.scene, frames[0] + 1, frames[1], obstacles)
+        for f, here in got.items():
             if here != last:
                 path[f] = last = here
         return first, path
@@ -399,7 +400,7 @@ class FluidBlender(BlenderEffect):
             pos, vel = pos.reshape(-1, 3)[keep_mask], vel.reshape(-1, 3)[keep_mask]
             inside = np.all((pos >= lo) & (pos <= hi), axis=1)  # the box holds the fluid
             return pos[inside], vel[inside]
-        return animation.per_frame(context.scene, frames[0], frames[1], particles)
+        return (yield from animation.per_frame(context.scene, frames[0], frames[1], particles))
 
     @classmethod
     def apply(cls, context, obj, settings, folder, manifest):

@@ -118,14 +118,15 @@ class RainBlender(BlenderEffect):
         inputs = dict(gravity_dir=field, mask=mask, substeps=settings.substeps,
                       fps=scene.render.fps / scene.render.fps_base)
         if settings.car_object:
-            inputs["car"] = cls._car_motion(scene, settings.car_object,
-                                            AXES[settings.forward_axis], frames)
+            inputs["car"] = yield from cls._car_motion(scene, settings.car_object,
+                                                       AXES[settings.forward_axis], frames)
         blades = [o for o in (settings.wiper_0, settings.wiper_1) if o is not None]
         if blades:
             if len(blades) != rp["wiper_count"]:
                 raise ValueError(f"Wipers: {len(blades)} animated wiper object(s) for "
                                  f"wiper_count = {rp['wiper_count']}; set one per blade")
-            inputs["wipers"] = cls._wiper_motion(scene, blades, rp["wiper_mode"], frames)
+            inputs["wipers"] = yield from cls._wiper_motion(scene, blades, rp["wiper_mode"],
+                                                            frames)
         if settings.background_image is not None:
             inputs["background"] = images.pixels(settings.background_image, colour=True,
                                                  role="Preview Background")
@@ -143,7 +144,7 @@ class RainBlender(BlenderEffect):
             m = car.matrix_world
             return (np.array(m.translation),
                     np.array((m.to_3x3() @ Vector(axis)).normalized()))
-        at = animation.per_frame(scene, frames[0] - 2, frames[1], sample)
+        at = yield from animation.per_frame(scene, frames[0] - 2, frames[1], sample)
         speed = {f: max(0.0, float((at[f][0] - at[f - 1][0]) @ at[f][1]) * fps)
                  for f in range(frames[0] - 1, frames[1] + 1)}
         fast = max(speed, key=speed.get)
@@ -167,8 +168,8 @@ class RainBlender(BlenderEffect):
             e = q.to_euler("XYZ", last[b.name]) if b.name in last else q.to_euler("XYZ")
             last[b.name] = e
             return float(np.degrees(e.z))
-        return animation.per_frame(scene, frames[0], frames[1], lambda f: [
-            turn(b) if mode == 1 else float(b.location.x) for b in blades])
+        return (yield from animation.per_frame(scene, frames[0], frames[1], lambda f: [
+            turn(b) if mode == 1 else float(b.location.x) for b in blades]))
 
     @staticmethod
     def _shader(tree):

@@ -381,7 +381,7 @@ class SnowBlender(BlenderEffect):
         tris = np.concatenate([p[1] for p in parts])
         uvs = np.concatenate([p[2] for p in parts])
         mi = np.clip(np.concatenate([p[3] for p in parts]), 0, len(slots) - 1)
-        mats, shapes = cls._motion(context, movers, local, frames)
+        mats, shapes = yield from cls._motion(context, movers, local, frames)
         first = mats[frames[0]]
         moving = any(not np.array_equal(m, first) for m in mats.values())
         inputs = {}
@@ -460,7 +460,7 @@ class SnowBlender(BlenderEffect):
         if not deform and not any(animation.may_move(o) for o in movers):
             here = sample()[0]  # nothing animates: no need to step the scene through the range
             return {f: here for f in range(frames[0], frames[1] + 1)}, {}
-        got = animation.per_frame(context.scene, frames[0], frames[1], sample)
+        got = yield from animation.per_frame(context.scene, frames[0], frames[1], sample)
         if state["broken"]:
             return {f: m for f, (m, _) in got.items()}, {}
         return {f: m for f, (m, _) in got.items()}, {f: s for f, (_, s) in got.items()
