@@ -181,7 +181,9 @@ class FluidBlender(BlenderEffect):
                             "baked) is the surface. Empty: this object, if it is one"),
             obstacles=bpy.props.PointerProperty(
                 name="Obstacles", type=bpy.types.Collection,
-                description="SIMULATE: objects the fluid flows around (their bounding boxes)"),
+                description="SIMULATE: objects the fluid flows around (a ball as a sphere, "
+                            "others as their bounding boxes), followed frame by frame when "
+                            "animated"),
             paint_collection=bpy.props.PointerProperty(
                 name="Paint", type=bpy.types.Collection,
                 description="Empties with Paint Fluid on: local paint strokes (Object tab)"),
