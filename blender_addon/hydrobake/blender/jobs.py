@@ -257,8 +257,8 @@ class Job:
                  threads=None, scene=None, resume=False):
         """Reads the scene and makes the bake's runner at once (background mode, scripts,
         the command line). Job.stepwise reads the scene's frames one at a time."""
-        reading = Reading(self, f"{obj.name}/{effect_name}", self._read(
-            context, obj, effect_name, frames, folder_override, threads, scene, resume))
+        reading = self._reading(context, obj, effect_name, frames, folder_override, threads,
+                                scene, resume)
         with contextlib.closing(reading):
             while reading.step() is not None:
                 pass
@@ -267,9 +267,11 @@ class Job:
     def stepwise(cls, context, obj, effect_name, resume=False):
         """A Reading that makes the Job as it is stepped, a frame of the scene's animation at
         a time (a UI bake steps it from a timer, so Esc can stop it between frames)."""
-        job = cls.__new__(cls)
-        return Reading(job, f"{obj.name}/{effect_name}",
-                       job._read(context, obj, effect_name, resume=resume))
+        return cls.__new__(cls)._reading(context, obj, effect_name, resume=resume)
+
+    def _reading(self, context, obj, effect_name, *args, **kwargs):
+        return Reading(self, f"{obj.name}/{effect_name}",
+                       self._read(context, obj, effect_name, *args, **kwargs))
 
     def _read(self, context, obj, effect_name, frames=None, folder_override=None,
               threads=None, scene=None, resume=False):
@@ -355,7 +357,6 @@ class Job:
     @property
     def key(self):
         return (self.object_name, self.effect_name)
-
 
     def _beside(self, folder):
         """Whether ``folder`` is another object name's folder of this bake's cache (not an

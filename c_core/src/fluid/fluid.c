@@ -180,7 +180,6 @@ hbk_result_t hbk_fluid_create(hbk_fluid_t **out, const hbk_fluid_params_t *p, hb
 
 const char *hbk_fluid_message(const hbk_fluid_t *h) { return h ? h->msg.text : "handle is NULL"; }
 
-
 /* Every value finite and, for positions, inside the box. */
 static hbk_result_t check_vectors(hbk_fluid_t *h, const float *v, size_t n, const char *name,
                                   int in_box, float lim)
@@ -236,9 +235,10 @@ hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float h
     /* Two passes, the first counting: lattice points inside an obstacle are left out (there
      * the collision would throw them out at once, a burst of spray at the first step), and
      * the rest must fit. Each point's jitter is keyed by its place in the lattice. */
-    size_t id = (size_t)h->count;
+    size_t at = (size_t)h->count;
     for (int pass = 0; pass < 2; ++pass) {
-        size_t at = (size_t)h->count, lattice = (size_t)h->count;
+        size_t lattice = (size_t)h->count;
+        at = (size_t)h->count;
         for (int32_t k = 0; k < n[2]; ++k)
             for (int32_t j = 0; j < n[1]; ++j)
                 for (int32_t i = 0; i < n[0]; ++i, ++lattice) {
@@ -265,9 +265,8 @@ hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float h
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                             "fill_box: %zu particles plus the %d present exceed max_particles = %d",
                             at - (size_t)h->count, h->count, h->p.max_particles);
-        id = at;
     }
-    h->count = (int32_t)id;
+    h->count = (int32_t)at;
     return HBK_OK;
 }
 

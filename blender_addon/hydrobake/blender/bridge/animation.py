@@ -1,6 +1,5 @@
 """A scene's animation sampled frame by frame, for the inputs a bake reads per frame."""
 import contextlib
-import inspect
 
 
 def per_frame(scene, first, last, fn):
@@ -20,20 +19,6 @@ def per_frame(scene, first, last, fn):
     finally:
         scene.frame_set(keep)
     return out
-
-
-def run(result, report=None):
-    """The value of a generator of per_frame steps, run to its end with each step given to
-    ``report(frame, done, total)``; any other value as it is."""
-    if not inspect.isgenerator(result):
-        return result
-    try:
-        while True:
-            step = next(result)
-            if report is not None:
-                report(*step)
-    except StopIteration as stop:
-        return stop.value
 
 
 @contextlib.contextmanager
