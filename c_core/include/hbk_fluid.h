@@ -143,9 +143,11 @@ HBK_EXPORT hbk_result_t hbk_fluid_get_particles(hbk_fluid_t *h, float *pos, floa
 
 /* Obstacles the particles cannot enter (SIMULATE only). */
 typedef struct hbk_fluid_obstacle {
-    int32_t type;       /* 0 = sphere, 1 = axis-aligned box */
+    int32_t type;       /* 0 = sphere, 1 = axis-aligned box, 2 = turned box */
     float center[3];    /* m */
-    float extent[3];    /* m: sphere radius in [0]; box half-sizes */
+    float extent[3];    /* m: sphere radius in [0]; box half-sizes along its own axes */
+    float rotation[4];  /* type 2: unit quaternion (w, x, y, z) turning the box's axes into the
+                         * world's (length within 1e-3 of 1); the other types ignore it */
 } hbk_fluid_obstacle_t;
 /* Replaces the obstacle list (count 0..64; NULL with 0 clears), still where they are, and
  * drops a move not stepped yet. */
@@ -153,7 +155,8 @@ HBK_EXPORT hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_
                                                 int32_t count);
 /* Moving obstacles: where each obstacle is at the end of the next step (one per obstacle, in
  * order, of the same type). The step carries each there in a straight line over its dt
- * (centre and extent at a constant rate), and the fluid meets the moving surface: a particle
+ * (centre and extent at a constant rate; a turned box also turns at a constant rate about
+ * one axis, the shorter way), and the fluid meets the moving surface: a particle
  * it reaches is pushed out and leaves no slower along the normal than the surface moves
  * (free slip along it). A completed step makes them the obstacles; a cancelled one keeps
  * them where they were, the move still pending. Not part of the saved state. */

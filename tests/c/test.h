@@ -199,7 +199,12 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, obstacles_growing_sphere)  \
     X(fluid, obstacles_move_deterministic) \
     X(fluid, obstacles_move_cancel_resume) \
-    X(fluid, obstacles_fill_around)
+    X(fluid, obstacles_fill_around)     \
+    X(fluid, turned_box_quarter)        \
+    X(fluid, turned_box_ramp)           \
+    X(fluid, turned_box_paddle)         \
+    X(fluid, turned_box_stirred)        \
+    X(fluid, turned_box_state_v1)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

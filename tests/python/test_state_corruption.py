@@ -306,7 +306,9 @@ class Fluid(Effect):
     def prepare(self, h):
         h.fill_box((0.0, 0.0, 0.0), (0.15, 0.15, 0.15))
         h.set_obstacles([("sphere", (0.3, 0.3, 0.1), 0.05), ("box", (0.1, 0.3, 0.1),
-                                                              (0.05, 0.05, 0.05))])
+                                                              (0.05, 0.05, 0.05)),
+                         ("turned_box", (0.3, 0.1, 0.1), (0.05, 0.02, 0.05),
+                          (np.cos(0.3), 0.0, 0.0, np.sin(0.3)))])
         h.paint_sphere(1, (0.07, 0.07, 0.07), 0.05, 0.01)
         lo, hi = [-FLT_MAX] * 6, [FLT_MAX] * 6
         lo[0], hi[0] = 0.0, 0.5
@@ -347,7 +349,7 @@ class Fluid(Effect):
         out, off = [], 64
         for name, nbytes, dt, refuse in (
                 ("pos", 12 * count, "f4", "all"), ("vel", 12 * count, "f4", "all"),
-                ("obstacles", 64 * 28, None, None),
+                ("obstacles", 64 * OBSTACLE, None, None),
                 ("in_vel", 12 * nv if has_vel else 0, "f4", "all"),
                 ("in_surface", 4 * nv if has_surf else 0, "f4", "all"),
                 ("uvw_a", 12 * nv, "f4", "all"), ("uvw_b", 12 * nv, "f4", "all"),
@@ -362,7 +364,7 @@ class Fluid(Effect):
         return out
 
 
-OBSTACLE = 28  # hbk_fluid_obstacle_t: type (int32), center[3], extent[3]
+OBSTACLE = 44  # hbk_fluid_obstacle_t: type (int32), center[3], extent[3], rotation[4]
 
 RAIN, SNOW, WATER, FLUID = Rain(), Snow(), Water(), Fluid()
 EFFECTS = [RAIN, SNOW, WATER, FLUID]
@@ -595,6 +597,11 @@ def fluid_special(a, rng):
         for off, name in ((4, "center[0]"), (16, "extent[0]"), (20, "extent[1]")):
             for v in (float("nan"), float("inf"), -1.0, 1e30):
                 out.append(Variant(f"obstacle[{i}].{name} = {v}", poke(a, at + off, "f", v)))
+    at = ob.off + OBSTACLE * 2  # the turned box: a rotation that is not a unit quaternion
+    for off in (28, 40):
+        for v in (float("nan"), float("inf"), 1.5, 0.0):
+            out.append(Variant(f"obstacle[2].rotation[{(off - 28) // 4}] = {v}",
+                               poke(a, at + off, "f", v)))
     for name in ("wrap_a", "wrap_b"):
         s = secs[name]
         for v in (0xFF, 0x80, 0x08, 0x07):

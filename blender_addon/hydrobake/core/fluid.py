@@ -16,14 +16,14 @@ VOLUMES = {"uvw_a": (0, 3), "uvw_b": (1, 3), "blend": (2, None), "motion": (3, 3
            "density": (4, 1), "surface": (5, 1), "features": (6, len(FEATURES)),
            "wrap_a": (7, 3), "wrap_b": (8, 3), "uvw_weight": (9, 1),
            "uvw_a_unwrapped": (10, 3), "uvw_b_unwrapped": (11, 3)}
-OBSTACLE_KINDS = ("sphere", "box")  # hbk_fluid_obstacle_t.type 0, 1
+OBSTACLE_KINDS = ("sphere", "box", "turned_box")  # hbk_fluid_obstacle_t.type 0, 1, 2
 # hbk_noise3d_tileable's range of size (checked here too: the output is allocated from it).
 NOISE_MAX_SIZE = 1024
 
 
 class Obstacle(ctypes.Structure):
     _fields_ = [("type", ctypes.c_int32), ("center", ctypes.c_float * 3),
-                ("extent", ctypes.c_float * 3)]
+                ("extent", ctypes.c_float * 3), ("rotation", ctypes.c_float * 4)]
 
 
 _lib.check_mirror(Obstacle, "hbk_fluid_obstacle_t")
@@ -66,29 +66,44 @@ _lib.declare([
 
 
 def obstacle_list(obstacles, what):
-    """[(kind, centre (3 floats), size (radius, or 3 half-sizes))] of obstacles given as
-    (kind, centre, size), each checked by name."""
+    """[(kind, centre (3 floats), size (radius, or 3 half-sizes)[, rotation])] of obstacles
+    given as ("sphere", centre, radius), ("box", centre, half_sizes) or ("turned_box", centre,
+    half_sizes, rotation): a box turned by the unit quaternion (w, x, y, z), its half-sizes
+    along its own axes. Each checked by name."""
     out = []
     for i, ob in enumerate(args.sequence(obstacles, what, what="obstacles")):
         name = f"{what}[{i}]"
-        kind, c, e = args.sequence(ob, name, 3, "values (kind, centre, size)")
+        items = args.sequence(ob, name, what="values (kind, centre, size[, rotation])")
         # Checked by name: any other kind would be taken as a box (type 1).
-        kind = args.choice(kind, f"{name}.kind", OBSTACLE_KINDS)
+        kind = args.choice(items[0] if items else None, f"{name}.kind", OBSTACLE_KINDS)
+        shape = ("values (kind, centre, half_sizes, rotation)" if kind == "turned_box" else
+                 "values (kind, centre, size)")
+        items = args.sequence(ob, name, 4 if kind == "turned_box" else 3, shape)
         if kind == "sphere":
-            size = args.number(e, f"{name}.radius")
+            size = args.number(items[2], f"{name}.radius")
         else:
-            size = tuple(args.numbers(e, f"{name}.half_sizes", 3))
-        out.append((kind, tuple(args.numbers(c, f"{name}.centre", 3)), size))
+            size = tuple(args.numbers(items[2], f"{name}.half_sizes", 3))
+        entry = (kind, tuple(args.numbers(items[1], f"{name}.centre", 3)), size)
+        if kind == "turned_box":
+            rot = tuple(args.numbers(items[3], f"{name}.rotation", 4))
+            length = float(np.sqrt(np.sum(np.square(rot, dtype=np.float64))))
+            if not abs(length - 1.0) <= 1e-3:  # (as the library checks, with this name)
+                raise errors.InvalidArgument(
+                    f"{name}.rotation: length {length:.6g}, must be a unit quaternion (w, x, y, "
+                    "z), length 1 +- 1e-3")
+            entry += (rot,)
+        out.append(entry)
     return out
 
 
 def _obstacles(obstacles, what):
-    """(hbk_fluid_obstacle_t array, count) of [(kind, centre, size)], checked by name."""
+    """(hbk_fluid_obstacle_t array, count) of obstacle_list's entries, checked by name."""
     obstacles = obstacle_list(obstacles, what)
     arr = (Obstacle * max(len(obstacles), 1))()
-    for i, (kind, c, e) in enumerate(obstacles):
+    for i, (kind, c, e, *rot) in enumerate(obstacles):
         ext = _V3(e, 0.0, 0.0) if kind == "sphere" else _V3(*e)
-        arr[i] = Obstacle(OBSTACLE_KINDS.index(kind), _V3(*c), ext)
+        arr[i] = Obstacle(OBSTACLE_KINDS.index(kind), _V3(*c), ext,
+                          (ctypes.c_float * 4)(*(rot[0] if rot else (0.0,) * 4)))
     return arr, len(obstacles)
 
 
@@ -121,15 +136,17 @@ class Fluid(Handle):
         return pos, vel
 
     def set_obstacles(self, obstacles):
-        """obstacles: [("sphere", centre, radius) | ("box", centre, half_sizes)], still where
-        they are (a move not stepped yet is dropped)."""
+        """obstacles: [("sphere", centre, radius) | ("box", centre, half_sizes) |
+        ("turned_box", centre, half_sizes, (w, x, y, z))], still where they are (a move not
+        stepped yet is dropped)."""
         arr, n = _obstacles(obstacles, "obstacles")
         self.call("set_obstacles", arr, n)
 
     def move_obstacles(self, to):
         """Where the obstacles are at the end of the next step (a list like set_obstacles',
         one per obstacle, in order, of the same kinds): the step carries them there in a
-        straight line and the fluid meets them moving."""
+        straight line (a turned box turning at a constant rate, the shorter way) and the fluid
+        meets them moving."""
         arr, n = _obstacles(to, "to")
         self.call("move_obstacles", arr, n)
 

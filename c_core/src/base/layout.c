@@ -45,6 +45,7 @@ static const layout_entry_t k_layout[] = {
     FIELD(hbk_rain_blade_t, value),
     SIZE(hbk_fluid_obstacle_t), FIELD(hbk_fluid_obstacle_t, type),
     FIELD(hbk_fluid_obstacle_t, center), FIELD(hbk_fluid_obstacle_t, extent),
+    FIELD(hbk_fluid_obstacle_t, rotation),
 };
 
 hbk_result_t hbk_layout(const char *struct_name, const char *field, size_t *out)

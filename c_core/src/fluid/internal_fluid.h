@@ -52,7 +52,8 @@ struct hbk_fluid {
     int32_t obs_moving;
     hbk_fluid_obstacle_t obs_to[HBK_FLUID_MAX_OBSTACLES];
     hbk_fluid_obstacle_t obs_now[HBK_FLUID_MAX_OBSTACLES];
-    float obs_rate[HBK_FLUID_MAX_OBSTACLES][6]; /* m/s: centre, then extent */
+    float obs_rate[HBK_FLUID_MAX_OBSTACLES][9]; /* centre, extent (m/s), turning (rad/s) */
+    float obs_axes[HBK_FLUID_MAX_OBSTACLES][9]; /* obs_now's axes in the world: x, y, z */
     float obs_speed;            /* m/s: the fastest any obstacle's surface moves (stable dt) */
     float *in_vel, *in_surface; /* VELOCITY_GRID inputs (nv x 3, nv), or NULL */
     hbk_fluid_vols_t v;

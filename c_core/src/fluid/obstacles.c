@@ -1,14 +1,37 @@
-/* Obstacles the SPH particles cannot enter: spheres and axis-aligned boxes, still or carried
- * from where they are to where move_obstacles puts them over one step. */
+/* Obstacles the SPH particles cannot enter: spheres, axis-aligned boxes and turned boxes, still
+ * or carried from where they are to where move_obstacles puts them over one step. */
 #include "internal_fluid.h"
 #include <stdio.h>
+
+/* The axes of a turned box in the world, x, y and z (the columns of q's rotation matrix, q
+ * normalised); the world's own for the other types. */
+static void axes_of(const hbk_fluid_obstacle_t *o, float ax[9])
+{
+    static const float world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    if (o->type != 2) {
+        memcpy(ax, world, sizeof world);
+        return;
+    }
+    const double n = sqrt((double)o->rotation[0] * o->rotation[0] +
+                          (double)o->rotation[1] * o->rotation[1] +
+                          (double)o->rotation[2] * o->rotation[2] +
+                          (double)o->rotation[3] * o->rotation[3]);
+    const double w = o->rotation[0] / n, x = o->rotation[1] / n, y = o->rotation[2] / n,
+                 z = o->rotation[3] / n;
+    const double m[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y),
+                         2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x),
+                         2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)};
+    for (int i = 0; i < 9; ++i) ax[i] = (float)m[i];
+}
 
 /* 0 if o is an obstacle the step can take; else non-zero, and (if what is not NULL) the
  * field and its allowed range in what (96 bytes). Also used by hbk_fluid_load_state. */
 int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
 {
-    if (o->type != 0 && o->type != 1) {
-        if (what) snprintf(what, 96, "type = %d: must be 0 (sphere) or 1 (box)", o->type);
+    if (o->type < 0 || o->type > 2) {
+        if (what)
+            snprintf(what, 96, "type = %d: must be 0 (sphere), 1 (box) or 2 (turned box)",
+                     o->type);
         return 1;
     }
     for (int a = 0; a < 3; ++a) {
@@ -18,10 +41,21 @@ int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
                          a, (double)o->center[a]);
             return 1;
         }
-        if (!(o->extent[a] >= 0.0f && o->extent[a] <= 1e6f) && (o->type == 1 || a == 0)) {
+        if (!(o->extent[a] >= 0.0f && o->extent[a] <= 1e6f) && (o->type != 0 || a == 0)) {
             if (what)
                 snprintf(what, 96, "extent[%d] = %g: must be in [0, 1e6] m", a,
                          (double)o->extent[a]);
+            return 1;
+        }
+    }
+    if (o->type == 2) {
+        const float *q = o->rotation;
+        const double n = sqrt((double)q[0] * q[0] + (double)q[1] * q[1] + (double)q[2] * q[2] +
+                              (double)q[3] * q[3]);
+        if (!(fabs(n - 1.0) <= 1e-3)) {
+            if (what)
+                snprintf(what, 96, "rotation: length %.6g, must be a unit quaternion (w, x, y, "
+                         "z), length 1 +- 1e-3", n);
             return 1;
         }
     }
@@ -74,6 +108,36 @@ hbk_result_t hbk_fluid_move_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t
     return HBK_OK;
 }
 
+/* The turn from a to b, the shorter way: its axis times its angle (rad), and the rotation
+ * `t` (0..1) of the way (w, x, y, z). Both given as unit quaternions (within 1e-3). */
+static void turn(const float a[4], const float b[4], double t, double axis_angle[3],
+                 float at[4])
+{
+    double qa[4], qb[4], na = 0.0, nb = 0.0, d = 0.0;
+    for (int k = 0; k < 4; ++k) { na += (double)a[k] * a[k]; nb += (double)b[k] * b[k]; }
+    na = sqrt(na), nb = sqrt(nb);
+    for (int k = 0; k < 4; ++k) { qa[k] = a[k] / na; qb[k] = b[k] / nb; d += qa[k] * qb[k]; }
+    if (d < 0.0) for (int k = 0; k < 4; ++k) qb[k] = -qb[k]; /* q and -q: the same rotation */
+    /* r = qb conj(qa), the turn in world axes; its w = |qa . qb| >= 0, so angle in [0, pi] */
+    const double rw = qb[0] * qa[0] + qb[1] * qa[1] + qb[2] * qa[2] + qb[3] * qa[3];
+    const double rv[3] = {-qb[0] * qa[1] + qa[0] * qb[1] - (qb[2] * qa[3] - qb[3] * qa[2]),
+                          -qb[0] * qa[2] + qa[0] * qb[2] - (qb[3] * qa[1] - qb[1] * qa[3]),
+                          -qb[0] * qa[3] + qa[0] * qb[3] - (qb[1] * qa[2] - qb[2] * qa[1])};
+    const double s = sqrt(rv[0] * rv[0] + rv[1] * rv[1] + rv[2] * rv[2]);
+    const double angle = 2.0 * atan2(s, rw);
+    double u[3] = {0.0, 0.0, 0.0};
+    if (s > 0.0) for (int k = 0; k < 3; ++k) u[k] = rv[k] / s;
+    for (int k = 0; k < 3; ++k) axis_angle[k] = u[k] * angle;
+    /* (cos(angle t / 2), u sin(angle t / 2)) qa */
+    const double cw = cos(0.5 * angle * t), sw = sin(0.5 * angle * t);
+    const double p[4] = {cw, u[0] * sw, u[1] * sw, u[2] * sw};
+    const double out[4] = {p[0] * qa[0] - p[1] * qa[1] - p[2] * qa[2] - p[3] * qa[3],
+                           p[0] * qa[1] + p[1] * qa[0] + p[2] * qa[3] - p[3] * qa[2],
+                           p[0] * qa[2] - p[1] * qa[3] + p[2] * qa[0] + p[3] * qa[1],
+                           p[0] * qa[3] + p[1] * qa[2] - p[2] * qa[1] + p[3] * qa[0]};
+    for (int k = 0; k < 4; ++k) at[k] = (float)out[k];
+}
+
 void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t)
 {
     const double dt = h->p.dt;
@@ -83,10 +147,13 @@ void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t)
         hbk_fluid_obstacle_t *now = &h->obs_now[i];
         float *rate = h->obs_rate[i];
         *now = *a;
-        memset(rate, 0, 6 * sizeof *rate);
-        if (!h->obs_moving) continue; /* still: collide meets them exactly as they are */
+        memset(rate, 0, 9 * sizeof *rate);
+        if (!h->obs_moving) { /* still: collide meets them exactly as they are */
+            axes_of(now, h->obs_axes[i]);
+            continue;
+        }
         const hbk_fluid_obstacle_t *b = &h->obs_to[i];
-        float c2 = 0.0f, e = 0.0f;
+        float c2 = 0.0f, e = 0.0f, r2 = 0.0f;
         for (int k = 0; k < 3; ++k) {
             const double dc = (double)b->center[k] - a->center[k];
             const double de = (double)b->extent[k] - a->extent[k];
@@ -98,8 +165,22 @@ void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t)
             c2 += rate[k] * rate[k];
             const float g = fabsf(rate[3 + k]);
             e = g > e ? g : e;
+            const float r = fmaxf(a->extent[k], b->extent[k]);
+            r2 += r * r;
         }
-        const float s = sqrtf(c2) + e; /* no point of its surface moves faster */
+        float s = sqrtf(c2) + e; /* no point of its surface moves faster */
+        if (a->type == 2) {
+            double w[3];
+            turn(a->rotation, b->rotation, t, w, now->rotation);
+            if (t >= 1.0) memcpy(now->rotation, b->rotation, sizeof now->rotation);
+            float w2 = 0.0f;
+            for (int k = 0; k < 3; ++k) {
+                rate[6 + k] = (float)(w[k] / dt);
+                w2 += rate[6 + k] * rate[6 + k];
+            }
+            s += sqrtf(w2) * sqrtf(r2); /* a corner, turning */
+        }
+        axes_of(now, h->obs_axes[i]);
         fastest = s > fastest ? s : fastest;
     }
     h->obs_speed = fastest;
@@ -121,9 +202,15 @@ int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3])
         if (ob->type == 0) {
             const float R = ob->extent[0] + m;
             if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < R * R) return 1;
-        } else if (fabsf(q[0]) < ob->extent[0] + m && fabsf(q[1]) < ob->extent[1] + m &&
-                   fabsf(q[2]) < ob->extent[2] + m) {
-            return 1;
+        } else {
+            float ax[9], l[3];
+            axes_of(ob, ax);
+            for (int k = 0; k < 3; ++k)
+                l[k] = ob->type == 1 ? q[k] : ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] +
+                                              ax[3 * k + 2] * q[2];
+            if (fabsf(l[0]) < ob->extent[0] + m && fabsf(l[1]) < ob->extent[1] + m &&
+                fabsf(l[2]) < ob->extent[2] + m)
+                return 1;
         }
     }
     return 0;

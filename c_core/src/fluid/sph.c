@@ -26,7 +26,7 @@ static void collide(const hbk_fluid_t *h, float *x, float *v)
     }
     for (int32_t o = 0; o < h->n_obs; ++o) {
         const hbk_fluid_obstacle_t *ob = &h->obs_now[o];
-        const float *w = h->obs_rate[o]; /* centre, extent: m/s */
+        const float *w = h->obs_rate[o]; /* centre, extent: m/s; turning: rad/s */
         float q[3] = {x[0] - ob->center[0], x[1] - ob->center[1], x[2] - ob->center[2]};
         float n[3] = {0, 0, 0}, push = 0.0f, wn;
         if (ob->type == 0) {
@@ -36,7 +36,7 @@ static void collide(const hbk_fluid_t *h, float *x, float *v)
             else n[2] = 1.0f;
             push = R - d;
             wn = w[0] * n[0] + w[1] * n[1] + w[2] * n[2] + w[3];
-        } else {
+        } else if (ob->type == 1) {
             int best = -1;
             for (int a = 0; a < 3; ++a) {
                 const float pen = ob->extent[a] + m - fabsf(q[a]);
@@ -46,6 +46,28 @@ static void collide(const hbk_fluid_t *h, float *x, float *v)
             if (best < 0) continue;
             n[best] = q[best] < 0.0f ? -1.0f : 1.0f;
             wn = n[best] * w[best] + w[3 + best]; /* the face at centre + n extent */
+        } else { /* turned box: the same in its own axes */
+            const float *ax = h->obs_axes[o];
+            float l[3];
+            int best = -1;
+            for (int a = 0; a < 3; ++a) {
+                l[a] = ax[3 * a] * q[0] + ax[3 * a + 1] * q[1] + ax[3 * a + 2] * q[2];
+                const float pen = ob->extent[a] + m - fabsf(l[a]);
+                if (pen <= 0.0f) { best = -1; push = 0.0f; break; }
+                if (best < 0 || pen < push) { best = a; push = pen; }
+            }
+            if (best < 0) continue;
+            const float sg = l[best] < 0.0f ? -1.0f : 1.0f;
+            for (int a = 0; a < 3; ++a) n[a] = sg * ax[3 * best + a];
+            /* the surface's speed where the particle lands: centre + turn x arm, plus the
+             * face's own growth */
+            const float *om = w + 6;
+            float r[3], u[3];
+            for (int a = 0; a < 3; ++a) r[a] = q[a] + n[a] * push;
+            u[0] = w[0] + om[1] * r[2] - om[2] * r[1];
+            u[1] = w[1] + om[2] * r[0] - om[0] * r[2];
+            u[2] = w[2] + om[0] * r[1] - om[1] * r[0];
+            wn = u[0] * n[0] + u[1] * n[1] + u[2] * n[2] + w[3 + best];
         }
         float vn = 0.0f;
         for (int a = 0; a < 3; ++a) { x[a] += n[a] * push; vn += v[a] * n[a]; }

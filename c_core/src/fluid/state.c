@@ -4,7 +4,9 @@
 #include <string.h>
 
 static const char k_magic[8] = {'H', 'B', 'K', 'F', 'L', 'U', 'I', 'D'};
-enum { STATE_VERSION = 1, STATE_HEADER = 64 };
+/* Version 2 added the obstacles' rotation (turned boxes); version 1 states still load, their
+ * obstacles kept in the 28-byte records of then (type, centre, extent). */
+enum { STATE_VERSION = 2, STATE_HEADER = 64, OBSTACLE_V1_BYTES = 28 };
 
 typedef struct header {
     char magic[8];
@@ -18,7 +20,7 @@ _Static_assert(sizeof(header_t) <= STATE_HEADER, "header fits");
 /* What a section's bytes must be for the state to load (see check_section): FINITE values
  * also lie within lim, the setter's range for an input, else room beyond what a run reaches
  * (DERIVED: far from overflowing the arithmetic that reads them). */
-enum { ANY, FINITE, NOT_NAN, OBSTACLES };
+enum { ANY, FINITE, NOT_NAN, OBSTACLES, OBSTACLES_V1 };
 #define DERIVED 1e18f
 typedef struct section {
     void *p;
@@ -28,14 +30,19 @@ typedef struct section {
     float lim;
 } section_t;
 
-/* The sections of a handle, given its particle count and input flags. */
-static int sections(hbk_fluid_t *h, int32_t count, int has_vel, int has_surf, section_t *s)
+/* The sections of a handle, given its particle count, input flags and the state's version. */
+static int sections(hbk_fluid_t *h, int32_t count, int has_vel, int has_surf, uint32_t version,
+                    section_t *s)
 {
     const size_t nv = h->n_vert, nvox = h->n_vox, K = (size_t)h->K, F = HBK_FLUID_FEATURE_COUNT;
     int n = 0;
     s[n++] = (section_t){h->pos, 3 * (size_t)count * sizeof(float), FINITE, "particles", 1e5f};
     s[n++] = (section_t){h->vel, 3 * (size_t)count * sizeof(float), FINITE, "particles", 1e6f};
-    s[n++] = (section_t){h->obs, sizeof h->obs, OBSTACLES, "obstacles", 0};
+    if (version == 1)
+        s[n++] = (section_t){h->obs, HBK_FLUID_MAX_OBSTACLES * OBSTACLE_V1_BYTES, OBSTACLES_V1,
+                             "obstacles", 0};
+    else
+        s[n++] = (section_t){h->obs, sizeof h->obs, OBSTACLES, "obstacles", 0};
     s[n++] = (section_t){h->in_vel, has_vel ? 3 * nv * sizeof(float) : 0, FINITE,
                          "input velocity", 1e4f};
     s[n++] = (section_t){h->in_surface, has_surf ? nv * sizeof(float) : 0, FINITE,
@@ -70,7 +77,8 @@ size_t hbk_fluid_state_size(const hbk_fluid_t *h)
 {
     if (!h) return 0;
     section_t s[MAX_SECTIONS];
-    const int n = sections((hbk_fluid_t *)h, h->count, h->in_vel != NULL, h->in_surface != NULL, s);
+    const int n = sections((hbk_fluid_t *)h, h->count, h->in_vel != NULL, h->in_surface != NULL,
+                           STATE_VERSION, s);
     return total(s, n);
 }
 
@@ -80,7 +88,8 @@ hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size)
     hbk_message_clear(&h->msg);
     if (!buffer) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "buffer: must not be NULL");
     section_t s[MAX_SECTIONS];
-    const int n = sections(h, h->count, h->in_vel != NULL, h->in_surface != NULL, s);
+    const int n = sections(h, h->count, h->in_vel != NULL, h->in_surface != NULL, STATE_VERSION,
+                           s);
     const size_t need = total(s, n);
     if (size < need)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
@@ -110,14 +119,29 @@ hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size)
     return HBK_OK;
 }
 
+/* A version 1 record (type, centre, extent) as an obstacle; 0 if its type is not one of then. */
+static int obstacle_v1(const unsigned char *p, hbk_fluid_obstacle_t *o)
+{
+    memset(o, 0, sizeof *o);
+    memcpy(&o->type, p, 4);
+    memcpy(o->center, p + 4, 12);
+    memcpy(o->extent, p + 16, 12);
+    o->rotation[0] = 1.0f;
+    return o->type == 0 || o->type == 1;
+}
+
 /* Whether a section's bytes (at p, perhaps unaligned) are what a run can hold: a NaN or an
  * infinity would spread through the simulation, an obstacle set_obstacles refuses would too. */
 static int check_section(const section_t *s, const unsigned char *p, int32_t n_obs)
 {
-    if (s->check == OBSTACLES) {
+    if (s->check == OBSTACLES || s->check == OBSTACLES_V1) {
         for (int32_t i = 0; i < n_obs; ++i) {
             hbk_fluid_obstacle_t o;
-            memcpy(&o, p + (size_t)i * sizeof o, sizeof o);
+            if (s->check == OBSTACLES_V1) {
+                if (!obstacle_v1(p + (size_t)i * OBSTACLE_V1_BYTES, &o)) return 0;
+            } else {
+                memcpy(&o, p + (size_t)i * sizeof o, sizeof o);
+            }
             if (hbk_fluid_obstacle_problem(&o, NULL)) return 0;
         }
         return 1;
@@ -140,8 +164,8 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     memcpy(&hd, buffer, sizeof hd);
     if (memcmp(hd.magic, k_magic, 8))
         return hbk_fail(&h->msg, HBK_ERR_FORMAT, "buffer: not a fluid state (bad header)");
-    if (hd.version != STATE_VERSION)
-        return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state version = %u: this library reads %u",
+    if (hd.version != STATE_VERSION && hd.version != 1)
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state version = %u: this library reads 1 to %u",
                         hd.version, (unsigned)STATE_VERSION);
     for (int a = 0; a < 3; ++a)
         if (hd.res[a] != h->p.resolution[a])
@@ -158,11 +182,15 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     if (hd.n_obs < 0 || hd.n_obs > HBK_FLUID_MAX_OBSTACLES)
         return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state obstacle count = %d: invalid", hd.n_obs);
     section_t s[MAX_SECTIONS];
-    const int n = sections(h, hd.count, hd.has_in_vel != 0, hd.has_in_surface != 0, s);
+    const int n = sections(h, hd.count, hd.has_in_vel != 0, hd.has_in_surface != 0, hd.version, s);
     const size_t need = total(s, n);
     if (size < need)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "size = %zu: this state needs %zu bytes",
                         size, need);
+    if (hd.version == 1 && size != need) /* a later state's bytes under an old number */
+        return hbk_fail(&h->msg, HBK_ERR_FORMAT,
+                        "size = %zu: a version 1 state of this header is exactly %zu bytes", size,
+                        need);
     /* Check before changing anything: a NaN would spread through the simulation. */
     const unsigned char *body = (const unsigned char *)buffer + STATE_HEADER, *q = body;
     for (int i = 0; i < n; q += s[i].bytes, ++i)
@@ -183,10 +211,17 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     if (ns_in) h->in_surface = ns_in;
     if (!hd.has_in_vel) { free(h->in_vel); h->in_vel = NULL; }
     if (!hd.has_in_surface) { free(h->in_surface); h->in_surface = NULL; }
-    sections(h, hd.count, hd.has_in_vel != 0, hd.has_in_surface != 0, s); /* the new input buffers */
+    /* the new input buffers */
+    sections(h, hd.count, hd.has_in_vel != 0, hd.has_in_surface != 0, hd.version, s);
     const unsigned char *at = body;
     for (int i = 0; i < n; ++i) {
-        if (s[i].bytes) memcpy(s[i].p, at, s[i].bytes);
+        if (s[i].check == OBSTACLES_V1) {
+            memset(h->obs, 0, sizeof h->obs);
+            for (int32_t k = 0; k < hd.n_obs; ++k)
+                obstacle_v1(at + (size_t)k * OBSTACLE_V1_BYTES, &h->obs[k]);
+        } else if (s[i].bytes) {
+            memcpy(s[i].p, at, s[i].bytes);
+        }
         at += s[i].bytes;
     }
     h->count = hd.count;

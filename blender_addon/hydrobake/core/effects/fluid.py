@@ -4,7 +4,8 @@ an OpenVDB file and the textured surface mesh.
 
 Inputs:
     fill         (lo, hi): particles filling a box at rest (SIMULATE)
-    obstacles    [("sphere"|"box", centre, size)] (SIMULATE): as they are at the first frame
+    obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
+                 z))] (SIMULATE): as they are at the first frame
     obstacle_path {frame: obstacles}: where the obstacles are at the frames they move to (the
                  same count and kinds); each frame's step carries them from the frame before's
                  place (the latest given, else ``obstacles``) to its own
@@ -139,10 +140,12 @@ class FluidEffect(Effect):
                    "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
         if self.path:
             obs = self._obstacles_at(frame)
+            turned = any(ob[0] == "turned_box" for ob in obs)  # (else the digest of before)
             out["obstacles"] = arrays.digest(
-                np.array([OBSTACLE_KINDS.index(k) for k, _, _ in obs], np.int64),
-                np.array([list(c) + ([e, 0.0, 0.0] if k == "sphere" else list(e))
-                          for k, c, e in obs], np.float32).reshape(-1, 6))
+                np.array([OBSTACLE_KINDS.index(ob[0]) for ob in obs], np.int64),
+                np.array([list(c) + ([e, 0.0, 0.0] if k == "sphere" else list(e)) +
+                          (list(rot[0]) if rot else [0.0] * 4 if turned else [])
+                          for k, c, e, *rot in obs], np.float32).reshape(-1, 10 if turned else 6))
         return out
 
     def step(self, frame, progress):
