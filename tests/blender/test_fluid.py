@@ -58,3 +58,9 @@ def test_strokes_obstacles_and_renamed_objects(blender, tmp_path):
 def test_a_keyed_obstacle_is_followed_frame_by_frame(blender, tmp_path):
     r = blender.run("fluid_moving_obstacles.py", tmp_path)
     assert "FLUID MOVING OBSTACLES OK" in r.stdout
+
+
+def test_a_turned_obstacle_is_a_turned_box(blender, tmp_path):
+    r = blender.run("fluid_turned_obstacles.py", tmp_path)
+    for part in ("TURNED RAMP", "TURNING PADDLE", "MIRRORED AND SHEARED"):
+        assert f"FLUID {part} OK" in r.stdout, r.stdout

@@ -159,8 +159,8 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
     ``sources`` (--sources) adds an emitter of particles in the fluid domain, the domain's
     source (PARTICLES) half the time, and a baked Mantaflow liquid "Tank" (its cache in
     //manta/), textured by its own velocity (VELOCITY_GRID) half the time. ``obstacles``
-    (--obstacles) gives the fluid an Obstacles collection of a still rock and a paddle keyed
-    to move into the water (followed frame by frame)."""
+    (--obstacles) gives the fluid an Obstacles collection of a still, tilted rock and a paddle
+    keyed to move into the water turning (followed frame by frame)."""
     rng = random.Random(seed * 7919 + 1)
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
                  bpy.data.lights):
@@ -207,12 +207,15 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
         if obstacles:
             rocks = bpy.data.collections.new("Rocks")
             bpy.context.scene.collection.children.link(rocks)
-            rocks.objects.link(in_blender.new_box("Rock", (0.1, 0.1, 0.1), (0.8, 3.1, 0.05)))
+            rock = in_blender.new_box("Rock", (0.1, 0.1, 0.1), (0.8, 3.1, 0.05))
+            rock.rotation_euler = (0.3, 0.2, 0.5)  # a turned box
+            rocks.objects.link(rock)
             paddle = in_blender.new_box("Paddle", (0.05, 0.3, 0.3), (0.9, 3.3, 0.15))
             rocks.objects.link(paddle)
-            for frame, x in ((1, 0.9), (3, 0.5)):
-                paddle.location.x = x
+            for frame, x, turn in ((1, 0.9, 0.0), (3, 0.5, 0.8)):
+                paddle.location.x, paddle.rotation_euler.z = x, turn
                 paddle.keyframe_insert("location", index=0, frame=frame)
+                paddle.keyframe_insert("rotation_euler", index=2, frame=frame)
             s.obstacles = rocks
         if sources:  # its own generator: the fixed seeds' scenes stay as they were
             emitter = in_blender.new_box("Emitter", (0.3, 0.3, 0.05), (0.5, 3.25, 0.4))
@@ -492,7 +495,7 @@ class Monkey:
         self.external = False  # --external: paths absolute / relative, pack, unpack, purge
         self.scene_ops = False  # --scene: the scene's frame rate and range
         self.sources = False  # --sources: an emitter and a liquid, the fluid's source switched
-        self.obstacles = False  # --obstacles: a still rock and a keyed paddle in the fluid
+        self.obstacles = False  # --obstacles: a tilted rock and a turning, keyed paddle
         self.renames = False  # --renames: any object renamed (a pool's ground), not a target's
         self.given_hbk = set()  # HBK materials the artist gave other objects (--relations)
         self.left_behind = set()  # bake folders of the files saved elsewhere from

@@ -1,6 +1,7 @@
-"""Meshes as height fields: ray casts against evaluated objects in world space."""
+"""Meshes as height fields (ray casts against evaluated objects in world space) and their
+boxes in the world."""
 import numpy as np
-from mathutils import Vector
+from mathutils import Matrix, Vector
 from mathutils.bvhtree import BVHTree
 
 from .depsgraph import evaluated as evaluated_depsgraph, evaluated_object
@@ -10,6 +11,30 @@ def world_bounds(obj):
     """(min xyz, max xyz) of the object's bounding box in world space."""
     pts = np.array([tuple(obj.matrix_world @ Vector(c)) for c in obj.bound_box])
     return pts.min(axis=0), pts.max(axis=0)
+
+
+def turned_bounds(obj):
+    """(centre, half-sizes, rotation (w, x, y, z)) in the world of the object's own bounding
+    box turned with it: bound_box (in its own axes) scaled and turned by its world matrix.
+    None where that matrix does not turn (world_bounds is then the same box) or shears (the
+    box would not be one)."""
+    m = np.array(obj.matrix_world, np.float64)
+    scale = np.linalg.norm(m[:3, :3], axis=0)
+    if not (scale > 0.0).all():
+        return None
+    r = m[:3, :3] / scale  # columns: its axes in the world
+    if np.abs(r.T @ r - np.eye(3)).max() > 1e-4:
+        return None
+    if np.linalg.det(r) < 0.0:  # mirrored: the same box, one axis the other way
+        r[:, 0] = -r[:, 0]
+    if np.abs(r - np.eye(3)).max() <= 1e-6:
+        return None
+    corners = np.array([tuple(c) for c in obj.bound_box], np.float64)
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]
+    q = Matrix(r.tolist()).to_quaternion().normalized()
+    return (tuple(map(float, centre)), tuple(map(float, (hi - lo) / 2 * scale)),
+            (float(q.w), float(q.x), float(q.y), float(q.z)))
 
 
 def _world_tree(obj, depsgraph, role):

@@ -182,8 +182,8 @@ class FluidBlender(BlenderEffect):
             obstacles=bpy.props.PointerProperty(
                 name="Obstacles", type=bpy.types.Collection,
                 description="SIMULATE: objects the fluid flows around (a ball as a sphere, "
-                            "others as their bounding boxes), followed frame by frame when "
-                            "animated"),
+                            "others as their own bounding boxes, turned with them), followed "
+                            "frame by frame when animated"),
             paint_collection=bpy.props.PointerProperty(
                 name="Paint", type=bpy.types.Collection,
                 description="Empties with Paint Fluid on: local paint strokes (Object tab)"),
@@ -352,7 +352,8 @@ class FluidBlender(BlenderEffect):
         """The obstacles at the first frame, and {frame: all of them} for the later frames
         where one that is animated, constrained or deformed stands otherwise than the frame
         before (the fluid meets it moving there). A round mesh (a ball) is a sphere, decided
-        at the first frame; any other object is its world bounding box."""
+        at the first frame; any other object is its own bounding box, turned with it (a box
+        in the world's axes when it is turned at no frame)."""
         movers = {k for k, o in enumerate(found)
                   if animation.may_move(o) or animation.may_deform(o)}
         dg = evaluated_depsgraph(context)
@@ -372,14 +373,25 @@ class FluidBlender(BlenderEffect):
                     out.append(("sphere",) + (ball or (tuple(map(float, (olo + ohi) / 2)),
                                                        float(np.max(ohi - olo) / 2))))
                     continue
-                out.append(("box", tuple(map(float, (olo + ohi) / 2)),
+                turned = meshes.turned_bounds(ev)
+                out.append(("turned_box",) + turned if turned else
+                           ("box", tuple(map(float, (olo + ohi) / 2)),
                             tuple(map(float, (ohi - olo) / 2))))
             return out
         first = obstacles()
-        if not movers or frames[1] <= frames[0]:
-            return first, {}
+        got = {}
+        if movers and frames[1] > frames[0]:
+            got = yield from animation.per_frame(context.scene, frames[0] + 1, frames[1],
+                                                 obstacles)
+        # One kind per obstacle for the whole bake: a box turned at some frame is a turned
+        # box at all of them (unturned: the identity).
+        every = [first] + list(got.values())
+        for k in range(len(found)):
+            if any(obs[k][0] == "turned_box" for obs in every):
+                for obs in every:
+                    if obs[k][0] == "box":
+                        obs[k] = ("turned_box",) + obs[k][1:] + ((1.0, 0.0, 0.0, 0.0),)
         path, last = {}, first
-        got = yield from animation.per_frame(context.scene, frames[0] + 1, frames[1], obstacles)
         for f, here in got.items():
             if here != last:
                 path[f] = last = here
