@@ -143,16 +143,28 @@ HBK_EXPORT hbk_result_t hbk_fluid_get_particles(hbk_fluid_t *h, float *pos, floa
 
 /* Obstacles the particles cannot enter (SIMULATE only). */
 typedef struct hbk_fluid_obstacle {
-    int32_t type;       /* 0 = sphere, 1 = axis-aligned box, 2 = turned box */
+    int32_t type;       /* 0 = sphere, 1 = axis-aligned box, 2 = turned box, 3 = mesh (a signed
+                         * distance field over a turned box: hbk_fluid_set_obstacle_field) */
     float center[3];    /* m */
-    float extent[3];    /* m: sphere radius in [0]; box half-sizes along its own axes */
-    float rotation[4];  /* type 2: unit quaternion (w, x, y, z) turning the box's axes into the
-                         * world's (length within 1e-3 of 1); the other types ignore it */
+    float extent[3];    /* m: sphere radius in [0]; box half-sizes along its own axes (a
+                         * mesh's: of its field's box, each > 0) */
+    float rotation[4];  /* types 2, 3: unit quaternion (w, x, y, z) turning the box's axes into
+                         * the world's (length within 1e-3 of 1); the others ignore it */
 } hbk_fluid_obstacle_t;
+#define HBK_FLUID_FIELD_MAX_DIM 128
 /* Replaces the obstacle list (count 0..64; NULL with 0 clears), still where they are, and
  * drops a move not stepped yet. */
 HBK_EXPORT hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs,
                                                 int32_t count);
+/* The shape of mesh obstacle `index` (type 3; set after set_obstacles, which drops the fields):
+ * signed distances (m, negative inside, finite, within +-1e6) at dims[0] x dims[1] x dims[2]
+ * points (x fastest, 2..HBK_FLUID_FIELD_MAX_DIM each) spanning its box [-extent, extent] in
+ * its own axes, corners included. Copied. The field moves, turns and stretches with the
+ * obstacle's box; a point outside the box is outside the mesh. A step or fill with a mesh
+ * obstacle whose field is not set is refused by name. Part of the saved state. */
+HBK_EXPORT hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index,
+                                                     const int32_t dims[3],
+                                                     const float *distance);
 /* Moving obstacles: where each obstacle is at the end of the next step (one per obstacle, in
  * order, of the same type). The step carries each there in a straight line over its dt
  * (centre and extent at a constant rate; a turned box also turns at a constant rate about

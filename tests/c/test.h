@@ -204,7 +204,12 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
     X(fluid, turned_box_ramp)           \
     X(fluid, turned_box_paddle)         \
     X(fluid, turned_box_stirred)        \
-    X(fluid, turned_box_state_v1)
+    X(fluid, turned_box_state_v1)       \
+    X(fluid, mesh_refused)              \
+    X(fluid, mesh_sphere_field)         \
+    X(fluid, mesh_ramp)                 \
+    X(fluid, mesh_torus_hole)           \
+    X(fluid, mesh_moving_state)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

@@ -139,7 +139,7 @@ void test_fluid_params_rejects(void)
     const float lo3[3] = {0, 0, 0}, hi3[3] = {1, 1, 1};
     CHECK(hbk_fluid_fill_box(h, lo3, hi3, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
     CHECK(strstr(hbk_fluid_message(h), "max_particles") && hbk_fluid_particle_count(h) == 0);
-    hbk_fluid_obstacle_t ob = {3, {0, 0, 0}, {1, 1, 1}, {1, 0, 0, 0}};
+    hbk_fluid_obstacle_t ob = {4, {0, 0, 0}, {1, 1, 1}, {1, 0, 0, 0}};
     CHECK(hbk_fluid_set_obstacles(h, &ob, 1) == HBK_ERR_INVALID_ARGUMENT);
     CHECK(strstr(hbk_fluid_message(h), "obs[0].type"));
     ob.type = 2; /* a turned box needs a unit quaternion */

@@ -247,8 +247,8 @@ void test_fluid_turned_box_stirred(void)
     hbk_fluid_destroy(b);
 }
 
-/* A version 1 state (obstacles as 28-byte records, no rotation) loads: the same handle as the
- * version 2 state it was made from. Versions past 2 are refused by number. */
+/* A version 1 state (obstacles as 28-byte records, no rotation, no fields) loads: the same
+ * handle as the state it was made from. Versions past 3 are refused by number. */
 void test_fluid_turned_box_state_v1(void)
 {
     hbk_fluid_params_t p;
@@ -272,7 +272,8 @@ void test_fluid_turned_box_state_v1(void)
     const size_t at = 64 + 24 * (size_t)count; /* header, positions, velocities */
     const size_t rec = sizeof(hbk_fluid_obstacle_t), old = 28;
     CHECK(rec == 44);
-    const size_t s1 = s2 - HBK_FLUID_MAX_OBSTACLES * (rec - old);
+    const size_t tail = 12 * HBK_FLUID_MAX_OBSTACLES; /* version 3's field dims, all 0 */
+    const size_t s1 = s2 - HBK_FLUID_MAX_OBSTACLES * (rec - old) - tail;
     unsigned char *v1 = calloc(1, s1);
     CHECK(v1);
     memcpy(v1, v2, at);
@@ -281,7 +282,7 @@ void test_fluid_turned_box_state_v1(void)
     for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i)
         memcpy(v1 + at + old * i, v2 + at + rec * i, old);
     memcpy(v1 + at + old * HBK_FLUID_MAX_OBSTACLES, v2 + at + rec * HBK_FLUID_MAX_OBSTACLES,
-           s2 - at - rec * HBK_FLUID_MAX_OBSTACLES);
+           s2 - at - rec * HBK_FLUID_MAX_OBSTACLES - tail);
     CHECK_OK(hbk_fluid_load_state(b, v1, s1));
     size_t sb;
     unsigned char *back = state_of(b, &sb);
@@ -293,16 +294,18 @@ void test_fluid_turned_box_state_v1(void)
     memcpy(longer, v1, s1);
     CHECK(hbk_fluid_load_state(b, longer, s1 + 1) == HBK_ERR_FORMAT);
     CHECK(strstr(hbk_fluid_message(b), "a version 1 state of this header is exactly"));
+    memcpy(v2 + 8, &one, 4); /* the current state under version 1: refused by its size */
+    CHECK(hbk_fluid_load_state(b, v2, s2) == HBK_ERR_FORMAT);
     free(longer);
     /* an old record of a type it did not have is refused */
     const int32_t two = 2;
     memcpy(v1 + at, &two, 4);
     CHECK(hbk_fluid_load_state(b, v1, s1) == HBK_ERR_FORMAT);
     CHECK(strstr(hbk_fluid_message(b), "obstacles"));
-    const uint32_t three = 3;
-    memcpy(v2 + 8, &three, 4);
+    const uint32_t four = 4;
+    memcpy(v2 + 8, &four, 4);
     CHECK(hbk_fluid_load_state(b, v2, s2) == HBK_ERR_FORMAT);
-    CHECK(strstr(hbk_fluid_message(b), "state version = 3: this library reads 1 to 2"));
+    CHECK(strstr(hbk_fluid_message(b), "state version = 4: this library reads 1 to 3"));
     free(v1);
     free(v2);
     free(back);

@@ -308,7 +308,9 @@ class Fluid(Effect):
         h.set_obstacles([("sphere", (0.3, 0.3, 0.1), 0.05), ("box", (0.1, 0.3, 0.1),
                                                               (0.05, 0.05, 0.05)),
                          ("turned_box", (0.3, 0.1, 0.1), (0.05, 0.02, 0.05),
-                          (np.cos(0.3), 0.0, 0.0, np.sin(0.3)))])
+                          (np.cos(0.3), 0.0, 0.0, np.sin(0.3))),
+                         ("mesh", (0.3, 0.3, 0.3), (0.06, 0.06, 0.06), (1.0, 0.0, 0.0, 0.0),
+                          MESH_FIELD)])
         h.paint_sphere(1, (0.07, 0.07, 0.07), 0.05, 0.01)
         lo, hi = [-FLT_MAX] * 6, [FLT_MAX] * 6
         lo[0], hi[0] = 0.0, 0.5
@@ -358,13 +360,19 @@ class Fluid(Effect):
                 ("life", 4 * nv, "f4", "all"), ("motion", 12 * nv, "f4", "all"),
                 ("density", 4 * nv, "f4", "all"), ("surface", 4 * nv, "f4", "all"),
                 ("features", 4 * F * nv, "f4", "all"), ("rule_on", 4 * 8, None, None),
-                ("rule_lo", 4 * 8 * F, "f4", "nan"), ("rule_hi", 4 * 8 * F, "f4", "nan")):
+                ("rule_lo", 4 * 8 * F, "f4", "nan"), ("rule_hi", 4 * 8 * F, "f4", "nan"),
+                ("field_dims", 12 * 64, None, None),
+                ("fields", 4 * MESH_FIELD.size, "f4", "all")):
             out.append(Section(name, off, nbytes, dt, refuse))
             off += nbytes
         return out
 
 
 OBSTACLE = 44  # hbk_fluid_obstacle_t: type (int32), center[3], extent[3], rotation[4]
+# The mesh obstacle's field: a ball's distances (the state ends with it, after the dims).
+MESH_FIELD = (np.linalg.norm(np.stack(np.meshgrid(*[np.linspace(-0.06, 0.06, 4)] * 3,
+                                                  indexing="ij")), axis=0) -
+              0.04).astype(np.float32)
 
 RAIN, SNOW, WATER, FLUID = Rain(), Snow(), Water(), Fluid()
 EFFECTS = [RAIN, SNOW, WATER, FLUID]
@@ -597,6 +605,9 @@ def fluid_special(a, rng):
         for off, name in ((4, "center[0]"), (16, "extent[0]"), (20, "extent[1]")):
             for v in (float("nan"), float("inf"), -1.0, 1e30):
                 out.append(Variant(f"obstacle[{i}].{name} = {v}", poke(a, at + off, "f", v)))
+    dims = secs["field_dims"].off  # the mesh's field: out of range, or given to a box
+    for o, k, v in ((3, 0, 1), (3, 1, 200), (3, 2, -4), (3, 0, 1 << 30), (1, 0, 2), (0, 2, 2)):
+        out.append(Variant(f"field_dims[{o}][{k}] = {v}", poke(a, dims + 12 * o + 4 * k, "i", v)))
     at = ob.off + OBSTACLE * 2  # the turned box: a rotation that is not a unit quaternion
     for off in (28, 40):
         for v in (float("nan"), float("inf"), 1.5, 0.0):

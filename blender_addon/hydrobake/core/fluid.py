@@ -16,7 +16,8 @@ VOLUMES = {"uvw_a": (0, 3), "uvw_b": (1, 3), "blend": (2, None), "motion": (3, 3
            "density": (4, 1), "surface": (5, 1), "features": (6, len(FEATURES)),
            "wrap_a": (7, 3), "wrap_b": (8, 3), "uvw_weight": (9, 1),
            "uvw_a_unwrapped": (10, 3), "uvw_b_unwrapped": (11, 3)}
-OBSTACLE_KINDS = ("sphere", "box", "turned_box")  # hbk_fluid_obstacle_t.type 0, 1, 2
+OBSTACLE_KINDS = ("sphere", "box", "turned_box", "mesh")  # hbk_fluid_obstacle_t.type 0..3
+FIELD_MAX_DIM = 128  # HBK_FLUID_FIELD_MAX_DIM: a mesh field's points per axis
 # hbk_noise3d_tileable's range of size (checked here too: the output is allocated from it).
 NOISE_MAX_SIZE = 1024
 
@@ -35,6 +36,7 @@ Handle.declare("fluid", [
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("move_obstacles", [P(Obstacle), ctypes.c_int32]),
+    ("set_obstacle_field", [ctypes.c_int32, P(ctypes.c_int32 * 3), _f32]),
     ("set_velocity_grid", [_f32, ctypes.c_void_p]),
     ("step", [P(Progress)]), ("update_fields", []),
     ("get_volume", [ctypes.c_int32, _f32, ctypes.c_size_t]),
@@ -65,26 +67,34 @@ _lib.declare([
 ])
 
 
-def obstacle_list(obstacles, what):
-    """[(kind, centre (3 floats), size (radius, or 3 half-sizes)[, rotation])] of obstacles
-    given as ("sphere", centre, radius), ("box", centre, half_sizes) or ("turned_box", centre,
-    half_sizes, rotation): a box turned by the unit quaternion (w, x, y, z), its half-sizes
-    along its own axes. Each checked by name."""
+_SHAPES = {"sphere": (3, "values (kind, centre, size)"),
+           "box": (3, "values (kind, centre, size)"),
+           "turned_box": (4, "values (kind, centre, half_sizes, rotation)"),
+           "mesh": (5, "values (kind, centre, half_sizes, rotation, field)")}
+
+
+def obstacle_list(obstacles, what, fields=True):
+    """[(kind, centre (3 floats), size (radius, or 3 half-sizes)[, rotation[, field]])] of
+    obstacles given as ("sphere", centre, radius), ("box", centre, half_sizes), ("turned_box",
+    centre, half_sizes, rotation): a box turned by the unit quaternion (w, x, y, z), its
+    half-sizes along its own axes, or ("mesh", centre, half_sizes, rotation, field): a turned
+    box holding a mesh, field its signed distances (m, negative inside) at (nz, ny, nx) points
+    spanning the box, corners included (2..128 a side; pad the box so the mesh is at least
+    half a particle spacing inside it). Each checked by name. With ``fields`` False (a move) a
+    mesh's field may be None: it keeps the one it has."""
     out = []
     for i, ob in enumerate(args.sequence(obstacles, what, what="obstacles")):
         name = f"{what}[{i}]"
         items = args.sequence(ob, name, what="values (kind, centre, size[, rotation])")
         # Checked by name: any other kind would be taken as a box (type 1).
         kind = args.choice(items[0] if items else None, f"{name}.kind", OBSTACLE_KINDS)
-        shape = ("values (kind, centre, half_sizes, rotation)" if kind == "turned_box" else
-                 "values (kind, centre, size)")
-        items = args.sequence(ob, name, 4 if kind == "turned_box" else 3, shape)
+        items = args.sequence(ob, name, *_SHAPES[kind])
         if kind == "sphere":
             size = args.number(items[2], f"{name}.radius")
         else:
             size = tuple(args.numbers(items[2], f"{name}.half_sizes", 3))
         entry = (kind, tuple(args.numbers(items[1], f"{name}.centre", 3)), size)
-        if kind == "turned_box":
+        if kind in ("turned_box", "mesh"):
             rot = tuple(args.numbers(items[3], f"{name}.rotation", 4))
             length = float(np.sqrt(np.sum(np.square(rot, dtype=np.float64))))
             if not abs(length - 1.0) <= 1e-3:  # (as the library checks, with this name)
@@ -92,19 +102,38 @@ def obstacle_list(obstacles, what):
                     f"{name}.rotation: length {length:.6g}, must be a unit quaternion (w, x, y, "
                     "z), length 1 +- 1e-3")
             entry += (rot,)
+        if kind == "mesh":
+            entry += (_field(items[4], f"{name}.field", fields),)
         out.append(entry)
     return out
 
 
-def _obstacles(obstacles, what):
-    """(hbk_fluid_obstacle_t array, count) of obstacle_list's entries, checked by name."""
-    obstacles = obstacle_list(obstacles, what)
+def _field(value, name, required):
+    """A mesh's distance field as a (nz, ny, nx) float32 array, checked; None where a move
+    leaves it out."""
+    if value is None and not required:
+        return None
+    f = args.float32_array(value, name)
+    if f.ndim != 3 or not all(2 <= n <= FIELD_MAX_DIM for n in f.shape):
+        raise errors.InvalidArgument(f"{name}: shape {f.shape}: must be (nz, ny, nx), each in "
+                                     f"[2, {FIELD_MAX_DIM}]")
+    bad = ~(np.abs(f) <= 1e6)
+    if bad.any():
+        at = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise errors.InvalidArgument(f"{name}{list(at)} = {f[at]}: must be a finite distance in "
+                                     "[-1e6, 1e6] m")
+    return f
+
+
+def _obstacles(obstacles, what, fields=True):
+    """(hbk_fluid_obstacle_t array, count, the checked list) of obstacle_list's entries."""
+    obstacles = obstacle_list(obstacles, what, fields)
     arr = (Obstacle * max(len(obstacles), 1))()
     for i, (kind, c, e, *rot) in enumerate(obstacles):
         ext = _V3(e, 0.0, 0.0) if kind == "sphere" else _V3(*e)
         arr[i] = Obstacle(OBSTACLE_KINDS.index(kind), _V3(*c), ext,
                           (ctypes.c_float * 4)(*(rot[0] if rot else (0.0,) * 4)))
-    return arr, len(obstacles)
+    return arr, len(obstacles), obstacles
 
 
 class Fluid(Handle):
@@ -137,17 +166,24 @@ class Fluid(Handle):
 
     def set_obstacles(self, obstacles):
         """obstacles: [("sphere", centre, radius) | ("box", centre, half_sizes) |
-        ("turned_box", centre, half_sizes, (w, x, y, z))], still where they are (a move not
-        stepped yet is dropped)."""
-        arr, n = _obstacles(obstacles, "obstacles")
+        ("turned_box", centre, half_sizes, (w, x, y, z)) | ("mesh", centre, half_sizes, (w, x,
+        y, z), field)], still where they are (a move not stepped yet is dropped); see
+        obstacle_list."""
+        arr, n, checked = _obstacles(obstacles, "obstacles")
         self.call("set_obstacles", arr, n)
+        for i, ob in enumerate(checked):
+            if ob[0] == "mesh":
+                field = ob[4]
+                self.call("set_obstacle_field", i, (ctypes.c_int32 * 3)(*field.shape[::-1]),
+                          field.reshape(-1))
 
     def move_obstacles(self, to):
         """Where the obstacles are at the end of the next step (a list like set_obstacles',
-        one per obstacle, in order, of the same kinds): the step carries them there in a
+        one per obstacle, in order, of the same kinds; a mesh's field may be None, and any given is
+        not taken: a mesh keeps its shape): the step carries them there in a
         straight line (a turned box turning at a constant rate, the shorter way) and the fluid
         meets them moving."""
-        arr, n = _obstacles(to, "to")
+        arr, n, _ = _obstacles(to, "to", fields=False)
         self.call("move_obstacles", arr, n)
 
     def _per_vertex(self, name, values, components=1):

@@ -45,6 +45,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     if (!h) return;
     free(h->pos); free(h->vel); free(h->pos0); free(h->vel0);
     free(h->in_vel); free(h->in_surface);
+    hbk_fluid_fields_free(h);
     vols_free(&h->v);
     vols_free(&h->scratch);
     free(h->motion); free(h->density); free(h->surface); free(h->features);
@@ -221,6 +222,8 @@ hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float h
     if (!(jitter >= 0.0f && jitter <= 0.5f))
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "jitter = %g: must be in [0, 0.5]",
                         (double)jitter);
+    hbk_result_t ready = hbk_fluid_fields_ready(h, "fill_box");
+    if (ready) return ready;
     const float s = h->p.particle_spacing;
     double a0[3];
     int32_t n[3];
@@ -384,6 +387,10 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     HBK_FLUID_ENTER(h);
     const int threads = HBK_OMP_THREADS(h);
     const int sim = h->p.source == HBK_FLUID_SIMULATE;
+    if (sim) {
+        hbk_result_t ready = hbk_fluid_fields_ready(h, "step");
+        if (ready) return ready;
+    }
     double t0 = omp_get_wtime();
     hbk_report(progress, 0.0f);
     int32_t taken = 0;

@@ -54,6 +54,9 @@ struct hbk_fluid {
     hbk_fluid_obstacle_t obs_now[HBK_FLUID_MAX_OBSTACLES];
     float obs_rate[HBK_FLUID_MAX_OBSTACLES][9]; /* centre, extent (m/s), turning (rad/s) */
     float obs_axes[HBK_FLUID_MAX_OBSTACLES][9]; /* obs_now's axes in the world: x, y, z */
+    /* State: the distance fields of mesh obstacles (NULL, dims 0 for the others). */
+    float *obs_field[HBK_FLUID_MAX_OBSTACLES];
+    int32_t obs_dims[HBK_FLUID_MAX_OBSTACLES][3];
     float obs_speed;            /* m/s: the fastest any obstacle's surface moves (stable dt) */
     float *in_vel, *in_surface; /* VELOCITY_GRID inputs (nv x 3, nv), or NULL */
     hbk_fluid_vols_t v;
@@ -181,6 +184,14 @@ void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t);
 void hbk_fluid_obstacles_moved(hbk_fluid_t *h);
 /* 1 if x is where the step's collision would push a particle out of an obstacle (still). */
 int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3]);
+/* Mesh obstacle o's field at l (its own axes, m from its centre, inside its box): 1 if it is
+ * nearer than m to the surface or inside, with the push out (m - distance) and the outward
+ * unit normal in its own axes; else 0. */
+int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], const float l[3],
+                            float m, float *push, float nl[3]);
+/* HBK_OK, or the refusal of a step or fill with a mesh obstacle whose field is not set. */
+hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what);
+void hbk_fluid_fields_free(hbk_fluid_t *h);
 static inline int32_t hbk_fluid_cell_coord(const hbk_fluid_cells_t *c, float x, int a)
 {
     /* Clamped as a float: a particle far outside the grid (a loaded state's) would overflow

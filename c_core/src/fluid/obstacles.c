@@ -1,14 +1,16 @@
-/* Obstacles the SPH particles cannot enter: spheres, axis-aligned boxes and turned boxes, still
- * or carried from where they are to where move_obstacles puts them over one step. */
+/* Obstacles the SPH particles cannot enter: spheres, axis-aligned boxes, turned boxes and meshes
+ * (signed distance fields over a turned box), still or carried from where they are to where
+ * move_obstacles puts them over one step. */
 #include "internal_fluid.h"
 #include <stdio.h>
+#include <stdlib.h>
 
 /* The axes of a turned box in the world, x, y and z (the columns of q's rotation matrix, q
  * normalised); the world's own for the other types. */
 static void axes_of(const hbk_fluid_obstacle_t *o, float ax[9])
 {
     static const float world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    if (o->type != 2) {
+    if (o->type < 2) {
         memcpy(ax, world, sizeof world);
         return;
     }
@@ -28,10 +30,10 @@ static void axes_of(const hbk_fluid_obstacle_t *o, float ax[9])
  * field and its allowed range in what (96 bytes). Also used by hbk_fluid_load_state. */
 int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
 {
-    if (o->type < 0 || o->type > 2) {
+    if (o->type < 0 || o->type > 3) {
         if (what)
-            snprintf(what, 96, "type = %d: must be 0 (sphere), 1 (box) or 2 (turned box)",
-                     o->type);
+            snprintf(what, 96, "type = %d: must be 0 (sphere), 1 (box), 2 (turned box) or 3 "
+                     "(mesh)", o->type);
         return 1;
     }
     for (int a = 0; a < 3; ++a) {
@@ -47,8 +49,14 @@ int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
                          (double)o->extent[a]);
             return 1;
         }
+        if (o->type == 3 && !(o->extent[a] > 0.0f)) {
+            if (what)
+                snprintf(what, 96, "extent[%d] = %g: must be in (0, 1e6] m for a mesh", a,
+                         (double)o->extent[a]);
+            return 1;
+        }
     }
-    if (o->type == 2) {
+    if (o->type >= 2) {
         const float *q = o->rotation;
         const double n = sqrt((double)q[0] * q[0] + (double)q[1] * q[1] + (double)q[2] * q[2] +
                               (double)q[3] * q[3]);
@@ -86,7 +94,100 @@ hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t 
     if (count) memcpy(h->obs, obs, (size_t)count * sizeof *obs);
     h->n_obs = count;
     h->obs_moving = 0;
+    hbk_fluid_fields_free(h); /* a new list: its meshes' fields come next */
     return HBK_OK;
+}
+
+void hbk_fluid_fields_free(hbk_fluid_t *h)
+{
+    for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
+        free(h->obs_field[i]);
+        h->obs_field[i] = NULL;
+        memset(h->obs_dims[i], 0, sizeof h->obs_dims[i]);
+    }
+}
+
+hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                                          const float *distance)
+{
+    HBK_FLUID_ENTER(h);
+    if (index < 0 || index >= h->n_obs)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "index = %d: must be in [0, %d)",
+                        index, h->n_obs);
+    if (h->obs[index].type != 3)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "index = %d: obstacle %d is of type %d, must be 3 (mesh)", index, index,
+                        h->obs[index].type);
+    if (!dims || !distance)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "%s: must not be NULL",
+                        dims ? "distance" : "dims");
+    size_t n = 1;
+    for (int a = 0; a < 3; ++a) {
+        if (dims[a] < 2 || dims[a] > HBK_FLUID_FIELD_MAX_DIM)
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "dims[%d] = %d: must be in [2, %d]",
+                            a, dims[a], HBK_FLUID_FIELD_MAX_DIM);
+        n *= (size_t)dims[a];
+    }
+    for (size_t i = 0; i < n; ++i)
+        if (!(fabsf(distance[i]) <= 1e6f))
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                            "distance[%zu] = %g: must be a finite number in [-1e6, 1e6] m", i,
+                            (double)distance[i]);
+    float *f = malloc(n * sizeof *f);
+    if (!f) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "distance: out of memory");
+    memcpy(f, distance, n * sizeof *f);
+    free(h->obs_field[index]);
+    h->obs_field[index] = f;
+    memcpy(h->obs_dims[index], dims, sizeof h->obs_dims[index]);
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what)
+{
+    for (int32_t i = 0; i < h->n_obs; ++i)
+        if (h->obs[i].type == 3 && !h->obs_field[i])
+            return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                            "%s: obstacle %d is a mesh without its field "
+                            "(hbk_fluid_set_obstacle_field)", what, i);
+    return HBK_OK;
+}
+
+int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], const float l[3],
+                            float m, float *push, float nl[3])
+{
+    const int32_t *dims = h->obs_dims[o];
+    const float *f = h->obs_field[o];
+    float t[3], scale[3];
+    int32_t i[3];
+    for (int a = 0; a < 3; ++a) {
+        if (!(fabsf(l[a]) < e[a])) return 0; /* outside the box: outside the mesh */
+        scale[a] = (float)(dims[a] - 1) / (2.0f * e[a]); /* grid steps per metre */
+        const float g = (l[a] + e[a]) * scale[a];
+        int32_t k = (int32_t)g;
+        k = k < 0 ? 0 : k > dims[a] - 2 ? dims[a] - 2 : k;
+        i[a] = k;
+        t[a] = g - (float)k;
+    }
+    const size_t sx = 1, sy = (size_t)dims[0], sz = sy * (size_t)dims[1];
+    const float *c = f + (size_t)i[0] + sy * (size_t)i[1] + sz * (size_t)i[2];
+    const float c000 = c[0], c100 = c[sx], c010 = c[sy], c110 = c[sx + sy], c001 = c[sz],
+                c101 = c[sx + sz], c011 = c[sy + sz], c111 = c[sx + sy + sz];
+    /* trilinear, and its exact gradient within the cell */
+    const float x0 = c000 + t[0] * (c100 - c000), x1 = c010 + t[0] * (c110 - c010),
+                x2 = c001 + t[0] * (c101 - c001), x3 = c011 + t[0] * (c111 - c011);
+    const float y0 = x0 + t[1] * (x1 - x0), y1 = x2 + t[1] * (x3 - x2);
+    const float d = y0 + t[2] * (y1 - y0);
+    if (d >= m) return 0;
+    const float dx0 = (c100 - c000) + t[1] * ((c110 - c010) - (c100 - c000));
+    const float dx1 = (c101 - c001) + t[1] * ((c111 - c011) - (c101 - c001));
+    float gr[3] = {(dx0 + t[2] * (dx1 - dx0)) * scale[0], (x1 - x0 + t[2] * (x3 - x2 - x1 + x0)) *
+                                                            scale[1],
+                   (y1 - y0) * scale[2]};
+    const float len = sqrtf(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]);
+    if (!(len > 1e-6f)) return 0; /* a flat spot (the middle of a thick part): no way out */
+    for (int a = 0; a < 3; ++a) nl[a] = gr[a] / len;
+    *push = (m - d) / (len > 1.0f ? 1.0f : len); /* a distance field: |gradient| near 1 */
+    return 1;
 }
 
 hbk_result_t hbk_fluid_move_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *to, int32_t count)
@@ -169,7 +270,7 @@ void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t)
             r2 += r * r;
         }
         float s = sqrtf(c2) + e; /* no point of its surface moves faster */
-        if (a->type == 2) {
+        if (a->type >= 2) {
             double w[3];
             turn(a->rotation, b->rotation, t, w, now->rotation);
             if (t >= 1.0) memcpy(now->rotation, b->rotation, sizeof now->rotation);
@@ -203,14 +304,18 @@ int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3])
             const float R = ob->extent[0] + m;
             if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < R * R) return 1;
         } else {
-            float ax[9], l[3];
+            float ax[9], l[3], push, nl[3];
             axes_of(ob, ax);
             for (int k = 0; k < 3; ++k)
                 l[k] = ob->type == 1 ? q[k] : ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] +
                                               ax[3 * k + 2] * q[2];
-            if (fabsf(l[0]) < ob->extent[0] + m && fabsf(l[1]) < ob->extent[1] + m &&
-                fabsf(l[2]) < ob->extent[2] + m)
+            if (ob->type == 3) {
+                if (h->obs_field[o] && hbk_fluid_field_contact(h, o, ob->extent, l, m, &push, nl))
+                    return 1;
+            } else if (fabsf(l[0]) < ob->extent[0] + m && fabsf(l[1]) < ob->extent[1] + m &&
+                       fabsf(l[2]) < ob->extent[2] + m) {
                 return 1;
+            }
         }
     }
     return 0;

@@ -46,28 +46,38 @@ static void collide(const hbk_fluid_t *h, float *x, float *v)
             if (best < 0) continue;
             n[best] = q[best] < 0.0f ? -1.0f : 1.0f;
             wn = n[best] * w[best] + w[3 + best]; /* the face at centre + n extent */
-        } else { /* turned box: the same in its own axes */
+        } else { /* turned box or mesh: in its own axes */
             const float *ax = h->obs_axes[o];
-            float l[3];
-            int best = -1;
-            for (int a = 0; a < 3; ++a) {
+            float l[3], grow = 0.0f; /* grow: the surface's own speed along n (m/s) */
+            for (int a = 0; a < 3; ++a)
                 l[a] = ax[3 * a] * q[0] + ax[3 * a + 1] * q[1] + ax[3 * a + 2] * q[2];
-                const float pen = ob->extent[a] + m - fabsf(l[a]);
-                if (pen <= 0.0f) { best = -1; push = 0.0f; break; }
-                if (best < 0 || pen < push) { best = a; push = pen; }
+            if (ob->type == 2) {
+                int best = -1;
+                for (int a = 0; a < 3; ++a) {
+                    const float pen = ob->extent[a] + m - fabsf(l[a]);
+                    if (pen <= 0.0f) { best = -1; push = 0.0f; break; }
+                    if (best < 0 || pen < push) { best = a; push = pen; }
+                }
+                if (best < 0) continue;
+                const float sg = l[best] < 0.0f ? -1.0f : 1.0f;
+                for (int a = 0; a < 3; ++a) n[a] = sg * ax[3 * best + a];
+                grow = w[3 + best];
+            } else {
+                float nl[3];
+                if (!hbk_fluid_field_contact(h, o, ob->extent, l, m, &push, nl)) continue;
+                for (int a = 0; a < 3; ++a)
+                    n[a] = ax[a] * nl[0] + ax[3 + a] * nl[1] + ax[6 + a] * nl[2];
+                /* the field stretches with its box: a point at l moves at l * e' / e */
+                for (int k = 0; k < 3; ++k) grow += w[3 + k] / ob->extent[k] * l[k] * nl[k];
             }
-            if (best < 0) continue;
-            const float sg = l[best] < 0.0f ? -1.0f : 1.0f;
-            for (int a = 0; a < 3; ++a) n[a] = sg * ax[3 * best + a];
-            /* the surface's speed where the particle lands: centre + turn x arm, plus the
-             * face's own growth */
+            /* the surface's speed where the particle lands: centre + turn x arm */
             const float *om = w + 6;
             float r[3], u[3];
             for (int a = 0; a < 3; ++a) r[a] = q[a] + n[a] * push;
             u[0] = w[0] + om[1] * r[2] - om[2] * r[1];
             u[1] = w[1] + om[2] * r[0] - om[0] * r[2];
             u[2] = w[2] + om[0] * r[1] - om[1] * r[0];
-            wn = u[0] * n[0] + u[1] * n[1] + u[2] * n[2] + w[3 + best];
+            wn = u[0] * n[0] + u[1] * n[1] + u[2] * n[2] + grow;
         }
         float vn = 0.0f;
         for (int a = 0; a < 3; ++a) { x[a] += n[a] * push; vn += v[a] * n[a]; }

@@ -4,9 +4,12 @@
 #include <string.h>
 
 static const char k_magic[8] = {'H', 'B', 'K', 'F', 'L', 'U', 'I', 'D'};
-/* Version 2 added the obstacles' rotation (turned boxes); version 1 states still load, their
- * obstacles kept in the 28-byte records of then (type, centre, extent). */
-enum { STATE_VERSION = 2, STATE_HEADER = 64, OBSTACLE_V1_BYTES = 28 };
+/* Version 2 added the obstacles' rotation (turned boxes), version 3 the meshes' distance
+ * fields: after the sections, each obstacle's field dims (int32 x 3, zeros but for a mesh),
+ * then the meshes' fields in obstacle order. Versions 1 and 2 still load (no meshes then;
+ * version 1's obstacles in the 28-byte records of then: type, centre, extent). */
+enum { STATE_VERSION = 3, STATE_HEADER = 64, OBSTACLE_V1_BYTES = 28 };
+#define FIELD_DIMS_BYTES (sizeof(int32_t) * 3 * HBK_FLUID_MAX_OBSTACLES)
 
 typedef struct header {
     char magic[8];
@@ -20,7 +23,7 @@ _Static_assert(sizeof(header_t) <= STATE_HEADER, "header fits");
 /* What a section's bytes must be for the state to load (see check_section): FINITE values
  * also lie within lim, the setter's range for an input, else room beyond what a run reaches
  * (DERIVED: far from overflowing the arithmetic that reads them). */
-enum { ANY, FINITE, NOT_NAN, OBSTACLES, OBSTACLES_V1 };
+enum { ANY, FINITE, NOT_NAN, OBSTACLES, OBSTACLES_V1, OBSTACLES_V2 };
 #define DERIVED 1e18f
 typedef struct section {
     void *p;
@@ -42,7 +45,8 @@ static int sections(hbk_fluid_t *h, int32_t count, int has_vel, int has_surf, ui
         s[n++] = (section_t){h->obs, HBK_FLUID_MAX_OBSTACLES * OBSTACLE_V1_BYTES, OBSTACLES_V1,
                              "obstacles", 0};
     else
-        s[n++] = (section_t){h->obs, sizeof h->obs, OBSTACLES, "obstacles", 0};
+        s[n++] = (section_t){h->obs, sizeof h->obs, version == 2 ? OBSTACLES_V2 : OBSTACLES,
+                             "obstacles", 0};
     s[n++] = (section_t){h->in_vel, has_vel ? 3 * nv * sizeof(float) : 0, FINITE,
                          "input velocity", 1e4f};
     s[n++] = (section_t){h->in_surface, has_surf ? nv * sizeof(float) : 0, FINITE,
@@ -73,13 +77,22 @@ static size_t total(const section_t *s, int n)
     return t;
 }
 
+/* Bytes of the meshes' fields, given each obstacle's field dims. */
+static size_t field_bytes(const int32_t dims[][3])
+{
+    size_t t = 0;
+    for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i)
+        t += (size_t)dims[i][0] * (size_t)dims[i][1] * (size_t)dims[i][2] * sizeof(float);
+    return t;
+}
+
 size_t hbk_fluid_state_size(const hbk_fluid_t *h)
 {
     if (!h) return 0;
     section_t s[MAX_SECTIONS];
     const int n = sections((hbk_fluid_t *)h, h->count, h->in_vel != NULL, h->in_surface != NULL,
                            STATE_VERSION, s);
-    return total(s, n);
+    return total(s, n) + FIELD_DIMS_BYTES + field_bytes(h->obs_dims);
 }
 
 hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size)
@@ -90,7 +103,7 @@ hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size)
     section_t s[MAX_SECTIONS];
     const int n = sections(h, h->count, h->in_vel != NULL, h->in_surface != NULL, STATE_VERSION,
                            s);
-    const size_t need = total(s, n);
+    const size_t need = total(s, n) + FIELD_DIMS_BYTES + field_bytes(h->obs_dims);
     if (size < need)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "size = %zu: must be >= hbk_fluid_state_size() = %zu", size, need);
@@ -116,6 +129,14 @@ hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size)
         if (s[i].bytes) memcpy(at, s[i].p, s[i].bytes);
         at += s[i].bytes;
     }
+    memcpy(at, h->obs_dims, FIELD_DIMS_BYTES);
+    at += FIELD_DIMS_BYTES;
+    for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
+        const size_t b = (size_t)h->obs_dims[i][0] * (size_t)h->obs_dims[i][1] *
+                         (size_t)h->obs_dims[i][2] * sizeof(float);
+        if (b) memcpy(at, h->obs_field[i], b);
+        at += b;
+    }
     return HBK_OK;
 }
 
@@ -134,7 +155,7 @@ static int obstacle_v1(const unsigned char *p, hbk_fluid_obstacle_t *o)
  * infinity would spread through the simulation, an obstacle set_obstacles refuses would too. */
 static int check_section(const section_t *s, const unsigned char *p, int32_t n_obs)
 {
-    if (s->check == OBSTACLES || s->check == OBSTACLES_V1) {
+    if (s->check == OBSTACLES || s->check == OBSTACLES_V1 || s->check == OBSTACLES_V2) {
         for (int32_t i = 0; i < n_obs; ++i) {
             hbk_fluid_obstacle_t o;
             if (s->check == OBSTACLES_V1) {
@@ -143,6 +164,7 @@ static int check_section(const section_t *s, const unsigned char *p, int32_t n_o
                 memcpy(&o, p + (size_t)i * sizeof o, sizeof o);
             }
             if (hbk_fluid_obstacle_problem(&o, NULL)) return 0;
+            if (s->check == OBSTACLES_V2 && o.type == 3) return 0; /* no meshes then */
         }
         return 1;
     }
@@ -152,6 +174,58 @@ static int check_section(const section_t *s, const unsigned char *p, int32_t n_o
         if (s->check == FINITE ? !(fabsf(f) <= s->lim) : isnan(f)) return 0;
     }
     return 1;
+}
+
+/* The fields of a version 3 state: their dims (a mesh's each in [2, max], or all 0 for one
+ * whose field was not set yet; 0 for the others) and values (finite, within +-1e6), copied
+ * into fresh buffers. */
+static hbk_result_t read_fields(hbk_fluid_t *h, const header_t *hd, const unsigned char *buffer,
+                                size_t size, size_t at, int32_t dims[][3], float **fields)
+{
+    if (size < at + FIELD_DIMS_BYTES)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "size = %zu: this state needs %zu bytes", size, at + FIELD_DIMS_BYTES);
+    memcpy(dims, buffer + at, FIELD_DIMS_BYTES);
+    at += FIELD_DIMS_BYTES;
+    const unsigned char *obs = buffer + STATE_HEADER + 24 * (size_t)hd->count;
+    for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
+        int32_t type = -1;
+        if (i < hd->n_obs) memcpy(&type, obs + (size_t)i * sizeof(hbk_fluid_obstacle_t), 4);
+        const int none = !dims[i][0] && !dims[i][1] && !dims[i][2];
+        int ok = none;
+        if (type == 3 && !none) {
+            ok = 1;
+            for (int a = 0; a < 3; ++a)
+                ok &= dims[i][a] >= 2 && dims[i][a] <= HBK_FLUID_FIELD_MAX_DIM;
+        }
+        if (!ok)
+            return hbk_fail(&h->msg, HBK_ERR_FORMAT,
+                            "state obstacle %d field dims (%d, %d, %d): not a mesh's field", i,
+                            dims[i][0], dims[i][1], dims[i][2]);
+    }
+    const size_t need = at + field_bytes((const int32_t(*)[3])dims);
+    if (size < need)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "size = %zu: this state needs %zu bytes",
+                        size, need);
+    for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
+        const size_t n = (size_t)dims[i][0] * (size_t)dims[i][1] * (size_t)dims[i][2];
+        if (!n) continue;
+        fields[i] = malloc(n * sizeof(float));
+        if (!fields[i]) {
+            for (int k = 0; k < i; ++k) free(fields[k]);
+            return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "state: out of memory");
+        }
+        memcpy(fields[i], buffer + at, n * sizeof(float));
+        at += n * sizeof(float);
+        for (size_t k = 0; k < n; ++k)
+            if (!(fabsf(fields[i][k]) <= 1e6f)) {
+                for (int j = 0; j <= i; ++j) free(fields[j]);
+                return hbk_fail(&h->msg, HBK_ERR_FORMAT,
+                                "state obstacle fields: not all valid numbers (finite, within "
+                                "+-1e6)");
+            }
+    }
+    return HBK_OK;
 }
 
 hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t size)
@@ -164,7 +238,7 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     memcpy(&hd, buffer, sizeof hd);
     if (memcmp(hd.magic, k_magic, 8))
         return hbk_fail(&h->msg, HBK_ERR_FORMAT, "buffer: not a fluid state (bad header)");
-    if (hd.version != STATE_VERSION && hd.version != 1)
+    if (hd.version < 1 || hd.version > STATE_VERSION)
         return hbk_fail(&h->msg, HBK_ERR_FORMAT, "state version = %u: this library reads 1 to %u",
                         hd.version, (unsigned)STATE_VERSION);
     for (int a = 0; a < 3; ++a)
@@ -187,10 +261,10 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     if (size < need)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "size = %zu: this state needs %zu bytes",
                         size, need);
-    if (hd.version == 1 && size != need) /* a later state's bytes under an old number */
+    if (hd.version < STATE_VERSION && size != need) /* a later state under an old number */
         return hbk_fail(&h->msg, HBK_ERR_FORMAT,
-                        "size = %zu: a version 1 state of this header is exactly %zu bytes", size,
-                        need);
+                        "size = %zu: a version %u state of this header is exactly %zu bytes",
+                        size, hd.version, need);
     /* Check before changing anything: a NaN would spread through the simulation. */
     const unsigned char *body = (const unsigned char *)buffer + STATE_HEADER, *q = body;
     for (int i = 0; i < n; q += s[i].bytes, ++i)
@@ -200,11 +274,20 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
                                                    "within +-%g)"
                                                  : "state %s: not all valid numbers",
                             s[i].name, (double)s[i].lim);
+    /* Version 3: the meshes' fields after the sections, made before anything changes. */
+    int32_t dims[HBK_FLUID_MAX_OBSTACLES][3];
+    float *fields[HBK_FLUID_MAX_OBSTACLES] = {NULL};
+    memset(dims, 0, sizeof dims);
+    if (hd.version >= 3) {
+        hbk_result_t r = read_fields(h, &hd, (const unsigned char *)buffer, size, need, dims,
+                                     fields);
+        if (r) return r;
+    }
     float *nv_in = NULL, *ns_in = NULL;
-    if (hd.has_in_vel && !h->in_vel && !(nv_in = malloc(s[3].bytes)))
-        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "state: out of memory");
-    if (hd.has_in_surface && !h->in_surface && !(ns_in = malloc(s[4].bytes))) {
+    if ((hd.has_in_vel && !h->in_vel && !(nv_in = malloc(s[3].bytes))) ||
+        (hd.has_in_surface && !h->in_surface && !(ns_in = malloc(s[4].bytes)))) {
         free(nv_in);
+        for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) free(fields[i]);
         return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "state: out of memory");
     }
     if (nv_in) h->in_vel = nv_in;
@@ -224,6 +307,9 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
         }
         at += s[i].bytes;
     }
+    hbk_fluid_fields_free(h);
+    memcpy(h->obs_field, fields, sizeof fields);
+    memcpy(h->obs_dims, dims, sizeof dims);
     h->count = hd.count;
     h->n_obs = hd.n_obs;
     h->obs_moving = 0; /* a pending move was made for the obstacles replaced */

@@ -5,9 +5,11 @@ an OpenVDB file and the textured surface mesh.
 Inputs:
     fill         (lo, hi): particles filling a box at rest (SIMULATE)
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
-                 z))] (SIMULATE): as they are at the first frame
+                 z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
+                 are at the first frame (fluid.obstacle_list)
     obstacle_path {frame: obstacles}: where the obstacles are at the frames they move to (the
-                 same count and kinds); each frame's step carries them from the frame before's
+                 same count and kinds; a mesh's field None: it keeps its shape); each frame's
+                 step carries them from the frame before's
                  place (the latest given, else ``obstacles``) to its own
     particles    {frame: (positions (N, 3), velocities (N, 3))} (PARTICLES)
     velocity     {frame: (V_m (nz+1, ny+1, nx+1, 3), surface field or None)} (VELOCITY_GRID)
@@ -42,6 +44,13 @@ from .. import arrays, errors, solid_textures
 from ..fluid import Fluid, OBSTACLE_KINDS, obstacle_list
 from . import register
 from .base import Effect, plain
+
+
+def _digested(ob):
+    """An obstacle as given, a mesh's field as its digest (a manifest lists the rest)."""
+    if ob[0] == "mesh":
+        return list(ob[:4]) + [arrays.digest(ob[4])]
+    return ob
 
 
 @register
@@ -90,7 +99,7 @@ class FluidEffect(Effect):
         out = {}
         for f, obs in path.items():
             name = f"obstacle_path[{f}]"
-            obs = obstacle_list(obs, name)
+            obs = obstacle_list(obs, name, fields=False)
             if [ob[0] for ob in obs] != kinds:
                 raise errors.InvalidArgument(
                     f"{name}: kinds {[ob[0] for ob in obs]} must be the obstacles' {kinds} "
@@ -111,7 +120,7 @@ class FluidEffect(Effect):
         would even bring back the old rules), nor sample another texture from then on."""
         inp = self.inputs
         out = {"fill": inp.get("fill"), "jitter": float(inp.get("jitter", 0.0)),
-               "obstacles": inp.get("obstacles") or []}
+               "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
                             for t, lo, hi in inp["rules"]]
@@ -140,7 +149,8 @@ class FluidEffect(Effect):
                    "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
         if self.path:
             obs = self._obstacles_at(frame)
-            turned = any(ob[0] == "turned_box" for ob in obs)  # (else the digest of before)
+            # (a mesh's shape is the first frame's: its field is in scalar_inputs)
+            turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
             out["obstacles"] = arrays.digest(
                 np.array([OBSTACLE_KINDS.index(ob[0]) for ob in obs], np.int64),
                 np.array([list(c) + ([e, 0.0, 0.0] if k == "sphere" else list(e)) +
