@@ -64,3 +64,9 @@ def test_a_turned_obstacle_is_a_turned_box(blender, tmp_path):
     r = blender.run("fluid_turned_obstacles.py", tmp_path)
     for part in ("TURNED RAMP", "TURNING PADDLE", "MIRRORED AND SHEARED"):
         assert f"FLUID {part} OK" in r.stdout, r.stdout
+
+
+def test_a_mesh_obstacle_is_its_shape(blender, tmp_path):
+    r = blender.run("fluid_mesh_obstacles.py", tmp_path)
+    for part in ("FIELD", "RING", "MOVING", "BOXES"):
+        assert f"FLUID MESH {part} OK" in r.stdout, r.stdout

@@ -13,28 +13,43 @@ def world_bounds(obj):
     return pts.min(axis=0), pts.max(axis=0)
 
 
+def own_axes(matrix):
+    """(rotation (3, 3): its columns the object's axes in the world, scale (3,): signed, a
+    mirrored axis negative) of a world matrix, or None where it shears or flattens (its axes
+    would not be a box's)."""
+    m = np.array(matrix, np.float64)[:3, :3]
+    scale = np.linalg.norm(m, axis=0)
+    if not (scale > 0.0).all():
+        return None
+    r = m / scale
+    if np.abs(r.T @ r - np.eye(3)).max() > 1e-4:
+        return None
+    if np.linalg.det(r) < 0.0:  # mirrored: a proper turn and a negative scale along x
+        r[:, 0], scale[0] = -r[:, 0], -scale[0]
+    return r, scale
+
+
+def quaternion(r):
+    """The unit quaternion (w, x, y, z) of a rotation matrix."""
+    q = Matrix(np.asarray(r).tolist()).to_quaternion().normalized()
+    return float(q.w), float(q.x), float(q.y), float(q.z)
+
+
 def turned_bounds(obj):
     """(centre, half-sizes, rotation (w, x, y, z)) in the world of the object's own bounding
     box turned with it: bound_box (in its own axes) scaled and turned by its world matrix.
     None where that matrix does not turn (world_bounds is then the same box) or shears (the
     box would not be one)."""
+    axes = own_axes(obj.matrix_world)
+    if axes is None or np.abs(axes[0] - np.eye(3)).max() <= 1e-6:
+        return None
+    r, scale = axes
     m = np.array(obj.matrix_world, np.float64)
-    scale = np.linalg.norm(m[:3, :3], axis=0)
-    if not (scale > 0.0).all():
-        return None
-    r = m[:3, :3] / scale  # columns: its axes in the world
-    if np.abs(r.T @ r - np.eye(3)).max() > 1e-4:
-        return None
-    if np.linalg.det(r) < 0.0:  # mirrored: the same box, one axis the other way
-        r[:, 0] = -r[:, 0]
-    if np.abs(r - np.eye(3)).max() <= 1e-6:
-        return None
     corners = np.array([tuple(c) for c in obj.bound_box], np.float64)
     lo, hi = corners.min(axis=0), corners.max(axis=0)
     centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]
-    q = Matrix(r.tolist()).to_quaternion().normalized()
-    return (tuple(map(float, centre)), tuple(map(float, (hi - lo) / 2 * scale)),
-            (float(q.w), float(q.x), float(q.y), float(q.z)))
+    return (tuple(map(float, centre)), tuple(map(float, (hi - lo) / 2 * np.abs(scale))),
+            quaternion(r))
 
 
 def _world_tree(obj, depsgraph, role):

@@ -12,7 +12,8 @@ import numpy as np
 
 from ...core import mantaflow, solid_textures
 from .. import paths
-from ..bridge import animation, frame_meshes, helper_objects, meshes, tileable, volumes
+from ..bridge import (animation, frame_meshes, helper_objects, mesh_fields, meshes, tileable,
+                      volumes)
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
 from .base import BakeWarning, BlenderEffect, offers
@@ -181,9 +182,9 @@ class FluidBlender(BlenderEffect):
                             "baked) is the surface. Empty: this object, if it is one"),
             obstacles=bpy.props.PointerProperty(
                 name="Obstacles", type=bpy.types.Collection,
-                description="SIMULATE: objects the fluid flows around (a ball as a sphere, "
-                            "others as their own bounding boxes, turned with them), followed "
-                            "frame by frame when animated"),
+                description="SIMULATE: objects the fluid flows around (a ball as a sphere, a "
+                            "mesh by its shape, a box-shaped or deforming one as its own box "
+                            "turned with it), followed frame by frame when animated"),
             paint_collection=bpy.props.PointerProperty(
                 name="Paint", type=bpy.types.Collection,
                 description="Empties with Paint Fluid on: local paint strokes (Object tab)"),
@@ -250,7 +251,7 @@ class FluidBlender(BlenderEffect):
                                      f"{len(found)} objects: must hold at most "
                                      f"{MAX_OBSTACLES} (each is a box the fluid flows around)")
                 inputs["obstacles"], inputs["obstacle_path"] = yield from cls._obstacles(
-                    context, found, frames)
+                    context, found, frames, fp["particle_spacing"])
         elif fp["source"] == 1:
             if settings.particle_object is None:
                 raise ValueError("Particles: PARTICLES needs an object with a particle system")
@@ -348,16 +349,21 @@ class FluidBlender(BlenderEffect):
                                      res, surfaces, d.time_scale, matrix)
 
     @staticmethod
-    def _obstacles(context, found, frames):
+    def _obstacles(context, found, frames, spacing):
         """The obstacles at the first frame, and {frame: all of them} for the later frames
         where one that is animated, constrained or deformed stands otherwise than the frame
         before (the fluid meets it moving there). A round mesh (a ball) is a sphere, decided
-        at the first frame; any other object is its own bounding box, turned with it (a box
-        in the world's axes when it is turned at no frame)."""
-        movers = {k for k, o in enumerate(found)
-                  if animation.may_move(o) or animation.may_deform(o)}
+        at the first frame; any other mesh is its shape as a distance field made at the first
+        frame, carried with the object (mesh_fields); a box-shaped mesh, an object that is not
+        a mesh and a mesh whose shape changes from frame to frame are their own bounding box,
+        turned with them (a box in the world's axes when turned at no frame)."""
+        deforming = {k for k, o in enumerate(found) if animation.may_deform(o)}
+        movers = {k for k, o in enumerate(found) if animation.may_move(o)} | deforming
         dg = evaluated_depsgraph(context)
         round_ = [_round(o, dg) for o in found]
+        shapes = [None if round_[k] is not None or k in deforming else
+                  mesh_fields.mesh_shape(o, evaluated_object(o, dg, "Obstacles"), spacing)
+                  for k, o in enumerate(found)]
 
         def obstacles(_f=None):
             graph = evaluated_depsgraph(context) if _f is not None else dg
@@ -372,6 +378,9 @@ class FluidBlender(BlenderEffect):
                     ball = _round(o, graph) if k in movers else round_[k]
                     out.append(("sphere",) + (ball or (tuple(map(float, (olo + ohi) / 2)),
                                                        float(np.max(ohi - olo) / 2))))
+                    continue
+                if shapes[k] is not None:
+                    out.append(shapes[k].placed(ev.matrix_world, _f is None))
                     continue
                 turned = meshes.turned_bounds(ev)
                 out.append(("turned_box",) + turned if turned else
@@ -391,10 +400,10 @@ class FluidBlender(BlenderEffect):
                 for obs in every:
                     if obs[k][0] == "box":
                         obs[k] = ("turned_box",) + obs[k][1:] + ((1.0, 0.0, 0.0, 0.0),)
-        path, last = {}, first
+        path, last = {}, [ob[:4] for ob in first]  # (a mesh's field: the first frame's)
         for f, here in got.items():
-            if here != last:
-                path[f] = last = here
+            if [ob[:4] for ob in here] != last:
+                path[f], last = here, [ob[:4] for ob in here]
         return first, path
 
     @staticmethod

@@ -1,0 +1,97 @@
+"""Meshes as the fluid's obstacles: a signed distance field of the mesh in its own axes (the
+core's mesh obstacle), placed at each frame by the object's world matrix."""
+import numpy as np
+from mathutils.bvhtree import BVHTree
+
+from .meshes import own_axes, quaternion
+
+MAX_DIM = 128  # HBK_FLUID_FIELD_MAX_DIM
+SIDE = 64  # points along a field's longest side, unless the particles need finer
+
+
+class MeshShape:
+    """A mesh's distance field, made once: ``field`` (nz, ny, nx) float32, m, negative inside
+    (unsigned for an open mesh, which has no inside), over a box of ``centre`` and
+    ``half_sizes`` in the object's unscaled own coordinates."""
+
+    def __init__(self, centre, half_sizes, field):
+        self.centre, self.half_sizes, self.field = centre, half_sizes, field
+
+    def placed(self, matrix, first):
+        """("mesh", centre, half-sizes, rotation, field) in the world for the object's world
+        matrix now: the field with the first frame's entry, None (kept) after it. A matrix
+        that shears is taken as its nearest rotation (the core's box cannot shear)."""
+        m = np.array(matrix, np.float64)
+        axes = own_axes(matrix)
+        if axes is None:
+            u, _, vt = np.linalg.svd(m[:3, :3])
+            r = u @ vt
+            if np.linalg.det(r) < 0.0:
+                u[:, 2] = -u[:, 2]
+                r = u @ vt
+            scale = np.linalg.norm(m[:3, :3], axis=0)
+        else:
+            r, scale = axes
+        centre = m[:3, :3] @ self.centre + m[:3, 3]
+        half = self.half_sizes * np.abs(scale)
+        return ("mesh", tuple(map(float, centre)), tuple(map(float, half)), quaternion(r),
+                self.field if first else None)
+
+
+def _is_box(co, lo, hi):
+    """Whether every vertex sits on a corner of the vertices' box (a cube, a board)."""
+    tol = 1e-5 * max(float(np.max(hi - lo)), 1e-9)
+    return bool(np.all((np.abs(co - lo) <= tol) | (np.abs(co - hi) <= tol)))
+
+
+def mesh_shape(obj, ev, spacing):
+    """The MeshShape of a mesh object (ev: it evaluated), or None where a box serves: not a
+    mesh, a box-shaped one (every vertex on a corner of its box), one without faces, or a
+    world matrix that shears or flattens it. The field's points lie at most half a particle
+    spacing apart, or SIDE along its longest side if that is coarser (up to MAX_DIM), over the
+    mesh's box grown by two points and a spacing (so that the field sees a particle coming)."""
+    if obj.type != "MESH":
+        return None
+    axes = own_axes(ev.matrix_world)
+    if axes is None:
+        return None
+    scale = axes[1]
+    mesh = ev.to_mesh()
+    try:
+        co = np.empty(len(mesh.vertices) * 3, np.float64)
+        mesh.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)
+        polys = [tuple(p.vertices) for p in mesh.polygons]
+        loop_edges = np.empty(len(mesh.loops), np.int64)
+        mesh.loops.foreach_get("edge_index", loop_edges)
+        closed = len(mesh.edges) > 0 and bool(
+            np.all(np.bincount(loop_edges, minlength=len(mesh.edges)) == 2))
+    finally:
+        ev.to_mesh_clear()
+    if not polys or len(co) < 4:
+        return None
+    lo, hi = co.min(axis=0), co.max(axis=0)
+    if _is_box(co, lo, hi):
+        return None
+    pts = co * scale  # in metres, along its own axes (a mirrored axis flipped)
+    plo, phi = pts.min(axis=0), pts.max(axis=0)
+    longest = float(np.max(phi - plo))
+    step = max(0.5 * spacing, longest / (SIDE - 1))
+    pad = 2.0 * step + spacing
+    dims = np.minimum(np.ceil((phi - plo + 2 * pad) / step).astype(int) + 1, MAX_DIM)
+    blo, bhi = plo - pad, phi + pad
+    axes_pts = [np.linspace(blo[a], bhi[a], dims[a]) for a in range(3)]
+    tree = BVHTree.FromPolygons([tuple(p) for p in pts], polys, epsilon=0.0)
+    field = np.empty((dims[2], dims[1], dims[0]), np.float32)
+    near = tree.find_nearest
+    for k, z in enumerate(axes_pts[2]):
+        for j, y in enumerate(axes_pts[1]):
+            row = field[k, j]
+            for i, x in enumerate(axes_pts[0]):
+                hit, normal, _, d = near((x, y, z))
+                if closed and ((x - hit[0]) * normal[0] + (y - hit[1]) * normal[1] +
+                               (z - hit[2]) * normal[2]) < 0.0:
+                    d = -d
+                row[i] = d
+    centre_s, half_s = (blo + bhi) / 2, (bhi - blo) / 2
+    return MeshShape(centre_s / scale, half_s / np.abs(scale), field)
