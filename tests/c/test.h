@@ -53,6 +53,10 @@ grid_t grid_new(int32_t w, int32_t h, int32_t channels);
  * an array): side 0 below the minimum, 1 above the maximum, 2 NaN. Returns 0 where that side
  * does not apply (NaN for an integer, any side for a u64 seed, which takes every value). */
 int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
+/* A fluid in the default 1 m box at 16^3 with gravity (0, 0, gz) (the obstacle tests' lone
+ * particles; threads 0: the default), and a malloc'd copy of a handle's saved state (NULL on failure). */
+hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads);
+unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size);
 
 /* Every test, one line each as X-macro entries of group and name; the runner and CMake
  * (tests/c/CMakeLists.txt) both read this list. */

@@ -6,19 +6,6 @@
 #include "fluid/internal_fluid.h"
 #include <stdlib.h>
 
-static hbk_fluid_t *lone(float gz, int max_particles)
-{
-    hbk_fluid_params_t p;
-    hbk_fluid_params_default(&p);
-    for (int a = 0; a < 3; ++a) p.resolution[a] = 16;
-    p.gravity[2] = gz;
-    p.max_particles = max_particles;
-    hbk_fluid_t *h = NULL;
-    hbk_message_t m;
-    if (hbk_fluid_create(&h, &p, &m) != HBK_OK) return NULL;
-    return h;
-}
-
 enum { SPHERE, BOX, TORUS };
 
 /* Signed distance at p (own axes) to a sphere of radius a, a box of half-sizes (a, b, c), or
@@ -66,7 +53,7 @@ static hbk_result_t set_mesh(hbk_fluid_t *h, const hbk_fluid_obstacle_t *ob, int
 
 void test_fluid_mesh_refused(void)
 {
-    hbk_fluid_t *h = lone(0.0f, 100);
+    hbk_fluid_t *h = fluid_lone(0.0f, 100, 0);
     CHECK(h);
     hbk_fluid_obstacle_t obs[2] = {{1, {0.5f, 0.5f, 0.5f}, {0.1f, 0.1f, 0.1f}, {0}},
                                    {3, {0.5f, 0.5f, 0.5f}, {0.1f, 0.1f, 0.1f}, {1, 0, 0, 0}}};
@@ -109,7 +96,7 @@ void test_fluid_mesh_refused(void)
 static void one_step(const hbk_fluid_obstacle_t *ob, int shape, double a, const float x0[3],
                      const float v0[3], float x[3], float v[3])
 {
-    hbk_fluid_t *h = lone(0.0f, 8);
+    hbk_fluid_t *h = fluid_lone(0.0f, 8, 0);
     CHECK(h);
     if (ob->type == 3) CHECK_OK(set_mesh(h, ob, shape, 64, a, a, a));
     else CHECK_OK(hbk_fluid_set_obstacles(h, ob, 1));
@@ -150,7 +137,7 @@ void test_fluid_mesh_ramp(void)
     const double th = 30.0 * M_PI / 180.0, m = 0.01;
     hbk_fluid_obstacle_t ramp = {3, {0.5f, 0.5f, 0.4f}, {0.45f, 0.35f, 0.06f}, {1, 0, 0, 0}};
     ramp.rotation[0] = (float)cos(0.5 * th), ramp.rotation[2] = (float)sin(0.5 * th);
-    hbk_fluid_t *h = lone(-9.81f, 8);
+    hbk_fluid_t *h = fluid_lone(-9.81f, 8, 0);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_obstacles(h, &ramp, 1));
     const int32_t dims[3] = {91, 71, 13}; /* 1 cm apart: the board 0.8 x 0.6 x 0.02 m */
@@ -188,7 +175,7 @@ void test_fluid_mesh_ramp(void)
  * in the hole stays where it is. */
 void test_fluid_mesh_torus_hole(void)
 {
-    hbk_fluid_t *h = lone(0.0f, 20000);
+    hbk_fluid_t *h = fluid_lone(0.0f, 20000, 0);
     CHECK(h);
     const hbk_fluid_obstacle_t torus = {3, {0.5f, 0.5f, 0.2f}, {0.3f, 0.3f, 0.12f}, {1, 0, 0, 0}};
     CHECK_OK(set_mesh(h, &torus, TORUS, 64, 0.2, 0.08, 0));
@@ -223,7 +210,7 @@ void test_fluid_mesh_moving_state(void)
 {
     const float dt = 1.0f / 24.0f, u = 1.2f, m = 0.01f;
     hbk_fluid_obstacle_t wall = {3, {0.2f, 0.5f, 0.5f}, {0.12f, 0.12f, 0.12f}, {1, 0, 0, 0}};
-    hbk_fluid_t *a = lone(0.0f, 8), *b = lone(0.0f, 8);
+    hbk_fluid_t *a = fluid_lone(0.0f, 8, 0), *b = fluid_lone(0.0f, 8, 0);
     CHECK(a && b);
     CHECK_OK(set_mesh(a, &wall, BOX, 49, 0.1, 0.1, 0.1));
     float x[3] = {0.45f, 0.5f, 0.5f}, v[3] = {0.0f, 0.2f, 0.0f};

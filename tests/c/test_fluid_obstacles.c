@@ -6,20 +6,6 @@
 #include "fluid/internal_fluid.h"
 #include <stdlib.h>
 
-static hbk_fluid_t *lone(int threads)
-{
-    hbk_fluid_params_t p;
-    hbk_fluid_params_default(&p);
-    for (int a = 0; a < 3; ++a) p.resolution[a] = 16;
-    p.gravity[2] = 0.0f; /* a lone particle feels no pressure or viscosity: only the obstacle */
-    p.max_particles = 8;
-    p.threads = threads;
-    hbk_fluid_t *h = NULL;
-    hbk_message_t m;
-    if (hbk_fluid_create(&h, &p, &m) != HBK_OK) return NULL;
-    return h;
-}
-
 static void particle(hbk_fluid_t *h, float x[3], float v[3])
 {
     hbk_fluid_get_particles(h, x, v, 1);
@@ -27,7 +13,7 @@ static void particle(hbk_fluid_t *h, float x[3], float v[3])
 
 void test_fluid_obstacles_move_refused(void)
 {
-    hbk_fluid_t *h = lone(1);
+    hbk_fluid_t *h = fluid_lone(0.0f, 8, 1);
     CHECK(h);
     const hbk_fluid_obstacle_t box = {1, {0.2f, 0.5f, 0.5f}, {0.1f, 0.1f, 0.1f}};
     CHECK(hbk_fluid_move_obstacles(h, &box, 1) == HBK_ERR_INVALID_ARGUMENT);
@@ -54,7 +40,7 @@ void test_fluid_obstacles_move_refused(void)
  * particle rides the face (half a spacing in front of it) at exactly u, its drift untouched. */
 void test_fluid_obstacles_moving_wall(void)
 {
-    hbk_fluid_t *h = lone(1);
+    hbk_fluid_t *h = fluid_lone(0.0f, 8, 1);
     CHECK(h);
     const float dt = 1.0f / 24.0f, u = 1.2f, m = 0.01f; /* m: half the particle spacing */
     hbk_fluid_obstacle_t box = {1, {0.2f, 0.5f, 0.5f}, {0.1f, 0.1f, 0.1f}};
@@ -90,7 +76,7 @@ void test_fluid_obstacles_moving_wall(void)
  * leaves it on the new surface, moving outward at the radius's rate. */
 void test_fluid_obstacles_growing_sphere(void)
 {
-    hbk_fluid_t *h = lone(1);
+    hbk_fluid_t *h = fluid_lone(0.0f, 8, 1);
     CHECK(h);
     const float dt = 1.0f / 24.0f, m = 0.01f;
     hbk_fluid_obstacle_t ball = {0, {0.5f, 0.5f, 0.5f}, {0.05f, 0, 0}};
@@ -139,18 +125,10 @@ static hbk_result_t push_frame(hbk_fluid_t *h, int f, hbk_progress_t *pr)
     return r ? r : hbk_fluid_step(h, pr);
 }
 
-static unsigned char *state_of(hbk_fluid_t *h, size_t *size)
-{
-    *size = hbk_fluid_state_size(h);
-    unsigned char *b = malloc(*size);
-    if (b && hbk_fluid_save_state(h, b, *size) != HBK_OK) { free(b); return NULL; }
-    return b;
-}
-
 static int same_state(hbk_fluid_t *a, hbk_fluid_t *b)
 {
     size_t sa, sb;
-    unsigned char *xa = state_of(a, &sa), *xb = state_of(b, &sb);
+    unsigned char *xa = fluid_state_of(a, &sa), *xb = fluid_state_of(b, &sb);
     const int same = xa && xb && sa == sb && !memcmp(xa, xb, sa);
     free(xa);
     free(xb);
@@ -202,11 +180,11 @@ void test_fluid_obstacles_move_cancel_resume(void)
         CHECK_OK(push_frame(b, f, NULL));
     }
     size_t s0, s1;
-    unsigned char *x0 = state_of(b, &s0);
+    unsigned char *x0 = fluid_state_of(b, &s0);
     CHECK(x0);
     hbk_progress_t pr = {1, 0.0f};
     CHECK(push_frame(b, 3, &pr) == HBK_ERR_CANCELLED);
-    unsigned char *x1 = state_of(b, &s1);
+    unsigned char *x1 = fluid_state_of(b, &s1);
     CHECK(x1 && s0 == s1 && !memcmp(x0, x1, s0)); /* obstacles where they were */
     CHECK_OK(hbk_fluid_step(b, NULL));             /* the pending move */
     CHECK_OK(hbk_fluid_load_state(c, x0, s0));

@@ -7,19 +7,6 @@
 #include "fluid/internal_fluid.h"
 #include <stdlib.h>
 
-static hbk_fluid_t *lone(float gz)
-{
-    hbk_fluid_params_t p;
-    hbk_fluid_params_default(&p);
-    for (int a = 0; a < 3; ++a) p.resolution[a] = 16;
-    p.gravity[2] = gz;
-    p.max_particles = 8;
-    hbk_fluid_t *h = NULL;
-    hbk_message_t m;
-    if (hbk_fluid_create(&h, &p, &m) != HBK_OK) return NULL;
-    return h;
-}
-
 /* A turn of `angle` about unit axis (x, y, z) as (w, x, y, z). */
 static void about(float q[4], float x, float y, float z, double angle)
 {
@@ -32,7 +19,7 @@ static void about(float q[4], float x, float y, float z, double angle)
 static void one_step(const hbk_fluid_obstacle_t *ob, const float x0[3], const float v0[3],
                      float x[3], float v[3])
 {
-    hbk_fluid_t *h = lone(0.0f);
+    hbk_fluid_t *h = fluid_lone(0.0f, 8, 0);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_obstacles(h, ob, 1));
     CHECK_OK(hbk_fluid_set_particles(h, x0, v0, 1));
@@ -73,7 +60,7 @@ void test_fluid_turned_box_ramp(void)
     const double n[3] = {sin(th), 0.0, cos(th)}, d[3] = {cos(th), 0.0, -sin(th)};
     float x[3], v[3] = {0, 0, 0};
     for (int k = 0; k < 3; ++k) x[k] = (float)(board.center[k] - 0.3 * d[k] + (0.02 + m) * n[k]);
-    hbk_fluid_t *h = lone(-9.81f);
+    hbk_fluid_t *h = fluid_lone(-9.81f, 8, 0);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_obstacles(h, &board, 1));
     CHECK_OK(hbk_fluid_set_particles(h, x, v, 1));
@@ -103,7 +90,7 @@ void test_fluid_turned_box_paddle(void)
 {
     const double omega = 3.0, dt = 1.0 / 24.0, m = 0.01;
     hbk_fluid_obstacle_t paddle = {2, {0.5f, 0.5f, 0.5f}, {0.3f, 0.02f, 0.1f}, {1, 0, 0, 0}};
-    hbk_fluid_t *h = lone(0.0f);
+    hbk_fluid_t *h = fluid_lone(0.0f, 8, 0);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_obstacles(h, &paddle, 1));
     const double a0 = 0.35; /* ahead of the face, 0.2 m out */
@@ -130,7 +117,7 @@ void test_fluid_turned_box_paddle(void)
     CHECK_NEAR(vn, omega * lx, 2e-3);
     CHECK(x[2] == 0.5f && v[2] == 0.0f);
     /* the turn is the shorter way: a quaternion given as its negative turns no differently */
-    hbk_fluid_t *g = lone(0.0f);
+    hbk_fluid_t *g = fluid_lone(0.0f, 8, 0);
     CHECK(g);
     hbk_fluid_obstacle_t flipped = paddle;
     about(flipped.rotation, 0, 0, 1, omega * dt * frames);
@@ -185,14 +172,6 @@ static hbk_fluid_obstacle_t stir_at(int f)
     return ob;
 }
 
-static unsigned char *state_of(hbk_fluid_t *h, size_t *size)
-{
-    *size = hbk_fluid_state_size(h);
-    unsigned char *b = malloc(*size);
-    if (b && hbk_fluid_save_state(h, b, *size) != HBK_OK) { free(b); return NULL; }
-    return b;
-}
-
 static int in_box(const hbk_fluid_obstacle_t *ob, const float *x, float margin)
 {
     float ax[9];
@@ -230,7 +209,7 @@ void test_fluid_turned_box_stirred(void)
         CHECK_OK(hbk_fluid_step(b, NULL));
     }
     size_t sa, sb;
-    unsigned char *xa = state_of(a, &sa), *xb = state_of(b, &sb);
+    unsigned char *xa = fluid_state_of(a, &sa), *xb = fluid_state_of(b, &sb);
     CHECK(xa && xb && sa == sb && !memcmp(xa, xb, sa));
     free(xa);
     free(xb);
@@ -266,7 +245,7 @@ void test_fluid_turned_box_state_v1(void)
     CHECK_OK(hbk_fluid_fill_box(a, lo, hi, 0.2f));
     CHECK_OK(hbk_fluid_step(a, NULL));
     size_t s2;
-    unsigned char *v2 = state_of(a, &s2);
+    unsigned char *v2 = fluid_state_of(a, &s2);
     CHECK(v2);
     const int32_t count = hbk_fluid_particle_count(a);
     const size_t at = 64 + 24 * (size_t)count; /* header, positions, velocities */
@@ -285,7 +264,7 @@ void test_fluid_turned_box_state_v1(void)
            s2 - at - rec * HBK_FLUID_MAX_OBSTACLES - tail);
     CHECK_OK(hbk_fluid_load_state(b, v1, s1));
     size_t sb;
-    unsigned char *back = state_of(b, &sb);
+    unsigned char *back = fluid_state_of(b, &sb);
     CHECK(back && sb == s2 && !memcmp(back, v2, s2));
     /* a version 1 state is exactly its size: more is a later state under an old number */
     CHECK(hbk_fluid_load_state(b, v2, s2) == HBK_OK);

@@ -25,3 +25,28 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side)
     memcpy(at, &v, 4);
     return 1;
 }
+
+hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads)
+{
+    hbk_fluid_params_t p;
+    hbk_fluid_params_default(&p);
+    for (int a = 0; a < 3; ++a) p.resolution[a] = 16;
+    p.gravity[2] = gz;
+    p.max_particles = max_particles;
+    if (threads) p.threads = threads; /* else the default */
+    hbk_fluid_t *h = NULL;
+    hbk_message_t m;
+    if (hbk_fluid_create(&h, &p, &m) != HBK_OK) return NULL;
+    return h;
+}
+
+unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size)
+{
+    *size = hbk_fluid_state_size(h);
+    unsigned char *b = malloc(*size);
+    if (b && hbk_fluid_save_state(h, b, *size) != HBK_OK) {
+        free(b);
+        return NULL;
+    }
+    return b;
+}

@@ -36,16 +36,7 @@ f.obstacles = rings
 scene.frame_set(1)
 
 
-def inputs():
-    job = jobs.Job(bpy.context, domain, "fluid")
-    try:
-        return job.runner.effect.inputs
-    finally:
-        job.runner.effect.close()
-        del domain.hydrobake_fluid[jobs.BAKING]
-
-
-(kind, c, e, q, field), = inputs()["obstacles"]
+(kind, c, e, q, field), = in_blender.fluid_inputs(domain)["obstacles"]
 assert kind == "mesh" and field.ndim == 3 and max(field.shape) <= 128, (kind, field.shape)
 assert np.allclose(c, (0.3, 0.3, 0.25), atol=2e-3), c
 rq = ring.matrix_world.to_quaternion()
@@ -94,7 +85,7 @@ ring.keyframe_insert("location", index=0, frame=9)
 for kp in ring.animation_data.action.fcurves[0].keyframe_points:
     kp.interpolation = "LINEAR"
 scene.frame_set(1)
-inp = inputs()
+inp = in_blender.fluid_inputs(domain)
 assert inp["obstacles"][0][0] == "mesh" and inp["obstacles"][0][4] is not None
 path = inp["obstacle_path"]
 assert sorted(path) == list(range(2, 10)), sorted(path)
@@ -111,6 +102,6 @@ ring.modifiers.new("Wave", "WAVE")
 in_blender_cube = in_blender.new_box("Cube", (0.1, 0.1, 0.1), (0.1, 0.1, 0.1))
 rings.objects.link(in_blender_cube)
 scene.frame_set(1)
-kinds = sorted(ob[0] for ob in inputs()["obstacles"])
+kinds = sorted(ob[0] for ob in in_blender.fluid_inputs(domain)["obstacles"])
 assert kinds == ["box", "turned_box"], kinds
 print("FLUID MESH BOXES OK")

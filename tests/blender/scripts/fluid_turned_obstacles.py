@@ -30,21 +30,12 @@ f.obstacles = board
 scene.frame_set(1)
 
 
-def inputs():
-    job = jobs.Job(bpy.context, domain, "fluid")
-    try:
-        return job.runner.effect.inputs
-    finally:
-        job.runner.effect.close()
-        del domain.hydrobake_fluid[jobs.BAKING]
-
-
 def quat(obj):
     q = obj.matrix_world.to_quaternion()
     return np.array((q.w, q.x, q.y, q.z))
 
 
-(kind, c, e, q), = inputs()["obstacles"]
+(kind, c, e, q), = in_blender.fluid_inputs(domain)["obstacles"]
 assert kind == "turned_box", kind
 assert np.allclose(c, (0.6, 0.25, 0.15), atol=1e-6) and np.allclose(e, (0.25, 0.25, 0.015),
                                                                     atol=1e-6), (c, e)
@@ -96,7 +87,7 @@ for k in paddle.animation_data.action.fcurves[0].keyframe_points:
     k.interpolation = "LINEAR"
 board.objects.link(paddle)
 scene.frame_set(1)
-inp = inputs()
+inp = in_blender.fluid_inputs(domain)
 (kind, c, e, q), = inp["obstacles"]
 assert kind == "turned_box" and q == (1.0, 0.0, 0.0, 0.0), (kind, q)
 assert np.allclose(e, (0.2, 0.015, 0.15), atol=1e-6), e
@@ -128,7 +119,7 @@ for o in (mirrored, sheared):
 scene.frame_set(1)
 bpy.context.view_layer.update()
 at = {o.name: k for k, o in enumerate(board.all_objects)}
-obs = inputs()["obstacles"]
+obs = in_blender.fluid_inputs(domain)["obstacles"]
 kind, c, e, q = obs[at["Mirrored"]]
 assert kind == "turned_box" and np.allclose(e, (0.1, 0.05, 0.05), atol=1e-6), (kind, e)
 turn = Matrix.Rotation(math.radians(30.0), 3, "Z")

@@ -97,6 +97,17 @@ def dam_break(resolution, textures=2, frames=(1, 2), substeps=4):
     return domain, fill, s
 
 
+def fluid_inputs(domain):
+    """The inputs a fluid bake of ``domain`` would take (its Job made, then let go)."""
+    from hydrobake.blender import jobs
+    job = jobs.Job(bpy.context, domain, "fluid")
+    try:
+        return job.runner.effect.inputs
+    finally:
+        job.runner.effect.close()
+        del domain.hydrobake_fluid[jobs.BAKING]
+
+
 def baked_glass(blend):
     """Saves the session as ``blend`` (empty_file) and bakes one frame of rain on a plane
     "Glass" with a coarse rain grid; returns the plane's rain settings."""

@@ -1,7 +1,9 @@
-/* Fluid, one scenario per source: the built-in SPH (obstacle, paint, feature rules, a capture),
- * particles set every frame, and a velocity grid. Each steps, builds the surface, reads every
- * volume and the mesh, then saves and loads into a second handle that steps on. */
+/* Fluid, one scenario per source: the built-in SPH (obstacles with a mesh, paint, feature
+ * rules, a capture), particles set every frame, and a velocity grid. Each steps, builds the
+ * surface, reads every volume and the mesh, then saves and loads into a second handle that
+ * steps on. */
 #include <float.h>
+#include <math.h>
 #include "alloc_failure.h"
 
 typedef struct {
@@ -102,8 +104,17 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
     if (source == HBK_FLUID_SIMULATE) {
         const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.35f, 0.35f, 0.35f};
         AF_CALL(c, hbk_fluid_fill_box(s->a, lo, hi, 0.2f), hbk_fluid_message(s->a));
-        const hbk_fluid_obstacle_t ob = {0, {0.7f, 0.5f, 0.1f}, {0.1f, 0.0f, 0.0f}};
-        AF_CALL(c, hbk_fluid_set_obstacles(s->a, &ob, 1), hbk_fluid_message(s->a));
+        /* a ball, and a mesh (a ball's distance field, carried by the state) */
+        const hbk_fluid_obstacle_t ob[2] = {{0, {0.7f, 0.5f, 0.1f}, {0.1f, 0.0f, 0.0f}, {0}},
+                                            {3, {0.5f, 0.8f, 0.1f}, {0.1f, 0.1f, 0.1f},
+                                             {1, 0, 0, 0}}};
+        AF_CALL(c, hbk_fluid_set_obstacles(s->a, ob, 2), hbk_fluid_message(s->a));
+        float field[27];
+        for (int i = 0; i < 27; ++i)
+            field[i] = sqrtf((float)((i % 3 - 1) * (i % 3 - 1) + (i / 3 % 3 - 1) * (i / 3 % 3 - 1) +
+                                     (i / 9 - 1) * (i / 9 - 1))) * 0.1f - 0.06f;
+        const int32_t dims[3] = {3, 3, 3};
+        AF_CALL(c, hbk_fluid_set_obstacle_field(s->a, 1, dims, field), hbk_fluid_message(s->a));
     } else {
         inputs(c, s->a, source, 0);
         if (af_failed(c)) return;
