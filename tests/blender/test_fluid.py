@@ -68,5 +68,5 @@ def test_a_turned_obstacle_is_a_turned_box(blender, tmp_path):
 
 def test_a_mesh_obstacle_is_its_shape(blender, tmp_path):
     r = blender.run("fluid_mesh_obstacles.py", tmp_path)
-    for part in ("FIELD", "RING", "MOVING", "BOXES"):
+    for part in ("FIELD", "RING", "MOVING", "NORMALS", "BOXES"):
         assert f"FLUID MESH {part} OK" in r.stdout, r.stdout

@@ -8,6 +8,7 @@ import bpy
 
 from ..core import errors
 from . import effects, jobs, paths, properties
+from .reading_progress import step_text
 
 
 def _target(context, op):
@@ -174,10 +175,9 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
     def _reading_status(self, context):
         last = self._reading.last
         if last is not None:
-            f, done, total = last
             context.workspace.status_text_set(
-                f"Hydrobake: {self._reading.label} reading the scene: frame {f} "
-                f"({done}/{total}) - Esc to cancel")
+                f"Hydrobake: {self._reading.label} reading the scene: {step_text(*last)} - "
+                "Esc to cancel")
 
     def _modal_reading(self, context, event):
         """The scene being read: Esc stops it; other input waits (the scene must not change

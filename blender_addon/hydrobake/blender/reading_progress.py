@@ -7,6 +7,13 @@ import time
 import bpy
 
 
+def step_text(frame, done, total):
+    """A reading step as words: "frame 12 (3/40)", or what it made ("the shape of Rock (1/2)")
+    where ``frame`` is a text."""
+    what = frame if isinstance(frame, str) else f"frame {frame}"
+    return f"{what} ({done}/{total})"
+
+
 class ReadingProgress:
     """Called (frame, done, total) for each frame a Reading takes; close() lets the cursor
     go."""
@@ -24,8 +31,9 @@ class ReadingProgress:
         if bpy.app.background:
             if now - self.last >= self.EVERY:
                 self.last = now
-                print(f"hydrobake: {self.label} reading the scene: frame {frame} "
-                      f"({done}/{total}) elapsed {now - self.t0:.1f}s", flush=True)
+                print(f"hydrobake: {self.label} reading the scene: "
+                      f"{step_text(frame, done, total)} elapsed {now - self.t0:.1f}s",
+                      flush=True)
             return
         if self.busy or now - self.t0 < self.AFTER:
             return

@@ -96,6 +96,62 @@ assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHE
 assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 print("FLUID MESH MOVING OK")
 
+# Its normals flipped (all facing in): the same field. Open (a face gone) or with normals
+# that disagree: a thin shell, unsigned, and a warning names it. A reading step of its own,
+# named: "the shape of Torus (1/1)".
+import bmesh  # noqa: E402
+from hydrobake.blender.reading_progress import step_text  # noqa: E402
+
+
+def job_of():
+    job = jobs.Job(bpy.context, domain, "fluid")
+    job.runner.effect.close()
+    del domain.hydrobake_fluid[jobs.BAKING]
+    return job.runner.effect.inputs, job.warnings
+
+
+def edit(fn):
+    bm = bmesh.new()
+    bm.from_mesh(ring.data)
+    bm.faces.ensure_lookup_table()
+    fn(bm)
+    bm.to_mesh(ring.data)
+    bm.free()
+    ring.data.update()
+
+
+ring.animation_data_clear()
+ring.location.x = 0.3
+scene.frame_set(1)
+edit(lambda bm: bmesh.ops.reverse_faces(bm, faces=bm.faces))
+inp, warned = job_of()
+assert not [w for w in warned if "face out" in w], warned
+flipped = inp["obstacles"][0][4]  # (the quads cut along the other diagonal: a hair apart)
+assert np.abs(flipped - field).max() < 2e-3, np.abs(flipped - field).max()
+assert np.array_equal(np.sign(flipped[np.abs(field) > 2e-3]),
+                      np.sign(field[np.abs(field) > 2e-3]))
+edit(lambda bm: bmesh.ops.reverse_faces(bm, faces=list(bm.faces)[:40]))
+inp, warned = job_of()
+assert [w for w in warned if w.startswith("Obstacles: Torus's faces do not all face out")], warned
+assert inp["obstacles"][0][0] == "mesh" and inp["obstacles"][0][4].min() >= 0.0
+edit(lambda bm: bmesh.ops.reverse_faces(bm, faces=list(bm.faces)[:40]))
+edit(lambda bm: bmesh.ops.delete(bm, geom=[bm.faces[0]], context="FACES_ONLY"))
+inp, warned = job_of()
+assert [w for w in warned if "do not all face out" in w], warned
+assert inp["obstacles"][0][4].min() >= 0.0
+reading = jobs.Job.stepwise(bpy.context, domain, "fluid")
+try:
+    steps = []
+    while reading.step() is not None:
+        steps.append(step_text(*reading.last))
+finally:
+    reading.close()
+    if reading.job.__dict__.get("runner") is not None:
+        reading.job.runner.effect.close()
+    domain.hydrobake_fluid.pop(jobs.BAKING, None)
+assert "the shape of Torus (1/1)" in steps, steps
+print("FLUID MESH NORMALS OK")
+
 # A cube is a box; a torus under a Wave modifier (its shape changes) is its box.
 ring.animation_data_clear()
 ring.modifiers.new("Wave", "WAVE")

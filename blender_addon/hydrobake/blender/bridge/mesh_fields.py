@@ -11,11 +11,13 @@ SIDE = 64  # points along a field's longest side, unless the particles need fine
 
 class MeshShape:
     """A mesh's distance field, made once: ``field`` (nz, ny, nx) float32, m, negative inside
-    (unsigned for an open mesh, which has no inside), over a box of ``centre`` and
-    ``half_sizes`` in the object's unscaled own coordinates."""
+    (``signed``), or unsigned where the mesh has no clear inside (``signed`` False: open, or
+    its faces' normals disagree), over a box of ``centre`` and ``half_sizes`` in the object's
+    unscaled own coordinates."""
 
-    def __init__(self, centre, half_sizes, field):
+    def __init__(self, centre, half_sizes, field, signed):
         self.centre, self.half_sizes, self.field = centre, half_sizes, field
+        self.signed = signed
 
     def placed(self, matrix, first):
         """("mesh", centre, half-sizes, rotation, field) in the world for the object's world
@@ -93,5 +95,16 @@ def mesh_shape(obj, ev, spacing):
                                (z - hit[2]) * normal[2]) < 0.0:
                     d = -d
                 row[i] = d
+    # The field's border lies two points and a spacing off the mesh: outside it. Mostly
+    # negative there, the normals all face in (flipped); some negative, they disagree or the
+    # mesh has a hole, and no inside can be told: unsigned.
+    border = np.concatenate([field[[0, -1]].ravel(), field[:, [0, -1]].ravel(),
+                             field[:, :, [0, -1]].ravel()])
+    if closed and np.mean(border < 0.0) > 0.5:
+        field = -field
+        border = -border
+    signed = closed and not (border < 0.0).any()
+    if closed and not signed:
+        np.abs(field, out=field)
     centre_s, half_s = (blo + bhi) / 2, (bhi - blo) / 2
-    return MeshShape(centre_s / scale, half_s / np.abs(scale), field)
+    return MeshShape(centre_s / scale, half_s / np.abs(scale), field, signed)

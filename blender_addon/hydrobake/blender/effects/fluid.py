@@ -361,9 +361,18 @@ class FluidBlender(BlenderEffect):
         movers = {k for k, o in enumerate(found) if animation.may_move(o)} | deforming
         dg = evaluated_depsgraph(context)
         round_ = [_round(o, dg) for o in found]
-        shapes = [None if round_[k] is not None or k in deforming else
-                  mesh_fields.mesh_shape(o, evaluated_object(o, dg, "Obstacles"), spacing)
-                  for k, o in enumerate(found)]
+        meshes_ = [k for k, o in enumerate(found)
+                   if round_[k] is None and k not in deforming and o.type == "MESH"]
+        shapes = [None] * len(found)
+        for n, k in enumerate(meshes_):  # (a field takes up to a second: a step of its own)
+            o = found[k]
+            shapes[k] = mesh_fields.mesh_shape(o, evaluated_object(o, dg, "Obstacles"), spacing)
+            if shapes[k] is not None and not shapes[k].signed:
+                warnings.warn(f"Obstacles: {o.name}'s faces do not all face out (a hole, or "
+                              "normals inside): it is taken as a thin shell the water stays "
+                              "off on both sides; recalculate its normals (Mesh > Normals) "
+                              "and close it for a solid", BakeWarning)
+            yield f"the shape of {o.name}", n + 1, len(meshes_)
 
         def obstacles(_f=None):
             graph = evaluated_depsgraph(context) if _f is not None else dg
