@@ -154,13 +154,26 @@ def setup_snow(obj, rng_or_tex):
     in_blender.snow(obj, (1, 3), 40.0, rng_or_tex)
 
 
+def cone(name, location):
+    """A closed cone 0.16 m across and 0.15 m tall (a mesh obstacle of neither box nor ball
+    shape)."""
+    import bmesh
+    obj = in_blender.new_plane(name)
+    bm = bmesh.new()
+    bmesh.ops.create_cone(bm, cap_ends=True, segments=8, radius1=0.08, radius2=0.0, depth=0.15)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.location = location
+    return obj
+
+
 def build_scene(seed, effects, tmp, sources=False, obstacles=False):
     """The seed's small scene: the effects' objects, a camera and a sun. Deterministic.
     ``sources`` (--sources) adds an emitter of particles in the fluid domain, the domain's
     source (PARTICLES) half the time, and a baked Mantaflow liquid "Tank" (its cache in
     //manta/), textured by its own velocity (VELOCITY_GRID) half the time. ``obstacles``
-    (--obstacles) gives the fluid an Obstacles collection of a still, tilted rock and a paddle
-    keyed to move into the water turning (followed frame by frame)."""
+    (--obstacles) gives the fluid an Obstacles collection of a still, tilted rock, a cone (a
+    mesh) and a paddle keyed to move into the water turning (followed frame by frame)."""
     rng = random.Random(seed * 7919 + 1)
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
                  bpy.data.lights):
@@ -212,6 +225,7 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             rocks.objects.link(rock)
             paddle = in_blender.new_box("Paddle", (0.05, 0.3, 0.3), (0.9, 3.3, 0.15))
             rocks.objects.link(paddle)
+            rocks.objects.link(cone("Cone", (0.6, 3.35, 0.08)))  # a mesh: its shape
             for frame, x, turn in ((1, 0.9, 0.0), (3, 0.5, 0.8)):
                 paddle.location.x, paddle.rotation_euler.z = x, turn
                 paddle.keyframe_insert("location", index=0, frame=frame)
