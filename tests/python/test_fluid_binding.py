@@ -498,3 +498,44 @@ def test_a_moving_mesh_keeps_its_shape_along_its_path():
         effect.close()
     with pytest.raises(errors.InvalidArgument, match=r"obstacles\[0\]\.field: must be an array"):
         get("fluid")(params, {"obstacles": [("mesh", (0.5, 0.5, 0.3), e, (1, 0, 0, 0), None)]})
+
+
+def _ball_field(e, n, radius):
+    z, y, x = np.meshgrid(*(np.linspace(-h, h, n) for h in e[::-1]), indexing="ij")
+    return (np.sqrt(x * x + y * y + z * z) - radius).astype(np.float32)
+
+
+def test_a_mesh_that_deforms_takes_its_shape_at_each_frame():
+    """A ball mesh growing frame by frame (a field of its own in every path entry): the water
+    is pushed out of it as it grows, to the last frame's radius; a frame's inputs name its
+    shape, so a resume would see one changed."""
+    params = {"fluid": {"resolution": (16, 16, 16), "max_particles": 20000, "substeps": 4}}
+    e = (0.25, 0.25, 0.25)
+    ball = lambda r, field=True: ("mesh", (0.5, 0.5, 0.3), e, (1, 0, 0, 0),  # noqa: E731
+                                  _ball_field(e, 40, r) if field else None)
+    effect = get("fluid")(params, {"fill": ((0.2, 0.2, 0), (0.8, 0.8, 0.3)),
+                                   "obstacles": [ball(0.06)],
+                                   "obstacle_path": {f: [ball(0.06 + 0.03 * f)]
+                                                     for f in (1, 2, 3, 4)}})
+    try:
+        for f in (1, 2, 3, 4):
+            effect.step(f, None)
+        pos = effect.fluid.particles()[0]
+        d = np.linalg.norm(pos - (0.5, 0.5, 0.3), axis=1)
+        assert d.min() > 0.18 + 0.0099 - 0.003, d.min()  # (the field's points 1.3 cm apart)
+        assert ((d > 0.18) & (d < 0.22)).sum() > 100  # pushed, not gone
+        a, b = (effect.frame_inputs(f)["obstacles"] for f in (2, 3))
+        assert a != b
+    finally:
+        effect.close()
+    # the same ball that does not grow (its field left out along the path) keeps its size
+    still = get("fluid")(params, {"fill": ((0.2, 0.2, 0), (0.8, 0.8, 0.3)),
+                                  "obstacles": [ball(0.06)],
+                                  "obstacle_path": {f: [ball(0.06, False)] for f in (1, 2)}})
+    try:
+        for f in (1, 2, 3, 4):
+            still.step(f, None)
+        d = np.linalg.norm(still.fluid.particles()[0] - (0.5, 0.5, 0.3), axis=1)
+        assert d.min() < 0.1
+    finally:
+        still.close()

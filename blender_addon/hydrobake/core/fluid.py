@@ -171,20 +171,23 @@ class Fluid(Handle):
         obstacle_list."""
         arr, n, checked = _obstacles(obstacles, "obstacles")
         self.call("set_obstacles", arr, n)
-        for i, ob in enumerate(checked):
-            if ob[0] == "mesh":
-                field = ob[4]
-                self.call("set_obstacle_field", i, (ctypes.c_int32 * 3)(*field.shape[::-1]),
-                          field.reshape(-1))
+        self._set_fields(checked)
 
     def move_obstacles(self, to):
         """Where the obstacles are at the end of the next step (a list like set_obstacles',
-        one per obstacle, in order, of the same kinds; a mesh's field may be None, and any given is
-        not taken: a mesh keeps its shape): the step carries them there in a
+        one per obstacle, in order, of the same kinds): the step carries them there in a
         straight line (a turned box turning at a constant rate, the shorter way) and the fluid
-        meets them moving."""
-        arr, n, _ = _obstacles(to, "to", fields=False)
+        meets them moving. A mesh's field None keeps its shape; a field given is its new
+        shape (a mesh that deforms), taken at once."""
+        arr, n, checked = _obstacles(to, "to", fields=False)
         self.call("move_obstacles", arr, n)
+        self._set_fields(checked)
+
+    def _set_fields(self, checked):
+        for i, ob in enumerate(checked):
+            if ob[0] == "mesh" and ob[4] is not None:
+                self.call("set_obstacle_field", i, (ctypes.c_int32 * 3)(*ob[4].shape[::-1]),
+                          ob[4].reshape(-1))
 
     def _per_vertex(self, name, values, components=1):
         """values as a flat float32 array of one entry per grid vertex (the C side reads that

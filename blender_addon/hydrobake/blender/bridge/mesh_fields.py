@@ -46,12 +46,13 @@ def _is_box(co, lo, hi):
     return bool(np.all((np.abs(co - lo) <= tol) | (np.abs(co - hi) <= tol)))
 
 
-def mesh_shape(obj, ev, spacing):
+def mesh_shape(obj, ev, spacing, side=SIDE):
     """The MeshShape of a mesh object (ev: it evaluated), or None where a box serves: not a
     mesh, a box-shaped one (every vertex on a corner of its box), one without faces, or a
     world matrix that shears or flattens it. The field's points lie at most half a particle
-    spacing apart, or SIDE along its longest side if that is coarser (up to MAX_DIM), over the
-    mesh's box grown by two points and a spacing (so that the field sees a particle coming)."""
+    spacing apart, or ``side`` along its longest side if that is coarser (up to MAX_DIM), over
+    the mesh's box grown by two points and a spacing (so that the field sees a particle
+    coming)."""
     if obj.type != "MESH":
         return None
     axes = own_axes(ev.matrix_world)
@@ -78,7 +79,7 @@ def mesh_shape(obj, ev, spacing):
     pts = co * scale  # in metres, along its own axes (a mirrored axis flipped)
     plo, phi = pts.min(axis=0), pts.max(axis=0)
     longest = float(np.max(phi - plo))
-    step = max(0.5 * spacing, longest / (SIDE - 1))
+    step = max(0.5 * spacing, longest / (side - 1))
     pad = 2.0 * step + spacing
     dims = np.minimum(np.ceil((phi - plo + 2 * pad) / step).astype(int) + 1, MAX_DIM)
     blo, bhi = plo - pad, phi + pad

@@ -4,6 +4,7 @@ baked Mantaflow liquid (its velocity cache, and its liquid mesh for the surface)
 becomes a Volume object reading the VDB sequence and a surface mesh that follows the frame,
 with a material that blends the sample textures at the advected uvw, cross-fading fields A
 and B."""
+import hashlib
 import os
 import warnings
 
@@ -23,6 +24,7 @@ from .fluid_paint import FEATURES
 OPEN = 3.0e38  # a feature bound that does not matter
 SHOWN = "shown_as"  # in the settings: the domain's (display_type, hide_render) before its bake
 MAX_OBSTACLES = 64  # HBK_FLUID_MAX_OBSTACLES
+DEFORMING_SIDE = 40  # a deforming mesh's field points along its longest side, every frame
 
 
 def _round(obj, depsgraph):
@@ -183,8 +185,9 @@ class FluidBlender(BlenderEffect):
             obstacles=bpy.props.PointerProperty(
                 name="Obstacles", type=bpy.types.Collection,
                 description="SIMULATE: objects the fluid flows around (a ball as a sphere, a "
-                            "mesh by its shape, a box-shaped or deforming one as its own box "
-                            "turned with it), followed frame by frame when animated"),
+                            "mesh by its shape, a box-shaped one or another object as its own "
+                            "box turned with it), followed frame by frame when animated or "
+                            "deformed"),
             paint_collection=bpy.props.PointerProperty(
                 name="Paint", type=bpy.types.Collection,
                 description="Empties with Paint Fluid on: local paint strokes (Object tab)"),
@@ -353,26 +356,31 @@ class FluidBlender(BlenderEffect):
         """The obstacles at the first frame, and {frame: all of them} for the later frames
         where one that is animated, constrained or deformed stands otherwise than the frame
         before (the fluid meets it moving there). A round mesh (a ball) is a sphere, decided
-        at the first frame; any other mesh is its shape as a distance field made at the first
-        frame, carried with the object (mesh_fields); a box-shaped mesh, an object that is not
-        a mesh and a mesh whose shape changes from frame to frame are their own bounding box,
+        at the first frame; any other mesh is its shape as a distance field (mesh_fields),
+        made at the first frame and carried with the object, or made again at every frame
+        for a mesh whose shape changes (coarser: DEFORMING_SIDE points along its longest
+        side); a box-shaped mesh and an object that is not a mesh are their own bounding box,
         turned with them (a box in the world's axes when turned at no frame)."""
         deforming = {k for k, o in enumerate(found) if animation.may_deform(o)}
         movers = {k for k, o in enumerate(found) if animation.may_move(o)} | deforming
         dg = evaluated_depsgraph(context)
         round_ = [_round(o, dg) for o in found]
-        meshes_ = [k for k, o in enumerate(found)
-                   if round_[k] is None and k not in deforming and o.type == "MESH"]
+        meshes_ = [k for k, o in enumerate(found) if round_[k] is None and o.type == "MESH"]
         shapes = [None] * len(found)
-        for n, k in enumerate(meshes_):  # (a field takes up to a second: a step of its own)
+
+        def shape(k, graph):
             o = found[k]
-            shapes[k] = mesh_fields.mesh_shape(o, evaluated_object(o, dg, "Obstacles"), spacing)
+            return mesh_fields.mesh_shape(o, evaluated_object(o, graph, "Obstacles"), spacing,
+                                          DEFORMING_SIDE if k in deforming else
+                                          mesh_fields.SIDE)
+        for n, k in enumerate(meshes_):  # (a field takes up to a second: a step of its own)
+            shapes[k] = shape(k, dg)
             if shapes[k] is not None and not shapes[k].signed:
-                warnings.warn(f"Obstacles: {o.name}'s faces do not all face out (a hole, or "
-                              "normals inside): it is taken as a thin shell the water stays "
-                              "off on both sides; recalculate its normals (Mesh > Normals) "
-                              "and close it for a solid", BakeWarning)
-            yield f"the shape of {o.name}", n + 1, len(meshes_)
+                warnings.warn(f"Obstacles: {found[k].name}'s faces do not all face out (a "
+                              "hole, or normals inside): it is taken as a thin shell the water "
+                              "stays off on both sides; recalculate its normals (Mesh > "
+                              "Normals) and close it for a solid", BakeWarning)
+            yield f"the shape of {found[k].name}", n + 1, len(meshes_)
 
         def obstacles(_f=None):
             graph = evaluated_depsgraph(context) if _f is not None else dg
@@ -389,7 +397,10 @@ class FluidBlender(BlenderEffect):
                                                        float(np.max(ohi - olo) / 2))))
                     continue
                 if shapes[k] is not None:
-                    out.append(shapes[k].placed(ev.matrix_world, _f is None))
+                    # its shape here (one it cannot have, flat or box-like: the last one)
+                    now = shape(k, graph) if _f is not None and k in deforming else None
+                    shapes[k] = now or shapes[k]
+                    out.append(shapes[k].placed(ev.matrix_world, _f is None or now is not None))
                     continue
                 turned = meshes.turned_bounds(ev)
                 out.append(("turned_box",) + turned if turned else
@@ -409,10 +420,19 @@ class FluidBlender(BlenderEffect):
                 for obs in every:
                     if obs[k][0] == "box":
                         obs[k] = ("turned_box",) + obs[k][1:] + ((1.0, 0.0, 0.0, 0.0),)
-        path, last = {}, [ob[:4] for ob in first]  # (a mesh's field: the first frame's)
+        # A frame is kept where an obstacle stands otherwise or a mesh has another shape.
+        held = {}  # obstacle: the digest of the field it has then
+
+        def state(obs):
+            for k, ob in enumerate(obs):
+                if ob[0] == "mesh" and ob[4] is not None:
+                    held[k] = hashlib.sha256(ob[4].tobytes()).hexdigest()
+            return [ob[:4] + (held.get(k),) for k, ob in enumerate(obs)]
+        path, last = {}, state(first)
         for f, here in got.items():
-            if [ob[:4] for ob in here] != last:
-                path[f], last = here, [ob[:4] for ob in here]
+            now = state(here)
+            if now != last:
+                path[f], last = here, now
         return first, path
 
     @staticmethod

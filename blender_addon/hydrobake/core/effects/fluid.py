@@ -8,7 +8,8 @@ Inputs:
                  z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
                  are at the first frame (fluid.obstacle_list)
     obstacle_path {frame: obstacles}: where the obstacles are at the frames they move to (the
-                 same count and kinds; a mesh's field None: it keeps its shape); each frame's
+                 same count and kinds; a mesh's field None keeps its shape, one given is its
+                 shape from that frame: a mesh that deforms); each frame's
                  step carries them from the frame before's
                  place (the latest given, else ``obstacles``) to its own
     particles    {frame: (positions (N, 3), velocities (N, 3))} (PARTICLES)
@@ -149,13 +150,15 @@ class FluidEffect(Effect):
                    "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
         if self.path:
             obs = self._obstacles_at(frame)
-            # (a mesh's shape is the first frame's: its field is in scalar_inputs)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
+            # (and the fields of meshes that deform: their shapes here)
+            shapes = [ob[4] for ob in obs if ob[0] == "mesh" and ob[4] is not None]
             out["obstacles"] = arrays.digest(
                 np.array([OBSTACLE_KINDS.index(ob[0]) for ob in obs], np.int64),
                 np.array([list(c) + ([e, 0.0, 0.0] if k == "sphere" else list(e)) +
                           (list(rot[0]) if rot else [0.0] * 4 if turned else [])
-                          for k, c, e, *rot in obs], np.float32).reshape(-1, 10 if turned else 6))
+                          for k, c, e, *rot in obs], np.float32).reshape(-1, 10 if turned else 6),
+                *shapes)
         return out
 
     def step(self, frame, progress):
