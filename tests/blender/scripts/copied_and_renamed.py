@@ -214,4 +214,22 @@ assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Deep") == {"F
 left = [b.name for blocks in (bpy.data.objects, bpy.data.textures, bpy.data.images,
                               bpy.data.lights) for b in blocks if b.name.startswith("HBK_Deep")]
 assert not left, left
+# The same with the Displace renamed before the copy (monkey 790, every flag but --farm): the
+# copy's bake took the renamed one for another's and added a second Displace, so its water
+# was displaced twice, once by the original's heights, and that one stayed after the copy's
+# Free, reading files the original's Free then removed.
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Deep") == {"FINISHED"}
+deep.modifiers["HBK Displace"].name = "Waves"
+twin = in_blender.duplicate(deep)
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name=twin.name) == {"FINISHED"}
+displaces = [m for m in twin.modifiers if m.type == "DISPLACE"]
+assert len(displaces) == 1 and displaces[0].texture.image.name == f"HBK_{twin.name}_height", \
+    [(m.name, m.texture.name) for m in displaces]
+assert deep.modifiers["Waves"].texture.image.name == "HBK_Deep_height"
+for name in (twin.name, "Deep"):
+    assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name=name) == {"FINISHED"}
+assert not [m.name for o in (deep, twin) for m in o.modifiers if m.type == "DISPLACE"]
+left = [b.name for blocks in (bpy.data.objects, bpy.data.textures, bpy.data.images,
+                              bpy.data.lights) for b in blocks if b.name.startswith("HBK_Deep")]
+assert not left, left
 print("COPIED AND RENAMED OK")

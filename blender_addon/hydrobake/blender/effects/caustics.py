@@ -583,8 +583,10 @@ class CausticsBlender(BlenderEffect):
     def _modifiers(obj, pool):
         """(Subdivision, Displace) apply gave the pool baked as ``pool``, or None each: by
         their names, else (renamed by the artist) the Displace reading the pool's heights or
-        grid and the simple Subdivision just before it. Not found, a re-bake would add a
-        second pair: the water subdivided twice over, and displaced twice."""
+        grid, else one reading another pool's heights (a Shift+D copy's, renamed before the
+        copy), and the simple Subdivision just before it. Not found, a re-bake would add a
+        second pair: the water subdivided twice over, and displaced twice (a copy's by the
+        original's heights too, left reading them once they were freed: monkey 790)."""
         mods = list(obj.modifiers)
         disp = obj.modifiers.get("HBK Displace")
         if disp is None:
@@ -593,7 +595,8 @@ class CausticsBlender(BlenderEffect):
             disp = next((m for m in mods if m.type == "DISPLACE" and (
                 (m.texture is not None and m.texture in heights) or
                 (m.texture_coords_object is not None and m.texture_coords_object in grids))),
-                None)
+                None) or next((m for m in mods if m.type == "DISPLACE" and
+                               m.texture is not None and m.texture.get(HEIGHTS_OF)), None)
         sub = obj.modifiers.get("HBK Subdivision")
         if sub is None and disp is not None and mods.index(disp) > 0:
             before = mods[mods.index(disp) - 1]
