@@ -301,8 +301,8 @@ HBK_EXPORT int32_t hbk_fluid_substeps_taken(const hbk_fluid_t *h);
 /* Checkpoints: everything but the params and the mesh (particles, obstacles and the fields of
  * mesh obstacles, the external grid inputs, every volume, the paint, the rules, the frame
  * counter). Loading into a handle with the same params continues bit for bit. States of
- * versions 1 and 2 (before turned boxes and meshes) load too. save: HBK_ERR_INVALID_ARGUMENT if size is too
- * small. load: HBK_ERR_FORMAT (not a fluid state, other version, bad numbers),
+ * versions 1 and 2 (before turned boxes and meshes) load too. save: HBK_ERR_INVALID_ARGUMENT
+ * if size is too small. load: HBK_ERR_FORMAT (not a fluid state, other version, bad numbers),
  * HBK_ERR_INVALID_ARGUMENT (other grid, textures or capacity); unchanged on failure.
  * Native-endian: a checkpoint for the same machine, not an archive. */
 HBK_EXPORT size_t hbk_fluid_state_size(const hbk_fluid_t *h);

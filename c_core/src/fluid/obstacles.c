@@ -5,6 +5,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+static double quat_length(const float q[4])
+{
+    return sqrt((double)q[0] * q[0] + (double)q[1] * q[1] + (double)q[2] * q[2] +
+                (double)q[3] * q[3]);
+}
+
 /* The axes of a turned box in the world, x, y and z (the columns of q's rotation matrix, q
  * normalised); the world's own for the other types. */
 static void axes_of(const hbk_fluid_obstacle_t *o, float ax[9])
@@ -14,10 +20,7 @@ static void axes_of(const hbk_fluid_obstacle_t *o, float ax[9])
         memcpy(ax, world, sizeof world);
         return;
     }
-    const double n = sqrt((double)o->rotation[0] * o->rotation[0] +
-                          (double)o->rotation[1] * o->rotation[1] +
-                          (double)o->rotation[2] * o->rotation[2] +
-                          (double)o->rotation[3] * o->rotation[3]);
+    const double n = quat_length(o->rotation);
     const double w = o->rotation[0] / n, x = o->rotation[1] / n, y = o->rotation[2] / n,
                  z = o->rotation[3] / n;
     const double m[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y),
@@ -57,9 +60,7 @@ int hbk_fluid_obstacle_problem(const hbk_fluid_obstacle_t *o, char *what)
         }
     }
     if (o->type >= 2) {
-        const float *q = o->rotation;
-        const double n = sqrt((double)q[0] * q[0] + (double)q[1] * q[1] + (double)q[2] * q[2] +
-                              (double)q[3] * q[3]);
+        const double n = quat_length(o->rotation);
         if (!(fabs(n - 1.0) <= 1e-3)) {
             if (what)
                 snprintf(what, 96, "rotation: length %.6g, must be a unit quaternion (w, x, y, "
@@ -214,9 +215,8 @@ hbk_result_t hbk_fluid_move_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t
 static void turn(const float a[4], const float b[4], double t, double axis_angle[3],
                  float at[4])
 {
-    double qa[4], qb[4], na = 0.0, nb = 0.0, d = 0.0;
-    for (int k = 0; k < 4; ++k) { na += (double)a[k] * a[k]; nb += (double)b[k] * b[k]; }
-    na = sqrt(na), nb = sqrt(nb);
+    double qa[4], qb[4], d = 0.0;
+    const double na = quat_length(a), nb = quat_length(b);
     for (int k = 0; k < 4; ++k) { qa[k] = a[k] / na; qb[k] = b[k] / nb; d += qa[k] * qb[k]; }
     if (d < 0.0) for (int k = 0; k < 4; ++k) qb[k] = -qb[k]; /* q and -q: the same rotation */
     /* r = qb conj(qa), the turn in world axes; its w = |qa . qb| >= 0, so angle in [0, pi] */
@@ -305,13 +305,11 @@ int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3])
             if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < R * R) return 1;
         } else {
             float ax[9], l[3], push, nl[3];
-            axes_of(ob, ax);
+            axes_of(ob, ax); /* (a box's: the world's, which give q exactly) */
             for (int k = 0; k < 3; ++k)
-                l[k] = ob->type == 1 ? q[k] : ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] +
-                                              ax[3 * k + 2] * q[2];
-            if (ob->type == 3) {
-                if (h->obs_field[o] && hbk_fluid_field_contact(h, o, ob->extent, l, m, &push, nl))
-                    return 1;
+                l[k] = ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] + ax[3 * k + 2] * q[2];
+            if (ob->type == 3) { /* (its field is set: fill_box checks) */
+                if (hbk_fluid_field_contact(h, o, ob->extent, l, m, &push, nl)) return 1;
             } else if (fabsf(l[0]) < ob->extent[0] + m && fabsf(l[1]) < ob->extent[1] + m &&
                        fabsf(l[2]) < ob->extent[2] + m) {
                 return 1;

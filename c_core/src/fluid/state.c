@@ -77,12 +77,16 @@ static size_t total(const section_t *s, int n)
     return t;
 }
 
-/* Bytes of the meshes' fields, given each obstacle's field dims. */
+/* Bytes of one mesh's field, and of all of them, given the field dims. */
+static size_t field_size(const int32_t d[3])
+{
+    return (size_t)d[0] * (size_t)d[1] * (size_t)d[2] * sizeof(float);
+}
+
 static size_t field_bytes(const int32_t dims[][3])
 {
     size_t t = 0;
-    for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i)
-        t += (size_t)dims[i][0] * (size_t)dims[i][1] * (size_t)dims[i][2] * sizeof(float);
+    for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) t += field_size(dims[i]);
     return t;
 }
 
@@ -132,8 +136,7 @@ hbk_result_t hbk_fluid_save_state(hbk_fluid_t *h, void *buffer, size_t size)
     memcpy(at, h->obs_dims, FIELD_DIMS_BYTES);
     at += FIELD_DIMS_BYTES;
     for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
-        const size_t b = (size_t)h->obs_dims[i][0] * (size_t)h->obs_dims[i][1] *
-                         (size_t)h->obs_dims[i][2] * sizeof(float);
+        const size_t b = field_size(h->obs_dims[i]);
         if (b) memcpy(at, h->obs_field[i], b);
         at += b;
     }
@@ -176,21 +179,21 @@ static int check_section(const section_t *s, const unsigned char *p, int32_t n_o
     return 1;
 }
 
-/* The fields of a version 3 state: their dims (a mesh's each in [2, max], or all 0 for one
- * whose field was not set yet; 0 for the others) and values (finite, within +-1e6), copied
- * into fresh buffers. */
-static hbk_result_t read_fields(hbk_fluid_t *h, const header_t *hd, const unsigned char *buffer,
-                                size_t size, size_t at, int32_t dims[][3], float **fields)
+/* The fields of a version 3 state, after its sections at ``at``: their dims (a mesh's each in
+ * [2, max], or all 0 for one whose field was not set yet; 0 for the others, ``obs`` being the
+ * state's obstacle records) and values (finite, within +-1e6), copied into fresh buffers. */
+static hbk_result_t read_fields(hbk_fluid_t *h, const unsigned char *obs, int32_t n_obs,
+                                const unsigned char *buffer, size_t size, size_t at,
+                                int32_t dims[][3], float **fields)
 {
     if (size < at + FIELD_DIMS_BYTES)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "size = %zu: this state needs %zu bytes", size, at + FIELD_DIMS_BYTES);
     memcpy(dims, buffer + at, FIELD_DIMS_BYTES);
     at += FIELD_DIMS_BYTES;
-    const unsigned char *obs = buffer + STATE_HEADER + 24 * (size_t)hd->count;
     for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
         int32_t type = -1;
-        if (i < hd->n_obs) memcpy(&type, obs + (size_t)i * sizeof(hbk_fluid_obstacle_t), 4);
+        if (i < n_obs) memcpy(&type, obs + (size_t)i * sizeof(hbk_fluid_obstacle_t), 4);
         const int none = !dims[i][0] && !dims[i][1] && !dims[i][2];
         int ok = none;
         if (type == 3 && !none) {
@@ -208,7 +211,7 @@ static hbk_result_t read_fields(hbk_fluid_t *h, const header_t *hd, const unsign
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "size = %zu: this state needs %zu bytes",
                         size, need);
     for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
-        const size_t n = (size_t)dims[i][0] * (size_t)dims[i][1] * (size_t)dims[i][2];
+        const size_t n = field_size(dims[i]) / sizeof(float);
         if (!n) continue;
         fields[i] = malloc(n * sizeof(float));
         if (!fields[i]) {
@@ -279,8 +282,9 @@ hbk_result_t hbk_fluid_load_state(hbk_fluid_t *h, const void *buffer, size_t siz
     float *fields[HBK_FLUID_MAX_OBSTACLES] = {NULL};
     memset(dims, 0, sizeof dims);
     if (hd.version >= 3) {
-        hbk_result_t r = read_fields(h, &hd, (const unsigned char *)buffer, size, need, dims,
-                                     fields);
+        const unsigned char *obs = body + s[0].bytes + s[1].bytes; /* after the particles */
+        hbk_result_t r = read_fields(h, obs, hd.n_obs, (const unsigned char *)buffer, size, need,
+                                     dims, fields);
         if (r) return r;
     }
     float *nv_in = NULL, *ns_in = NULL;

@@ -46,15 +46,13 @@ def _is_box(co, lo, hi):
     return bool(np.all((np.abs(co - lo) <= tol) | (np.abs(co - hi) <= tol)))
 
 
-def mesh_shape(obj, ev, spacing, side=SIDE):
-    """The MeshShape of a mesh object (ev: it evaluated), or None where a box serves: not a
-    mesh, a box-shaped one (every vertex on a corner of its box), one without faces, or a
-    world matrix that shears or flattens it. The field's points lie at most half a particle
+def mesh_shape(ev, spacing, side=SIDE):
+    """The MeshShape of an evaluated mesh object, or None where a box serves: a
+    box-shaped mesh (every vertex on a corner of its box), one without faces, or a world
+    matrix that shears or flattens it. The field's points lie at most half a particle
     spacing apart, or ``side`` along its longest side if that is coarser (up to MAX_DIM), over
     the mesh's box grown by two points and a spacing (so that the field sees a particle
     coming)."""
-    if obj.type != "MESH":
-        return None
     axes = own_axes(ev.matrix_world)
     if axes is None:
         return None

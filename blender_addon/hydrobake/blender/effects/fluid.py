@@ -369,8 +369,7 @@ class FluidBlender(BlenderEffect):
         shapes = [None] * len(found)
 
         def shape(k, graph):
-            o = found[k]
-            return mesh_fields.mesh_shape(o, evaluated_object(o, graph, "Obstacles"), spacing,
+            return mesh_fields.mesh_shape(evaluated_object(found[k], graph, "Obstacles"), spacing,
                                           DEFORMING_SIDE if k in deforming else
                                           mesh_fields.SIDE)
         for n, k in enumerate(meshes_):  # (a field takes up to a second: a step of its own)
