@@ -226,7 +226,12 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
 # copy, baked, put its heights into the texture its Displace shared with the original's; the
 # original's water moved with the copy's waves and read freed files after the copy's Free
 # (--scene --external 1031, 293 steps; fails with the addon of 45f164a; copied_and_renamed.py
-# is the short case).
+# is the short case). joined_copy_behind: an Alt+D copy's rain bake, its clean copy of the
+# glass material in the copy's own slot, joined into an object whose mesh another object
+# shares; that other object's snow bake copied the joined copy again, and its Free compared
+# the slot with the glass material the copies stand for (another bake) instead of the joined
+# copy the mesh shows, and left the Link on Object for good (every flag + --obstacles 764,
+# shrunk to 7 actions; fails with the addon of 11287fa).
 @pytest.mark.parametrize("name", ("linked_copy_slot_removed", "own_behind_mesh",
                                   "refilled_empty_slot", "deleted_copys_made_material",
                                   "copy_with_deleted_wiring", "moved_made_material_resumed",
@@ -239,7 +244,8 @@ def test_monkey_every_flag_long_seed(blender, tmp_path, seed, steps):
                                   "live_copy_wiring_kept", "renamed_ground",
                                   "copy_root_gone", "renamed_helpers",
                                   "link_left_object", "given_copy_back",
-                                  "nodes_off_copy_chain", "copy_shared_height"))
+                                  "nodes_off_copy_chain", "copy_shared_height",
+                                  "joined_copy_behind"))
 def test_monkey_replay(blender, tmp_path, name):
     log = os.path.join(os.path.dirname(__file__), "scripts", "replays", f"{name}.json")
     with open(log) as f:

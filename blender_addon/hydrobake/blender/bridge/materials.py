@@ -917,10 +917,17 @@ def _put_shared_back(slot, prefix, obj):
     mat = slot.material
     shared = bpy.data.materials.get(mat[COPY_OF]) if mat is not None and COPY_OF in mat \
         else None
-    if shared is None or (shared.node_tree and any(
-            str(n.get(TAG, "")).startswith(prefix) for n in shared.node_tree.nodes)):
+    if shared is None:
+        return
+    # What the slot will show is judged: with the Link back on the mesh's, the mesh's
+    # material, which may be another copy of the shared one (an Alt+D copy's, brought by a
+    # Join), with another bake than the shared one shows (every flag + --obstacles 764).
+    back = _mesh_material(obj, slot) if _back_to_mesh(slot, obj, mat) else None
+    shown = back if back is not None else shared
+    if shown.node_tree and any(
+            str(n.get(TAG, "")).startswith(prefix) for n in shown.node_tree.nodes):
         return  # another object's bake of the effect in the shared one
-    if _wiring(shared) - _wiring(mat):
+    if _wiring(shown) - _wiring(mat):
         # ... or of another effect, which the copy does not show: it waits for that one's
         # Free, not the next Free of any effect (a pool's floor nodes in a pool's shared
         # water material went on show with a snow object's bake: monkey --renames 2).
@@ -931,14 +938,14 @@ def _put_shared_back(slot, prefix, obj):
     # back where it shows the same such bakes as the copy: none that the copy did not show,
     # and none of the copy's taken out with it.
     if (_has_wiring(mat) and not _only_deleted(mat)) or \
-            _others_shown(shared, obj) != _others_shown(mat, obj):
+            _others_shown(shown, obj) != _others_shown(mat, obj):
         return
     # The Link record is the slot's of the object the copy was made for: another object the
     # artist gave the copy (Link Materials) gets the shared material in the slot as it is
     # (every flag + --scene 816). The object renamed since is found by its bake's name, not
     # its old one, which another object may have taken (monkey --more --delete-baked
     # --elsewhere --moves --scene 2106, 2108).
-    if mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and _for_no_other(obj, mat):
+    if _back_to_mesh(slot, obj, mat):
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
         # It may be a clean copy waiting too, freed of its bake by this Free (a copy the
@@ -961,6 +968,19 @@ def _put_shared_back(slot, prefix, obj):
         # showed it; monkey --more 1017), no bake in it now: it goes as give_back's would,
         # from Shift+D copies of those objects too (1056).
         _let_go_made(obj, shared, prefix)
+
+
+def _back_to_mesh(slot, obj, mat):
+    """Whether Free puts the slot's Link back on the mesh's material, in place of the copy
+    ``mat`` own() made on the object's own slot."""
+    return mat.get(LINK_WAS) == "DATA" and slot.link == "OBJECT" and _for_no_other(obj, mat)
+
+
+def _mesh_material(obj, slot):
+    """The material the object's mesh holds in ``slot``'s place, or None."""
+    index = next(i for i, s in enumerate(obj.material_slots) if s == slot)
+    mats = obj.data.materials
+    return mats[index] if index < len(mats) else None
 
 
 def _for_no_other(obj, mat):
