@@ -165,6 +165,17 @@ HBK_EXPORT hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_
 HBK_EXPORT hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index,
                                                      const int32_t dims[3],
                                                      const float *distance);
+/* A mesh whose shape changes (an armature, a wave): the shape of mesh obstacle `index` at the
+ * end of the next step, checked as set_obstacle_field checks it. With the dims of the field
+ * it has, the step changes one into the other at a constant rate (each point's distance from
+ * the old to the new), and the fluid meets the surface moving: a particle it reaches leaves
+ * no slower along the normal than the surface moves there, its change of shape added to the
+ * obstacle's motion. A field of other dims, or a mesh without one yet, takes it at once, as
+ * set_obstacle_field. A completed step makes it the field; a cancelled one keeps it pending;
+ * set_obstacles, set_obstacle_field and load_state drop it. Not part of the saved state. */
+HBK_EXPORT hbk_result_t hbk_fluid_move_obstacle_field(hbk_fluid_t *h, int32_t index,
+                                                      const int32_t dims[3],
+                                                      const float *distance);
 /* Moving obstacles: where each obstacle is at the end of the next step (one per obstacle, in
  * order, of the same type). The step carries each there in a straight line over its dt
  * (centre and extent at a constant rate; a turned box also turns at a constant rate about

@@ -57,6 +57,12 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
  * particles; threads 0: the default), and a malloc'd copy of a handle's saved state (NULL on failure). */
 hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads);
 unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size);
+/* Mesh obstacles' fields: the signed distance at p (own axes) to a sphere of radius a, a box
+ * of half-sizes (a, b, c) or a torus about z of radii a (ring) and b (tube); and a malloc'd
+ * field of one over the box of half-sizes e at n points a side (x fastest). */
+enum { SDF_SPHERE, SDF_BOX, SDF_TORUS };
+float fluid_sdf(int shape, const double p[3], double a, double b, double c);
+float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, double c);
 
 /* Every test, one line each as X-macro entries of group and name; the runner and CMake
  * (tests/c/CMakeLists.txt) both read this list. */
@@ -213,7 +219,11 @@ unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size);
     X(fluid, mesh_sphere_field)         \
     X(fluid, mesh_ramp)                 \
     X(fluid, mesh_torus_hole)           \
-    X(fluid, mesh_moving_state)
+    X(fluid, mesh_moving_state)         \
+    X(fluid, deforming_refused)         \
+    X(fluid, deforming_growing_ball)    \
+    X(fluid, deforming_pending)         \
+    X(fluid, deforming_same_bytes)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

@@ -6,45 +6,12 @@
 #include "fluid/internal_fluid.h"
 #include <stdlib.h>
 
-enum { SPHERE, BOX, TORUS };
-
-/* Signed distance at p (own axes) to a sphere of radius a, a box of half-sizes (a, b, c), or
- * a torus about z of radii a (ring) and b (tube). */
-static float sdf(int shape, const double p[3], double a, double b, double c)
-{
-    if (shape == SPHERE) return (float)(sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - a);
-    if (shape == TORUS) {
-        const double ring = sqrt(p[0] * p[0] + p[1] * p[1]) - a;
-        return (float)(sqrt(ring * ring + p[2] * p[2]) - b);
-    }
-    const double q[3] = {fabs(p[0]) - a, fabs(p[1]) - b, fabs(p[2]) - c};
-    double out = 0.0, in = fmax(q[0], fmax(q[1], q[2]));
-    for (int k = 0; k < 3; ++k) out += q[k] > 0.0 ? q[k] * q[k] : 0.0;
-    return (float)(sqrt(out) + (in < 0.0 ? in : 0.0));
-}
-
-/* The field of a shape over the box of half-sizes e at n points a side. */
-static float *field_of(int shape, const float e[3], int n, double a, double b, double c)
-{
-    float *f = malloc((size_t)n * n * n * sizeof *f);
-    if (!f) return NULL;
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) {
-                const double p[3] = {-e[0] + 2.0 * e[0] * i / (n - 1),
-                                     -e[1] + 2.0 * e[1] * j / (n - 1),
-                                     -e[2] + 2.0 * e[2] * k / (n - 1)};
-                f[(size_t)i + (size_t)n * ((size_t)j + (size_t)n * k)] = sdf(shape, p, a, b, c);
-            }
-    return f;
-}
-
 static hbk_result_t set_mesh(hbk_fluid_t *h, const hbk_fluid_obstacle_t *ob, int shape, int n,
                              double a, double b, double c)
 {
     hbk_result_t r = hbk_fluid_set_obstacles(h, ob, 1);
     if (r) return r;
-    float *f = field_of(shape, ob->extent, n, a, b, c);
+    float *f = fluid_sdf_field(shape, ob->extent, n, a, b, c);
     const int32_t dims[3] = {n, n, n};
     r = f ? hbk_fluid_set_obstacle_field(h, 0, dims, f) : HBK_ERR_OUT_OF_MEMORY;
     free(f);
@@ -121,8 +88,8 @@ void test_fluid_mesh_sphere_field(void)
     const float vel[3] = {0.2f, -0.4f, -0.3f};
     for (int i = 0; i < 4; ++i) {
         float xa[3], va[3], xb[3], vb[3];
-        one_step(&mesh, SPHERE, 0.15, starts[i], vel, xa, va);
-        one_step(&ball, SPHERE, 0.15, starts[i], vel, xb, vb);
+        one_step(&mesh, SDF_SPHERE, 0.15, starts[i], vel, xa, va);
+        one_step(&ball, SDF_SPHERE, 0.15, starts[i], vel, xb, vb);
         for (int k = 0; k < 3; ++k) {
             CHECK_NEAR(xa[k], xb[k], 1e-3);
             CHECK_NEAR(va[k], vb[k], 2e-2);
@@ -147,7 +114,7 @@ void test_fluid_mesh_ramp(void)
         for (int j = 0; j < dims[1]; ++j)
             for (int i = 0; i < dims[0]; ++i) {
                 const double p[3] = {-0.45 + 0.01 * i, -0.35 + 0.01 * j, -0.06 + 0.01 * k};
-                g[i + dims[0] * (j + dims[1] * k)] = sdf(BOX, p, 0.4, 0.3, 0.01);
+                g[i + dims[0] * (j + dims[1] * k)] = fluid_sdf(SDF_BOX, p, 0.4, 0.3, 0.01);
             }
     CHECK_OK(hbk_fluid_set_obstacle_field(h, 0, dims, g));
     free(g);
@@ -178,7 +145,7 @@ void test_fluid_mesh_torus_hole(void)
     hbk_fluid_t *h = fluid_lone(0.0f, 20000, 0);
     CHECK(h);
     const hbk_fluid_obstacle_t torus = {3, {0.5f, 0.5f, 0.2f}, {0.3f, 0.3f, 0.12f}, {1, 0, 0, 0}};
-    CHECK_OK(set_mesh(h, &torus, TORUS, 64, 0.2, 0.08, 0));
+    CHECK_OK(set_mesh(h, &torus, SDF_TORUS, 64, 0.2, 0.08, 0));
     const float lo[3] = {0.2f, 0.2f, 0.1f}, hi[3] = {0.8f, 0.8f, 0.3f};
     CHECK_OK(hbk_fluid_fill_box(h, lo, hi, 0.0f));
     const int32_t n = hbk_fluid_particle_count(h);
@@ -187,7 +154,7 @@ void test_fluid_mesh_torus_hole(void)
     int in_tube = 0, in_hole = 0;
     for (int32_t i = 0; i < n; ++i) {
         const double p[3] = {pos[3 * i] - 0.5, pos[3 * i + 1] - 0.5, pos[3 * i + 2] - 0.2};
-        const float d = sdf(TORUS, p, 0.2, 0.08, 0);
+        const float d = fluid_sdf(SDF_TORUS, p, 0.2, 0.08, 0);
         in_tube += d < 0.0099f;
         in_hole += sqrt(p[0] * p[0] + p[1] * p[1]) < 0.1;
     }
@@ -212,7 +179,7 @@ void test_fluid_mesh_moving_state(void)
     hbk_fluid_obstacle_t wall = {3, {0.2f, 0.5f, 0.5f}, {0.12f, 0.12f, 0.12f}, {1, 0, 0, 0}};
     hbk_fluid_t *a = fluid_lone(0.0f, 8, 0), *b = fluid_lone(0.0f, 8, 0);
     CHECK(a && b);
-    CHECK_OK(set_mesh(a, &wall, BOX, 49, 0.1, 0.1, 0.1));
+    CHECK_OK(set_mesh(a, &wall, SDF_BOX, 49, 0.1, 0.1, 0.1));
     float x[3] = {0.45f, 0.5f, 0.5f}, v[3] = {0.0f, 0.2f, 0.0f};
     CHECK_OK(hbk_fluid_set_particles(a, x, v, 1));
     for (int f = 1; f <= 3; ++f) {

@@ -1,4 +1,5 @@
 /* Helpers the test files share. */
+#include <math.h>
 #include <stdlib.h>
 #include "test.h"
 
@@ -50,3 +51,36 @@ unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size)
     }
     return b;
 }
+
+/* Signed distance at p (own axes) to a sphere of radius a, a box of half-sizes (a, b, c), or
+ * a torus about z of radii a (ring) and b (tube). */
+float fluid_sdf(int shape, const double p[3], double a, double b, double c)
+{
+    if (shape == SDF_SPHERE) return (float)(sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - a);
+    if (shape == SDF_TORUS) {
+        const double ring = sqrt(p[0] * p[0] + p[1] * p[1]) - a;
+        return (float)(sqrt(ring * ring + p[2] * p[2]) - b);
+    }
+    const double q[3] = {fabs(p[0]) - a, fabs(p[1]) - b, fabs(p[2]) - c};
+    double out = 0.0, in = fmax(q[0], fmax(q[1], q[2]));
+    for (int k = 0; k < 3; ++k) out += q[k] > 0.0 ? q[k] * q[k] : 0.0;
+    return (float)(sqrt(out) + (in < 0.0 ? in : 0.0));
+}
+
+/* The field of a shape over the box of half-sizes e at n points a side. */
+float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, double c)
+{
+    float *f = malloc((size_t)n * n * n * sizeof *f);
+    if (!f) return NULL;
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const double p[3] = {-e[0] + 2.0 * e[0] * i / (n - 1),
+                                     -e[1] + 2.0 * e[1] * j / (n - 1),
+                                     -e[2] + 2.0 * e[2] * k / (n - 1)};
+                f[(size_t)i + (size_t)n * ((size_t)j + (size_t)n * k)] =
+                    fluid_sdf(shape, p, a, b, c);
+            }
+    return f;
+}
+

@@ -37,6 +37,7 @@ Handle.declare("fluid", [
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("move_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("set_obstacle_field", [ctypes.c_int32, P(ctypes.c_int32 * 3), _f32]),
+    ("move_obstacle_field", [ctypes.c_int32, P(ctypes.c_int32 * 3), _f32]),
     ("set_velocity_grid", [_f32, ctypes.c_void_p]),
     ("step", [P(Progress)]), ("update_fields", []),
     ("get_volume", [ctypes.c_int32, _f32, ctypes.c_size_t]),
@@ -177,17 +178,18 @@ class Fluid(Handle):
         """Where the obstacles are at the end of the next step (a list like set_obstacles',
         one per obstacle, in order, of the same kinds): the step carries them there in a
         straight line (a turned box turning at a constant rate, the shorter way) and the fluid
-        meets them moving. A mesh's field None keeps its shape; a field given is its new
-        shape (a mesh that deforms), taken at once."""
+        meets them moving. A mesh's field None keeps its shape; a field given is its shape
+        at the end of the step (a mesh that deforms): with the shape of the one it has, the
+        step changes one into the other and the water meets the surface moving; another
+        shape is taken at once."""
         arr, n, checked = _obstacles(to, "to", fields=False)
         self.call("move_obstacles", arr, n)
-        self._set_fields(checked)
+        self._set_fields(checked, "move_obstacle_field")
 
-    def _set_fields(self, checked):
+    def _set_fields(self, checked, how="set_obstacle_field"):
         for i, ob in enumerate(checked):
             if ob[0] == "mesh" and ob[4] is not None:
-                self.call("set_obstacle_field", i, (ctypes.c_int32 * 3)(*ob[4].shape[::-1]),
-                          ob[4].reshape(-1))
+                self.call(how, i, (ctypes.c_int32 * 3)(*ob[4].shape[::-1]), ob[4].reshape(-1))
 
     def _per_vertex(self, name, values, components=1):
         """values as a flat float32 array of one entry per grid vertex (the C side reads that

@@ -57,6 +57,12 @@ struct hbk_fluid {
     /* State: the distance fields of mesh obstacles (NULL, dims 0 for the others). */
     float *obs_field[HBK_FLUID_MAX_OBSTACLES];
     int32_t obs_dims[HBK_FLUID_MAX_OBSTACLES][3];
+    /* Not state: a mesh's shape at the end of the next step (move_obstacle_field; its dims
+     * are obs_dims), the fastest its surface moves by the change (m/s), and how far into the
+     * step the substep under way meets it (0..1). */
+    float *obs_field_to[HBK_FLUID_MAX_OBSTACLES];
+    float obs_shape_speed[HBK_FLUID_MAX_OBSTACLES];
+    float obs_t;
     float obs_speed;            /* m/s: the fastest any obstacle's surface moves (stable dt) */
     float *in_vel, *in_surface; /* VELOCITY_GRID inputs (nv x 3, nv), or NULL */
     hbk_fluid_vols_t v;
@@ -185,10 +191,11 @@ void hbk_fluid_obstacles_moved(hbk_fluid_t *h);
 /* 1 if x is where the step's collision would push a particle out of an obstacle (still). */
 int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3]);
 /* Mesh obstacle o's field at l (its own axes, m from its centre, inside its box): 1 if it is
- * nearer than m to the surface or inside, with the push out (m - distance) and the outward
- * unit normal in its own axes; else 0. */
+ * nearer than m to the surface or inside, with the push out (m - distance), the outward unit
+ * normal in its own axes and the speed (m/s) its surface moves along it by a change of shape
+ * under way (moving 0: the field as it is, as a fill meets it); else 0. */
 int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], const float l[3],
-                            float m, float *push, float nl[3]);
+                            float m, int moving, float *push, float nl[3], float *grow);
 /* HBK_OK, or the refusal of a step or fill with a mesh obstacle whose field is not set. */
 hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what);
 void hbk_fluid_fields_free(hbk_fluid_t *h);

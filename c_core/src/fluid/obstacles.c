@@ -103,15 +103,17 @@ void hbk_fluid_fields_free(hbk_fluid_t *h)
 {
     for (int i = 0; i < HBK_FLUID_MAX_OBSTACLES; ++i) {
         free(h->obs_field[i]);
-        h->obs_field[i] = NULL;
+        free(h->obs_field_to[i]);
+        h->obs_field[i] = h->obs_field_to[i] = NULL;
+        h->obs_shape_speed[i] = 0.0f;
         memset(h->obs_dims[i], 0, sizeof h->obs_dims[i]);
     }
 }
 
-hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
-                                          const float *distance)
+/* A checked copy of a mesh obstacle's field, in *out (its point count in *n). */
+static hbk_result_t field_copy(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                               const float *distance, float **out, size_t *n)
 {
-    HBK_FLUID_ENTER(h);
     if (index < 0 || index >= h->n_obs)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "index = %d: must be in [0, %d)",
                         index, h->n_obs);
@@ -122,24 +124,67 @@ hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index, const i
     if (!dims || !distance)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "%s: must not be NULL",
                         dims ? "distance" : "dims");
-    size_t n = 1;
+    *n = 1;
     for (int a = 0; a < 3; ++a) {
         if (dims[a] < 2 || dims[a] > HBK_FLUID_FIELD_MAX_DIM)
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "dims[%d] = %d: must be in [2, %d]",
                             a, dims[a], HBK_FLUID_FIELD_MAX_DIM);
-        n *= (size_t)dims[a];
+        *n *= (size_t)dims[a];
     }
-    for (size_t i = 0; i < n; ++i)
+    for (size_t i = 0; i < *n; ++i)
         if (!(fabsf(distance[i]) <= 1e6f))
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                             "distance[%zu] = %g: must be a finite number in [-1e6, 1e6] m", i,
                             (double)distance[i]);
-    float *f = malloc(n * sizeof *f);
-    if (!f) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "distance: out of memory");
-    memcpy(f, distance, n * sizeof *f);
+    *out = malloc(*n * sizeof **out);
+    if (!*out) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "distance: out of memory");
+    memcpy(*out, distance, *n * sizeof **out);
+    return HBK_OK;
+}
+
+/* The field f (dims) is obstacle index's now; a change under way is dropped. */
+static void field_take(hbk_fluid_t *h, int32_t index, const int32_t dims[3], float *f)
+{
     free(h->obs_field[index]);
+    free(h->obs_field_to[index]);
     h->obs_field[index] = f;
+    h->obs_field_to[index] = NULL;
+    h->obs_shape_speed[index] = 0.0f;
     memcpy(h->obs_dims[index], dims, sizeof h->obs_dims[index]);
+}
+
+hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                                          const float *distance)
+{
+    HBK_FLUID_ENTER(h);
+    float *f = NULL;
+    size_t n = 0;
+    hbk_result_t r = field_copy(h, index, dims, distance, &f, &n);
+    if (r) return r;
+    field_take(h, index, dims, f);
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_move_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                                           const float *distance)
+{
+    HBK_FLUID_ENTER(h);
+    float *f = NULL;
+    size_t n = 0;
+    hbk_result_t r = field_copy(h, index, dims, distance, &f, &n);
+    if (r) return r;
+    if (!h->obs_field[index] || memcmp(dims, h->obs_dims[index], sizeof h->obs_dims[index])) {
+        field_take(h, index, dims, f); /* no field of these dims to change from */
+        return HBK_OK;
+    }
+    float most = 0.0f; /* the largest change of a distance over the step */
+    for (size_t i = 0; i < n; ++i) {
+        const float d = fabsf(f[i] - h->obs_field[index][i]);
+        most = d > most ? d : most;
+    }
+    free(h->obs_field_to[index]);
+    h->obs_field_to[index] = f;
+    h->obs_shape_speed[index] = most / h->p.dt;
     return HBK_OK;
 }
 
@@ -154,7 +199,7 @@ hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what)
 }
 
 int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], const float l[3],
-                            float m, float *push, float nl[3])
+                            float m, int moving, float *push, float nl[3], float *grow)
 {
     const int32_t *dims = h->obs_dims[o];
     const float *f = h->obs_field[o];
@@ -170,9 +215,19 @@ int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], c
         t[a] = g - (float)k;
     }
     const size_t sx = 1, sy = (size_t)dims[0], sz = sy * (size_t)dims[1];
-    const float *c = f + (size_t)i[0] + sy * (size_t)i[1] + sz * (size_t)i[2];
-    const float c000 = c[0], c100 = c[sx], c010 = c[sy], c110 = c[sx + sy], c001 = c[sz],
-                c101 = c[sx + sz], c011 = c[sy + sz], c111 = c[sx + sy + sz];
+    const size_t at = (size_t)i[0] + sy * (size_t)i[1] + sz * (size_t)i[2];
+    const size_t off[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    float c[8], dc[8] = {0};
+    const float *to = moving ? h->obs_field_to[o] : NULL;
+    for (int k = 0; k < 8; ++k) {
+        c[k] = f[at + off[k]];
+        if (to) { /* a change of shape under way: the field obs_t of the way to the new one */
+            dc[k] = to[at + off[k]] - c[k];
+            c[k] += h->obs_t * dc[k];
+        }
+    }
+    const float c000 = c[0], c100 = c[1], c010 = c[2], c110 = c[3], c001 = c[4], c101 = c[5],
+                c011 = c[6], c111 = c[7];
     /* trilinear, and its exact gradient within the cell */
     const float x0 = c000 + t[0] * (c100 - c000), x1 = c010 + t[0] * (c110 - c010),
                 x2 = c001 + t[0] * (c101 - c001), x3 = c011 + t[0] * (c111 - c011);
@@ -188,6 +243,13 @@ int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], c
     if (!(len > 1e-6f)) return 0; /* a flat spot (the middle of a thick part): no way out */
     for (int a = 0; a < 3; ++a) nl[a] = gr[a] / len;
     *push = (m - d) / (len > 1.0f ? 1.0f : len); /* a distance field: |gradient| near 1 */
+    *grow = 0.0f;
+    if (to) { /* the surface moves out where the distances fall: -(d d / d t) / |gradient| */
+        const float r0 = dc[0] + t[0] * (dc[1] - dc[0]), r1 = dc[2] + t[0] * (dc[3] - dc[2]),
+                    r2 = dc[4] + t[0] * (dc[5] - dc[4]), r3 = dc[6] + t[0] * (dc[7] - dc[6]);
+        const float s0 = r0 + t[1] * (r1 - r0), s1 = r2 + t[1] * (r3 - r2);
+        *grow = -(s0 + t[2] * (s1 - s0)) / ((float)h->p.dt * len);
+    }
     return 1;
 }
 
@@ -243,12 +305,15 @@ void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t)
 {
     const double dt = h->p.dt;
     float fastest = 0.0f;
+    h->obs_t = (float)t;
     for (int32_t i = 0; i < h->n_obs; ++i) {
         const hbk_fluid_obstacle_t *a = &h->obs[i];
         hbk_fluid_obstacle_t *now = &h->obs_now[i];
         float *rate = h->obs_rate[i];
         *now = *a;
         memset(rate, 0, 9 * sizeof *rate);
+        const float shape = h->obs_field_to[i] ? h->obs_shape_speed[i] : 0.0f;
+        fastest = shape > fastest ? shape : fastest;
         if (!h->obs_moving) { /* still: collide meets them exactly as they are */
             axes_of(now, h->obs_axes[i]);
             continue;
@@ -282,6 +347,7 @@ void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t)
             s += sqrtf(w2) * sqrtf(r2); /* a corner, turning */
         }
         axes_of(now, h->obs_axes[i]);
+        s += shape;
         fastest = s > fastest ? s : fastest;
     }
     h->obs_speed = fastest;
@@ -289,6 +355,13 @@ void hbk_fluid_obstacles_at(hbk_fluid_t *h, double t)
 
 void hbk_fluid_obstacles_moved(hbk_fluid_t *h)
 {
+    for (int32_t i = 0; i < h->n_obs; ++i)
+        if (h->obs_field_to[i]) { /* the change of shape made */
+            free(h->obs_field[i]);
+            h->obs_field[i] = h->obs_field_to[i];
+            h->obs_field_to[i] = NULL;
+            h->obs_shape_speed[i] = 0.0f;
+        }
     if (!h->obs_moving) return;
     memcpy(h->obs, h->obs_to, (size_t)h->n_obs * sizeof *h->obs);
     h->obs_moving = 0;
@@ -304,12 +377,13 @@ int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3])
             const float R = ob->extent[0] + m;
             if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < R * R) return 1;
         } else {
-            float ax[9], l[3], push, nl[3];
+            float ax[9], l[3], push, nl[3], grow;
             axes_of(ob, ax); /* (a box's: the world's, which give q exactly) */
             for (int k = 0; k < 3; ++k)
                 l[k] = ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] + ax[3 * k + 2] * q[2];
             if (ob->type == 3) { /* (its field is set: fill_box checks) */
-                if (hbk_fluid_field_contact(h, o, ob->extent, l, m, &push, nl)) return 1;
+                if (hbk_fluid_field_contact(h, o, ob->extent, l, m, 0, &push, nl, &grow))
+                    return 1;
             } else if (fabsf(l[0]) < ob->extent[0] + m && fabsf(l[1]) < ob->extent[1] + m &&
                        fabsf(l[2]) < ob->extent[2] + m) {
                 return 1;

@@ -64,7 +64,8 @@ static void collide(const hbk_fluid_t *h, float *x, float *v)
                 grow = w[3 + best];
             } else {
                 float nl[3];
-                if (!hbk_fluid_field_contact(h, o, ob->extent, l, m, &push, nl)) continue;
+                if (!hbk_fluid_field_contact(h, o, ob->extent, l, m, 1, &push, nl, &grow))
+                    continue;
                 for (int a = 0; a < 3; ++a)
                     n[a] = ax[a] * nl[0] + ax[3 + a] * nl[1] + ax[6 + a] * nl[2];
                 /* the field stretches with its box: a point at l moves at l * e' / e */

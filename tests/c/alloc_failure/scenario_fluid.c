@@ -101,6 +101,8 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
     hbk_message_t m;
     AF_CREATE(c, hbk_fluid_create(&s->a, &p, &m), s->a, m);
     const float ctr[3] = {0.4f, 0.4f, 0.3f};
+    float field[27];
+    const int32_t dims[3] = {3, 3, 3};
     if (source == HBK_FLUID_SIMULATE) {
         const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.35f, 0.35f, 0.35f};
         AF_CALL(c, hbk_fluid_fill_box(s->a, lo, hi, 0.2f), hbk_fluid_message(s->a));
@@ -109,11 +111,9 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
                                             {3, {0.5f, 0.8f, 0.1f}, {0.1f, 0.1f, 0.1f},
                                              {1, 0, 0, 0}}};
         AF_CALL(c, hbk_fluid_set_obstacles(s->a, ob, 2), hbk_fluid_message(s->a));
-        float field[27];
         for (int i = 0; i < 27; ++i)
             field[i] = sqrtf((float)((i % 3 - 1) * (i % 3 - 1) + (i / 3 % 3 - 1) * (i / 3 % 3 - 1) +
                                      (i / 9 - 1) * (i / 9 - 1))) * 0.1f - 0.06f;
-        const int32_t dims[3] = {3, 3, 3};
         AF_CALL(c, hbk_fluid_set_obstacle_field(s->a, 1, dims, field), hbk_fluid_message(s->a));
     } else {
         inputs(c, s->a, source, 0);
@@ -135,6 +135,11 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
     for (int f = 1; f <= 3; ++f) {
         if (source != HBK_FLUID_SIMULATE) inputs(c, s->a, source, f);
         if (af_failed(c)) return;
+        if (source == HBK_FLUID_SIMULATE) { /* the mesh grows: a change of shape per step */
+            for (int i = 0; i < 27; ++i) field[i] -= 0.01f;
+            AF_CALL(c, hbk_fluid_move_obstacle_field(s->a, 1, dims, field),
+                    hbk_fluid_message(s->a));
+        }
         AF_CALL(c, hbk_fluid_step(s->a, NULL), hbk_fluid_message(s->a));
     }
     outputs(c, s->a);
