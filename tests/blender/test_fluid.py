@@ -70,3 +70,9 @@ def test_a_mesh_obstacle_is_its_shape(blender, tmp_path):
     r = blender.run("fluid_mesh_obstacles.py", tmp_path)
     for part in ("FIELD", "RING", "MOVING", "NORMALS", "BOXES"):
         assert f"FLUID MESH {part} OK" in r.stdout, r.stdout
+
+
+def test_a_curve_text_or_metaball_obstacle_is_its_shape(blender, tmp_path):
+    r = blender.run("fluid_shaped_obstacles.py", tmp_path)
+    for part in ("FIELD", "RING", "KINDS", "DEFORMING"):
+        assert f"FLUID CURVE {part} OK" in r.stdout, r.stdout

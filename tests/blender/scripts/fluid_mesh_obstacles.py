@@ -154,7 +154,7 @@ assert "the shape of Torus (1/1)" in steps, steps
 print("FLUID MESH NORMALS OK")
 
 # A cube is a box; a torus under a Wave modifier (its shape changes) is its shape made again
-# at every frame, each a field of its own, and it bakes.
+# at every frame, each a field of its own over one box holding them all, and it bakes.
 ring.modifiers.new("Wave", "WAVE").height = 0.05
 in_blender_cube = in_blender.new_box("Cube", (0.1, 0.1, 0.1), (0.1, 0.1, 0.1))
 rings.objects.link(in_blender_cube)
@@ -167,5 +167,9 @@ assert waved[0] == "mesh" and waved[4].ndim == 3, waved[0]
 fields = [waved[4]] + [obs[at["Torus"]][4] for _, obs in sorted(inp["obstacle_path"].items())]
 assert len(fields) == 9 and all(f is not None for f in fields), len(fields)
 assert not any(np.array_equal(a, b) for a, b in zip(fields, fields[1:])), "the same shapes"
+# one box and one grid for all of them, so that each step changes one into the next
+assert len({f.shape for f in fields}) == 1, {f.shape for f in fields}
+boxes = [waved[1:3]] + [obs[at["Torus"]][1:3] for _, obs in sorted(inp["obstacle_path"].items())]
+assert all(np.allclose(np.ravel(b), np.ravel(boxes[0]), atol=1e-6) for b in boxes), boxes
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 print("FLUID MESH BOXES OK")

@@ -53,6 +53,9 @@ def may_move(obj):
     return False
 
 
+# Objects Blender evaluates to a mesh (Object.to_mesh): a shape, not only a box.
+SHAPED_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+
 # Modifiers whose result depends on the mesh alone: the shape they give changes only when
 # something animates their settings (the object's own animation data).
 STILL_MODIFIERS = {"SUBSURF", "MULTIRES", "SOLIDIFY", "BEVEL", "TRIANGULATE", "EDGE_SPLIT",
@@ -63,8 +66,9 @@ def may_deform(obj, skip=None):
     """Whether the object's evaluated shape may change from frame to frame: a modifier (but
     ``skip``) that can take the frame or another object's motion (an armature, a cloth, a
     wave, a lattice, geometry nodes), any modifier of an object with animation data (a keyed
-    Subdivision level), or animated shape keys or mesh data."""
-    if obj.type != "MESH":
+    Subdivision level), or animated shape keys or data (a mesh's, or a curve's, a text's or a
+    metaball's: a keyed bevel, body or radius)."""
+    if obj.type not in SHAPED_TYPES:
         return False
     mods = [m for m in obj.modifiers if m.show_viewport and m != skip]
     if mods and obj.animation_data is not None:
@@ -73,4 +77,4 @@ def may_deform(obj, skip=None):
            for m in mods):
         return True
     return any(d is not None and d.animation_data is not None
-               for d in (obj.data, obj.data.shape_keys))
+               for d in (obj.data, getattr(obj.data, "shape_keys", None)))

@@ -46,45 +46,83 @@ def _is_box(co, lo, hi):
     return bool(np.all((np.abs(co - lo) <= tol) | (np.abs(co - hi) <= tol)))
 
 
-def mesh_shape(ev, spacing, side=SIDE):
-    """The MeshShape of an evaluated mesh object, or None where a box serves: a
-    box-shaped mesh (every vertex on a corner of its box), one without faces, or a world
-    matrix that shears or flattens it. The field's points lie at most half a particle
-    spacing apart, or ``side`` along its longest side if that is coarser (up to MAX_DIM), over
-    the mesh's box grown by two points and a spacing (so that the field sees a particle
-    coming)."""
-    axes = own_axes(ev.matrix_world)
-    if axes is None:
-        return None
-    scale = axes[1]
+def _closed(co, loops, starts, totals):
+    """Whether the faces close a volume: every edge between two faces, once vertices at one
+    place count as one (a curve's caps and sides, a text's letters and a metaball's sheets
+    are separate pieces that meet)."""
+    if len(loops) == 0:
+        return False
+    tol = 1e-6 * max(float(np.max(co.max(axis=0) - co.min(axis=0))), 1e-9)
+    _, one = np.unique(np.round(co / tol).astype(np.int64), axis=0, return_inverse=True)
+    one = one.ravel()
+    after = np.arange(1, len(loops) + 1)
+    after[starts + totals - 1] = starts  # each face's last corner leads to its first
+    a, b = one[loops], one[loops[after]]
+    edges = np.sort(np.stack([a[a != b], b[a != b]], axis=1), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return bool(len(counts)) and bool(np.all(counts == 2))
+
+
+class MeshSample:
+    """An evaluated mesh at one frame, in its own unscaled coordinates: vertices ``co`` (n, 3),
+    faces ``polys`` (vertex index tuples), and whether they close a volume."""
+
+    def __init__(self, co, polys, closed):
+        self.co, self.polys, self.closed = co, polys, closed
+
+
+def mesh_sample(ev):
+    """The MeshSample of an evaluated object, or None where a box serves: a box-shaped mesh
+    (every vertex on a corner of its box) or one without faces."""
     mesh = ev.to_mesh()
     try:
         co = np.empty(len(mesh.vertices) * 3, np.float64)
         mesh.vertices.foreach_get("co", co)
         co = co.reshape(-1, 3)
         polys = [tuple(p.vertices) for p in mesh.polygons]
-        loop_edges = np.empty(len(mesh.loops), np.int64)
-        mesh.loops.foreach_get("edge_index", loop_edges)
-        closed = len(mesh.edges) > 0 and bool(
-            np.all(np.bincount(loop_edges, minlength=len(mesh.edges)) == 2))
+        loops = np.empty(len(mesh.loops), np.int64)
+        mesh.loops.foreach_get("vertex_index", loops)
+        starts = np.empty(len(mesh.polygons), np.int64)
+        mesh.polygons.foreach_get("loop_start", starts)
+        totals = np.empty(len(mesh.polygons), np.int64)
+        mesh.polygons.foreach_get("loop_total", totals)
     finally:
         ev.to_mesh_clear()
-    if not polys or len(co) < 4:
+    if not polys or len(co) < 4 or _is_box(co, co.min(axis=0), co.max(axis=0)):
         return None
-    lo, hi = co.min(axis=0), co.max(axis=0)
-    if _is_box(co, lo, hi):
-        return None
-    pts = co * scale  # in metres, along its own axes (a mirrored axis flipped)
-    plo, phi = pts.min(axis=0), pts.max(axis=0)
+    return MeshSample(co, polys, _closed(co, loops, starts, totals))
+
+
+def scale_of(matrix):
+    """The scale along the object's own axes (signed where mirrored), also of a matrix that
+    shears (its columns' lengths)."""
+    axes = own_axes(matrix)
+    return axes[1] if axes is not None else np.linalg.norm(np.array(matrix)[:3, :3], axis=0)
+
+
+def field_box(samples, spacing, side=SIDE):
+    """(low, high, dims): a field's box in metres along the object's own axes, holding every
+    sample (MeshSample, its scale) grown by two points and a spacing (so that the field sees a
+    particle coming), and its points, at most half a particle spacing apart or ``side`` along
+    its longest side if that is coarser (up to MAX_DIM)."""
+    pts = [s.co * scale for s, scale in samples]  # in metres (a mirrored axis flipped)
+    plo = np.min([p.min(axis=0) for p in pts], axis=0)
+    phi = np.max([p.max(axis=0) for p in pts], axis=0)
     longest = float(np.max(phi - plo))
     step = max(0.5 * spacing, longest / (side - 1))
     pad = 2.0 * step + spacing
     dims = np.minimum(np.ceil((phi - plo + 2 * pad) / step).astype(int) + 1, MAX_DIM)
-    blo, bhi = plo - pad, phi + pad
+    return plo - pad, phi + pad, dims
+
+
+def shape_in(sample, scale, box):
+    """The MeshShape of a sample at its scale, over ``box`` (field_box)."""
+    blo, bhi, dims = box
     axes_pts = [np.linspace(blo[a], bhi[a], dims[a]) for a in range(3)]
-    tree = BVHTree.FromPolygons([tuple(p) for p in pts], polys, epsilon=0.0)
+    tree = BVHTree.FromPolygons([tuple(p) for p in sample.co * scale], sample.polys,
+                                epsilon=0.0)
     field = np.empty((dims[2], dims[1], dims[0]), np.float32)
-    near = tree.find_nearest
+    near, closed = tree.find_nearest, sample.closed
     for k, z in enumerate(axes_pts[2]):
         for j, y in enumerate(axes_pts[1]):
             row = field[k, j]
@@ -107,3 +145,16 @@ def mesh_shape(ev, spacing, side=SIDE):
         np.abs(field, out=field)
     centre_s, half_s = (blo + bhi) / 2, (bhi - blo) / 2
     return MeshShape(centre_s / scale, half_s / np.abs(scale), field, signed)
+
+
+def mesh_shape(ev, spacing, side=SIDE):
+    """The MeshShape of an evaluated mesh object over its own box (field_box), or None where a
+    box serves: a box-shaped mesh, one without faces, or a world matrix that shears or
+    flattens it."""
+    axes = own_axes(ev.matrix_world)
+    if axes is None:
+        return None
+    sample = mesh_sample(ev)
+    if sample is None:
+        return None
+    return shape_in(sample, axes[1], field_box([(sample, axes[1])], spacing, side))

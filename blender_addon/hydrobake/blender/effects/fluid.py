@@ -52,6 +52,15 @@ def _round(obj, depsgraph):
     return tuple(map(float, centre)), float(d.max())
 
 
+def _warn_unsigned(obj):
+    fix = "recalculate its normals (Mesh > Normals) and close it" if obj.type == "MESH" else \
+        "close its shape (a cyclic spline, Fill Mode Full; Extrude for a text) or convert it " \
+        "to a mesh"
+    warnings.warn(f"Obstacles: {obj.name}'s faces do not all face out (a hole, or normals "
+                  "inside): it is taken as a thin shell the water stays off on both sides; "
+                  f"{fix} for a solid", BakeWarning)
+
+
 class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
     """Feature paint (paper §3.1): where a feature lies in [low, high], use the texture."""
     texture: bpy.props.IntProperty(name="Texture", default=1, min=0, max=7,
@@ -357,29 +366,35 @@ class FluidBlender(BlenderEffect):
         where one that is animated, constrained or deformed stands otherwise than the frame
         before (the fluid meets it moving there). A round mesh (a ball) is a sphere, decided
         at the first frame; any other mesh is its shape as a distance field (mesh_fields),
-        made at the first frame and carried with the object, or made again at every frame
-        for a mesh whose shape changes (coarser: DEFORMING_SIDE points along its longest
-        side); a box-shaped mesh and an object that is not a mesh are their own bounding box,
-        turned with them (a box in the world's axes when turned at no frame)."""
+        made at the first frame and carried with the object; so is a curve, surface, text or
+        metaball, as the mesh Blender evaluates it to. A mesh whose shape changes gets a
+        field at every frame, all over one box that holds every frame's shape (coarser:
+        DEFORMING_SIDE points along its longest side), so that the step changes each into
+        the next and the water meets its surface moving. A box-shaped mesh and an object
+        without faces (an empty, a curve without bevel) are their own bounding box, turned
+        with them (a box in the world's axes when turned at no frame)."""
         deforming = {k for k, o in enumerate(found) if animation.may_deform(o)}
         movers = {k for k, o in enumerate(found) if animation.may_move(o)} | deforming
         dg = evaluated_depsgraph(context)
         round_ = [_round(o, dg) for o in found]
-        meshes_ = [k for k, o in enumerate(found) if round_[k] is None and o.type == "MESH"]
+        meshes_ = [k for k, o in enumerate(found)
+                   if round_[k] is None and o.type in animation.SHAPED_TYPES]
         shapes = [None] * len(found)
-
-        def shape(k, graph):
-            return mesh_fields.mesh_shape(evaluated_object(found[k], graph, "Obstacles"), spacing,
-                                          DEFORMING_SIDE if k in deforming else
-                                          mesh_fields.SIDE)
-        for n, k in enumerate(meshes_):  # (a field takes up to a second: a step of its own)
-            shapes[k] = shape(k, dg)
+        # a deforming mesh: its sample and world matrix at each frame, made fields at the end
+        samples = {}
+        for k in (k for k in meshes_ if k in deforming):
+            ev = evaluated_object(found[k], dg, "Obstacles")
+            sample = mesh_fields.mesh_sample(ev) \
+                if meshes.own_axes(ev.matrix_world) is not None else None
+            if sample is not None:
+                samples[k] = [(sample, ev.matrix_world.copy())]
+        rigid = [k for k in meshes_ if k not in deforming]
+        for n, k in enumerate(rigid):  # (a field takes up to a second: a step of its own)
+            shapes[k] = mesh_fields.mesh_shape(evaluated_object(found[k], dg, "Obstacles"),
+                                               spacing)
             if shapes[k] is not None and not shapes[k].signed:
-                warnings.warn(f"Obstacles: {found[k].name}'s faces do not all face out (a "
-                              "hole, or normals inside): it is taken as a thin shell the water "
-                              "stays off on both sides; recalculate its normals (Mesh > "
-                              "Normals) and close it for a solid", BakeWarning)
-            yield f"the shape of {found[k].name}", n + 1, len(meshes_)
+                _warn_unsigned(found[k])
+            yield f"the shape of {found[k].name}", n + 1, len(rigid)
 
         def obstacles(_f=None):
             graph = evaluated_depsgraph(context) if _f is not None else dg
@@ -395,11 +410,14 @@ class FluidBlender(BlenderEffect):
                     out.append(("sphere",) + (ball or (tuple(map(float, (olo + ohi) / 2)),
                                                        float(np.max(ohi - olo) / 2))))
                     continue
+                if k in samples:
+                    if _f is not None:  # (a shape it cannot have, flat or box-like: the last)
+                        samples[k].append((mesh_fields.mesh_sample(ev) or samples[k][-1][0],
+                                           ev.matrix_world.copy()))
+                    out.append(None)  # its field comes once every frame's shape is known
+                    continue
                 if shapes[k] is not None:
-                    # its shape here (one it cannot have, flat or box-like: the last one)
-                    now = shape(k, graph) if _f is not None and k in deforming else None
-                    shapes[k] = now or shapes[k]
-                    out.append(shapes[k].placed(ev.matrix_world, _f is None or now is not None))
+                    out.append(shapes[k].placed(ev.matrix_world, _f is None))
                     continue
                 turned = meshes.turned_bounds(ev)
                 out.append(("turned_box",) + turned if turned else
@@ -411,9 +429,21 @@ class FluidBlender(BlenderEffect):
         if movers and frames[1] > frames[0]:
             got = yield from animation.per_frame(context.scene, frames[0] + 1, frames[1],
                                                  obstacles)
+        every = [first] + list(got.values())
+        for n, (k, taken) in enumerate(samples.items()):
+            scaled = [(sample, mesh_fields.scale_of(m)) for sample, m in taken]
+            box = mesh_fields.field_box(scaled, spacing, DEFORMING_SIDE)
+            unsigned = False
+            for i, ((sample, scale), (_, matrix)) in enumerate(zip(scaled, taken)):
+                shape = mesh_fields.shape_in(sample, scale, box)
+                unsigned |= not shape.signed
+                every[i][k] = shape.placed(matrix, True)
+                yield f"the shape of {found[k].name}, frame {frames[0] + i}", \
+                    n * len(taken) + i + 1, len(samples) * len(taken)
+            if unsigned:
+                _warn_unsigned(found[k])
         # One kind per obstacle for the whole bake: a box turned at some frame is a turned
         # box at all of them (unturned: the identity).
-        every = [first] + list(got.values())
         for k in range(len(found)):
             if any(obs[k][0] == "turned_box" for obs in every):
                 for obs in every:
