@@ -153,15 +153,23 @@ finally:
 assert "the shape of Torus (1/1)" in steps, steps
 print("FLUID MESH NORMALS OK")
 
-# A cube is a box; a torus under a Wave modifier (its shape changes) is its shape made again
+# A cube is a box, a cylinder its shape; a torus under a Wave modifier (its shape changes) is its shape made again
 # at every frame, each a field of its own over one box holding them all, and it bakes.
 ring.modifiers.new("Wave", "WAVE").height = 0.05
 in_blender_cube = in_blender.new_box("Cube", (0.1, 0.1, 0.1), (0.1, 0.1, 0.1))
 rings.objects.link(in_blender_cube)
+# a cylinder's vertices all lie on one sphere, but it is no ball: its shape
+bpy.ops.mesh.primitive_cylinder_add(vertices=24, radius=0.05, depth=0.04,
+                                    location=(0.5, 0.1, 0.05))
+can = bpy.context.active_object
+for coll in list(can.users_collection):
+    coll.objects.unlink(can)
+rings.objects.link(can)
 scene.frame_set(1)
 inp = in_blender.fluid_inputs(domain)
 at = {o.name: k for k, o in enumerate(rings.all_objects)}
 assert inp["obstacles"][at["Cube"]][0] == "box", inp["obstacles"][at["Cube"]][0]
+assert inp["obstacles"][at[can.name]][0] == "mesh", inp["obstacles"][at[can.name]][0]
 waved = inp["obstacles"][at["Torus"]]
 assert waved[0] == "mesh" and waved[4].ndim == 3, waved[0]
 fields = [waved[4]] + [obs[at["Torus"]][4] for _, obs in sorted(inp["obstacle_path"].items())]
