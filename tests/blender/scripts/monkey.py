@@ -41,6 +41,7 @@ import argparse
 import contextlib
 import io
 import json
+import math
 import os
 import random
 import re
@@ -167,13 +168,34 @@ def cone(name, location):
     return obj
 
 
+def hoop(name, location):
+    """A bevelled circle 0.2 m across whose tube swells from 2 to 4 cm over frames 1-3 (a
+    curve obstacle whose shape changes: a field every frame)."""
+    curve = bpy.data.curves.new(name, "CURVE")
+    curve.dimensions = "3D"
+    spline = curve.splines.new("POLY")
+    spline.points.add(11)
+    for i, p in enumerate(spline.points):
+        a = 2.0 * math.pi * i / 12
+        p.co = (0.1 * math.cos(a), 0.1 * math.sin(a), 0.0, 1.0)
+    spline.use_cyclic_u = True
+    obj = bpy.data.objects.new(name, curve)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location = location
+    for frame, depth in ((1, 0.02), (3, 0.04)):
+        curve.bevel_depth = depth
+        curve.keyframe_insert("bevel_depth", frame=frame)
+    return obj
+
+
 def build_scene(seed, effects, tmp, sources=False, obstacles=False):
     """The seed's small scene: the effects' objects, a camera and a sun. Deterministic.
     ``sources`` (--sources) adds an emitter of particles in the fluid domain, the domain's
     source (PARTICLES) half the time, and a baked Mantaflow liquid "Tank" (its cache in
     //manta/), textured by its own velocity (VELOCITY_GRID) half the time. ``obstacles``
     (--obstacles) gives the fluid an Obstacles collection of a still, tilted rock, a cone (a
-    mesh) and a paddle keyed to move into the water turning (followed frame by frame)."""
+    mesh), a curve hoop that swells, and a paddle keyed to move into the water turning
+    (followed frame by frame)."""
     rng = random.Random(seed * 7919 + 1)
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
                  bpy.data.lights):
@@ -226,6 +248,7 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             paddle = in_blender.new_box("Paddle", (0.05, 0.3, 0.3), (0.9, 3.3, 0.15))
             rocks.objects.link(paddle)
             rocks.objects.link(cone("Cone", (0.6, 3.35, 0.08)))  # a mesh: its shape
+            rocks.objects.link(hoop("Hoop", (0.3, 3.2, 0.12)))  # a curve that swells
             for frame, x, turn in ((1, 0.9, 0.0), (3, 0.5, 0.8)):
                 paddle.location.x, paddle.rotation_euler.z = x, turn
                 paddle.keyframe_insert("location", index=0, frame=frame)
