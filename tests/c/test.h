@@ -57,6 +57,8 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
  * particles; threads 0: the default), and a malloc'd copy of a handle's saved state (NULL on failure). */
 hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads);
 unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size);
+/* Whether two handles' saved states are the same bytes. */
+int fluid_same_state(hbk_fluid_t *a, hbk_fluid_t *b);
 /* Mesh obstacles' fields: the signed distance at p (own axes) to a sphere of radius a, a box
  * of half-sizes (a, b, c) or a torus about z of radii a (ring) and b (tube); and a malloc'd
  * field of one over the box of half-sizes e at n points a side (x fastest). */

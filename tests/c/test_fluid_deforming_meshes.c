@@ -154,16 +154,6 @@ static hbk_result_t swell(hbk_fluid_t *h, int frame)
     return r ? r : hbk_fluid_step(h, NULL);
 }
 
-static int same_state(hbk_fluid_t *a, hbk_fluid_t *b)
-{
-    size_t sa, sb;
-    unsigned char *x = fluid_state_of(a, &sa), *y = fluid_state_of(b, &sb);
-    const int same = x && y && sa == sb && !memcmp(x, y, sa);
-    free(x);
-    free(y);
-    return same;
-}
-
 void test_fluid_deforming_same_bytes(void)
 {
     hbk_fluid_t *a = swelling(1), *b = swelling(2), *c = swelling(2);
@@ -181,7 +171,7 @@ void test_fluid_deforming_same_bytes(void)
         CHECK_OK(swell(b, f));
         CHECK_OK(swell(c, f));
     }
-    CHECK(same_state(a, b) && same_state(b, c));
+    CHECK(fluid_same_state(a, b) && fluid_same_state(b, c));
     /* and no particle inside the ball as it is now */
     const int32_t n = hbk_fluid_particle_count(a);
     float *pos = malloc(3 * (size_t)n * sizeof *pos);

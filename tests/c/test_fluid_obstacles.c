@@ -125,16 +125,6 @@ static hbk_result_t push_frame(hbk_fluid_t *h, int f, hbk_progress_t *pr)
     return r ? r : hbk_fluid_step(h, pr);
 }
 
-static int same_state(hbk_fluid_t *a, hbk_fluid_t *b)
-{
-    size_t sa, sb;
-    unsigned char *xa = fluid_state_of(a, &sa), *xb = fluid_state_of(b, &sb);
-    const int same = xa && xb && sa == sb && !memcmp(xa, xb, sa);
-    free(xa);
-    free(xb);
-    return same;
-}
-
 void test_fluid_obstacles_move_deterministic(void)
 {
     hbk_fluid_t *a = pushed(1), *b = pushed(2), *still = pushed(2);
@@ -144,8 +134,8 @@ void test_fluid_obstacles_move_deterministic(void)
         CHECK_OK(push_frame(b, f, NULL));
         CHECK_OK(hbk_fluid_step(still, NULL));
     }
-    CHECK(same_state(a, b));
-    CHECK(!same_state(a, still)); /* the box did push */
+    CHECK(fluid_same_state(a, b));
+    CHECK(!fluid_same_state(a, still)); /* the box did push */
     /* No particle is left inside the box where the last step put it. */
     const int32_t n = hbk_fluid_particle_count(a);
     float *pos = malloc(3 * (size_t)n * sizeof *pos);
@@ -193,7 +183,7 @@ void test_fluid_obstacles_move_cancel_resume(void)
         if (f > 3) CHECK_OK(push_frame(b, f, NULL));
         CHECK_OK(push_frame(c, f, NULL));
     }
-    CHECK(same_state(a, b) && same_state(a, c));
+    CHECK(fluid_same_state(a, b) && fluid_same_state(a, c));
     /* Dropped by set_obstacles: a step after it is a still one. */
     hbk_fluid_t *d = pushed(2), *e = pushed(2);
     CHECK(d && e);
@@ -203,7 +193,7 @@ void test_fluid_obstacles_move_cancel_resume(void)
     CHECK_OK(hbk_fluid_set_obstacles(d, obs, 2));
     CHECK_OK(hbk_fluid_step(d, NULL));
     CHECK_OK(hbk_fluid_step(e, NULL));
-    CHECK(same_state(d, e));
+    CHECK(fluid_same_state(d, e));
     free(x0);
     free(x1);
     hbk_fluid_destroy(a);

@@ -1,6 +1,7 @@
 /* Helpers the test files share. */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 #include "test.h"
 
 grid_t grid_new(int32_t w, int32_t h, int32_t channels)
@@ -50,6 +51,16 @@ unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size)
         return NULL;
     }
     return b;
+}
+
+int fluid_same_state(hbk_fluid_t *a, hbk_fluid_t *b)
+{
+    size_t sa, sb;
+    unsigned char *xa = fluid_state_of(a, &sa), *xb = fluid_state_of(b, &sb);
+    const int same = xa && xb && sa == sb && !memcmp(xa, xb, sa);
+    free(xa);
+    free(xb);
+    return same;
 }
 
 /* Signed distance at p (own axes) to a sphere of radius a, a box of half-sizes (a, b, c), or

@@ -4,10 +4,6 @@ and the dam break's water falls through its hole, where its box (what the addon 
 would have held it all; keyed to move, it is carried with its field (kept, not read again);
 flipped normals are turned out, an open mesh is a thin shell (named in a warning); a cube
 stays a box, and a mesh that deforms gets a field of its own at every frame."""
-import glob
-import math
-import os
-
 import bpy
 import numpy as np
 
@@ -16,16 +12,9 @@ import in_blender
 in_blender.enable()
 from hydrobake.blender import jobs  # noqa: E402
 from hydrobake.blender.bridge import mesh_fields  # noqa: E402
-from hydrobake.core import vdb  # noqa: E402
 
 in_blender.empty_file("ring.blend")
 scene = bpy.context.scene
-domain = in_blender.new_box("Domain", (0.6, 0.6, 0.6), (0.3, 0.3, 0.3))
-column = in_blender.new_box("Column", (0.2, 0.2, 0.15), (0.3, 0.3, 0.48))
-f = domain.hydrobake_fluid
-f.enabled, f.fill_object = True, column
-f.fluid.resolution, f.fluid.substeps, f.fluid.textures = (24, 24, 24), 4, 2
-f.use_scene_range, f.frame_start, f.frame_end = False, 1, 9
 bpy.ops.mesh.primitive_torus_add(major_radius=0.12, minor_radius=0.04, location=(0.3, 0.3, 0.25),
                                  rotation=(0.15, 0.0, 0.0))
 ring = bpy.context.active_object
@@ -33,7 +22,7 @@ ring.scale = (1.2, 1.2, 1.0)
 rings = bpy.data.collections.new("Rings")
 scene.collection.children.link(rings)
 rings.objects.link(ring)
-f.obstacles = rings
+domain = in_blender.ring_drop(rings)
 scene.frame_set(1)
 
 
@@ -52,27 +41,11 @@ assert abs(field[k, j, i_hole] - (0.144 - 0.048)) < 0.01, field[k, j, i_hole]
 print("FLUID MESH FIELD OK")
 
 
-def water_under_hole():
-    """The most baked density, frames 6-9, in the voxels under the ring's hole."""
-    assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
-    folder = bpy.path.abspath(jobs.folder_of(domain, "fluid"))
-    cell, most = 0.6 / 24, 0.0
-    for frame in range(6, 10):
-        d = vdb.read(glob.glob(os.path.join(folder, f"*fluid_{frame:04d}.vdb"))[0])["density"]
-        acc = d.getConstAccessor()
-        for x in (0.27, 0.3, 0.33):
-            for y in (0.27, 0.3, 0.33):
-                for z in (0.1, 0.14, 0.18):
-                    most = max(most, acc.getValue(tuple(int(v / cell) for v in (x, y, z))))
-    assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
-    return most
-
-
-through = water_under_hole()
+through = in_blender.water_under_hole(domain)
 shape = mesh_fields.mesh_shape
 mesh_fields.mesh_shape = lambda *a: None  # the addon before: the ring its box
 try:
-    held = water_under_hole()
+    held = in_blender.water_under_hole(domain)
 finally:
     mesh_fields.mesh_shape = shape
 print("water under the hole: as a mesh", through, "as its box", held)

@@ -97,6 +97,39 @@ def dam_break(resolution, textures=2, frames=(1, 2), substeps=4):
     return domain, fill, s
 
 
+def ring_drop(obstacles):
+    """The obstacle tests' scene: a 0.6 m cube domain at 24 cells a side, a column of water
+    dropped from its top over the collection ``obstacles``, frames 1-9."""
+    domain = new_box("Domain", (0.6, 0.6, 0.6), (0.3, 0.3, 0.3))
+    column = new_box("Column", (0.2, 0.2, 0.15), (0.3, 0.3, 0.48))
+    f = domain.hydrobake_fluid
+    f.enabled, f.fill_object, f.obstacles = True, column, obstacles
+    f.fluid.resolution, f.fluid.substeps, f.fluid.textures = (24, 24, 24), 4, 2
+    f.use_scene_range, f.frame_start, f.frame_end = False, 1, 9
+    return domain
+
+
+def water_under_hole(domain):
+    """Bakes ring_drop's domain, frees it, and gives the most baked density, frames 6-9, in
+    the voxels under the hole of a ring at its middle (x and y 0.27-0.33, z 0.1-0.18)."""
+    import glob
+    import os
+    from hydrobake.blender import jobs
+    from hydrobake.core import vdb
+    assert bpy.ops.hydrobake.bake(effect="fluid", object_name=domain.name) == {"FINISHED"}
+    folder = bpy.path.abspath(jobs.folder_of(domain, "fluid"))
+    cell, most = 0.6 / 24, 0.0
+    for frame in range(6, 10):
+        d = vdb.read(glob.glob(os.path.join(folder, f"*fluid_{frame:04d}.vdb"))[0])["density"]
+        acc = d.getConstAccessor()
+        for x in (0.27, 0.3, 0.33):
+            for y in (0.27, 0.3, 0.33):
+                for z in (0.1, 0.14, 0.18):
+                    most = max(most, acc.getValue(tuple(int(v / cell) for v in (x, y, z))))
+    assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name=domain.name) == {"FINISHED"}
+    return most
+
+
 def fluid_inputs(domain):
     """The inputs a fluid bake of ``domain`` would take (its Job made, then let go)."""
     from hydrobake.blender import jobs
