@@ -2,9 +2,9 @@
 cylinder mesh) heaves up 10 cm in three frames by a keyed shape key, the fluid textured and
 baked at 40 cells along the tank, rendered at frame 7 in Cycles. The right half as the addon
 bakes it since 3843385 (each frame's SPH steps change the disc's field into the next frame's,
-and the water meets its top moving up: it is thrown up); with ``at_once``, the left half:
-each frame's field swapped in at once, as before (the water is put on top of the disc, with
-no speed of its own).
+and the water meets its top moving up: it rides up on it as a dome); with ``at_once``, the left half:
+each frame's field swapped in at once, as before (the water in the disc's new shape is put
+outside it with no speed of its own and, packed against it, bursts).
 
     BLENDER_USER_SCRIPTS=<dir holding addons/hydrobake> blender -b --factory-startup \\
         --python-exit-code 1 --python docs/scripts/fluid_heave.py -- OUTDIR [at_once]

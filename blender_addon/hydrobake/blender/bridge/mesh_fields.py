@@ -100,23 +100,25 @@ def scale_of(matrix):
     return axes[1] if axes is not None else np.linalg.norm(np.array(matrix)[:3, :3], axis=0)
 
 
-def field_box(samples, spacing, side=SIDE):
-    """(low, high, dims): a field's box in metres along the object's own axes, holding every
-    sample (MeshSample, its scale) grown by two points and a spacing (so that the field sees a
-    particle coming), and its points, at most half a particle spacing apart or ``side`` along
-    its longest side if that is coarser (up to MAX_DIM)."""
+def field_boxes(samples, spacing, side=SIDE):
+    """[(low, high, dims)]: the field's box of each sample (MeshSample, its scale) in metres
+    along the object's own axes, the sample's box grown by two points and a spacing (so that
+    the field sees a particle coming), and its points, the same count for all: at most half a
+    particle spacing apart, or ``side`` along the longest side of the largest if that is
+    coarser (up to MAX_DIM). (One count lets the step change one frame's field into the next
+    while the box follows the shape, in place of one box holding every frame's: a mesh an
+    armature walks off would be lost in its points.)"""
     pts = [s.co * scale for s, scale in samples]  # in metres (a mirrored axis flipped)
-    plo = np.min([p.min(axis=0) for p in pts], axis=0)
-    phi = np.max([p.max(axis=0) for p in pts], axis=0)
-    longest = float(np.max(phi - plo))
-    step = max(0.5 * spacing, longest / (side - 1))
+    lows = [p.min(axis=0) for p in pts]
+    sizes = np.array([p.max(axis=0) - lo for p, lo in zip(pts, lows)])
+    step = max(0.5 * spacing, float(sizes.max()) / (side - 1))
     pad = 2.0 * step + spacing
-    dims = np.minimum(np.ceil((phi - plo + 2 * pad) / step).astype(int) + 1, MAX_DIM)
-    return plo - pad, phi + pad, dims
+    dims = np.minimum(np.ceil((sizes.max(axis=0) + 2 * pad) / step).astype(int) + 1, MAX_DIM)
+    return [(lo - pad, lo + size + pad, dims) for lo, size in zip(lows, sizes)]
 
 
 def shape_in(sample, scale, box):
-    """The MeshShape of a sample at its scale, over ``box`` (field_box)."""
+    """The MeshShape of a sample at its scale, over ``box`` (field_boxes)."""
     blo, bhi, dims = box
     axes_pts = [np.linspace(blo[a], bhi[a], dims[a]) for a in range(3)]
     tree = BVHTree.FromPolygons([tuple(p) for p in sample.co * scale], sample.polys,
@@ -148,8 +150,8 @@ def shape_in(sample, scale, box):
 
 
 def mesh_shape(ev, spacing, side=SIDE):
-    """The MeshShape of an evaluated mesh object over its own box (field_box), or None where a
-    box serves: a box-shaped mesh, one without faces, or a world matrix that shears or
+    """The MeshShape of an evaluated mesh object over its own box (field_boxes), or None where
+    a box serves: a box-shaped mesh, one without faces, or a world matrix that shears or
     flattens it."""
     axes = own_axes(ev.matrix_world)
     if axes is None:
@@ -157,4 +159,4 @@ def mesh_shape(ev, spacing, side=SIDE):
     sample = mesh_sample(ev)
     if sample is None:
         return None
-    return shape_in(sample, axes[1], field_box([(sample, axes[1])], spacing, side))
+    return shape_in(sample, axes[1], field_boxes([(sample, axes[1])], spacing, side)[0])

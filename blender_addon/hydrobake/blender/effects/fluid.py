@@ -376,9 +376,9 @@ class FluidBlender(BlenderEffect):
         at the first frame; any other mesh is its shape as a distance field (mesh_fields),
         made at the first frame and carried with the object; so is a curve, surface, text or
         metaball, as the mesh Blender evaluates it to. A mesh whose shape changes gets a
-        field at every frame, all over one box that holds every frame's shape (coarser:
-        DEFORMING_SIDE points along its longest side), so that the step changes each into
-        the next and the water meets its surface moving. A box-shaped mesh and an object
+        field at every frame over that frame's shape, all of one count of points (coarser:
+        DEFORMING_SIDE along the longest side), so that the step changes each into the next
+        and the water meets its surface moving. A box-shaped mesh and an object
         without faces (an empty, a curve without bevel) are their own bounding box, turned
         with them (a box in the world's axes when turned at no frame)."""
         deforming = {k for k, o in enumerate(found) if animation.may_deform(o)}
@@ -440,10 +440,10 @@ class FluidBlender(BlenderEffect):
         every = [first] + list(got.values())
         for n, (k, taken) in enumerate(samples.items()):
             scaled = [(sample, mesh_fields.scale_of(m)) for sample, m in taken]
-            box = mesh_fields.field_box(scaled, spacing, DEFORMING_SIDE)
+            boxes = mesh_fields.field_boxes(scaled, spacing, DEFORMING_SIDE)
             unsigned = False
             for i, ((sample, scale), (_, matrix)) in enumerate(zip(scaled, taken)):
-                shape = mesh_fields.shape_in(sample, scale, box)
+                shape = mesh_fields.shape_in(sample, scale, boxes[i])
                 unsigned |= not shape.signed
                 every[i][k] = shape.placed(matrix, True)
                 yield f"the shape of {found[k].name}, frame {frames[0] + i}", \
