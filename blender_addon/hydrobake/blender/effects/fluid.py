@@ -202,9 +202,9 @@ class FluidBlender(BlenderEffect):
             obstacles=bpy.props.PointerProperty(
                 name="Obstacles", type=bpy.types.Collection,
                 description="SIMULATE: objects the fluid flows around (a ball as a sphere, a "
-                            "mesh by its shape, a box-shaped one or another object as its own "
-                            "box turned with it), followed frame by frame when animated or "
-                            "deformed"),
+                            "mesh, curve, text or metaball by its shape, a box-shaped one or an "
+                            "object without faces as its own box turned with it), followed "
+                            "frame by frame when animated or deformed"),
             paint_collection=bpy.props.PointerProperty(
                 name="Paint", type=bpy.types.Collection,
                 description="Empties with Paint Fluid on: local paint strokes (Object tab)"),
