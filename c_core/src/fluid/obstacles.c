@@ -142,39 +142,24 @@ static hbk_result_t field_copy(hbk_fluid_t *h, int32_t index, const int32_t dims
     return HBK_OK;
 }
 
-/* The field f (dims) is obstacle index's now; a change under way is dropped. */
-static void field_take(hbk_fluid_t *h, int32_t index, const int32_t dims[3], float *f)
+/* Mesh obstacle index's field (checked and copied): at once (blend 0, or no field of these
+ * dims to change from, a change under way dropped), or as its shape at the end of the next
+ * step (blend 1), with the fastest its surface moves by the change. */
+static hbk_result_t put_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                              const float *distance, int blend)
 {
-    free(h->obs_field[index]);
+    float *f = NULL;
+    size_t n = 0;
+    hbk_result_t r = field_copy(h, index, dims, distance, &f, &n);
+    if (r) return r;
     free(h->obs_field_to[index]);
-    h->obs_field[index] = f;
     h->obs_field_to[index] = NULL;
     h->obs_shape_speed[index] = 0.0f;
-    memcpy(h->obs_dims[index], dims, sizeof h->obs_dims[index]);
-}
-
-hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
-                                          const float *distance)
-{
-    HBK_FLUID_ENTER(h);
-    float *f = NULL;
-    size_t n = 0;
-    hbk_result_t r = field_copy(h, index, dims, distance, &f, &n);
-    if (r) return r;
-    field_take(h, index, dims, f);
-    return HBK_OK;
-}
-
-hbk_result_t hbk_fluid_move_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
-                                           const float *distance)
-{
-    HBK_FLUID_ENTER(h);
-    float *f = NULL;
-    size_t n = 0;
-    hbk_result_t r = field_copy(h, index, dims, distance, &f, &n);
-    if (r) return r;
-    if (!h->obs_field[index] || memcmp(dims, h->obs_dims[index], sizeof h->obs_dims[index])) {
-        field_take(h, index, dims, f); /* no field of these dims to change from */
+    if (!blend || !h->obs_field[index] ||
+        memcmp(dims, h->obs_dims[index], sizeof h->obs_dims[index])) {
+        free(h->obs_field[index]);
+        h->obs_field[index] = f;
+        memcpy(h->obs_dims[index], dims, sizeof h->obs_dims[index]);
         return HBK_OK;
     }
     float most = 0.0f; /* the largest change of a distance over the step */
@@ -182,10 +167,23 @@ hbk_result_t hbk_fluid_move_obstacle_field(hbk_fluid_t *h, int32_t index, const 
         const float d = fabsf(f[i] - h->obs_field[index][i]);
         most = d > most ? d : most;
     }
-    free(h->obs_field_to[index]);
     h->obs_field_to[index] = f;
     h->obs_shape_speed[index] = most / h->p.dt;
     return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_set_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                                          const float *distance)
+{
+    HBK_FLUID_ENTER(h);
+    return put_field(h, index, dims, distance, 0);
+}
+
+hbk_result_t hbk_fluid_move_obstacle_field(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                                           const float *distance)
+{
+    HBK_FLUID_ENTER(h);
+    return put_field(h, index, dims, distance, 1);
 }
 
 hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what)

@@ -922,7 +922,8 @@ def _put_shared_back(slot, prefix, obj):
     # What the slot will show is judged: with the Link back on the mesh's, the mesh's
     # material, which may be another copy of the shared one (an Alt+D copy's, brought by a
     # Join), with another bake than the shared one shows (every flag + --obstacles 764).
-    back = _mesh_material(obj, slot) if _back_to_mesh(slot, obj, mat) else None
+    to_mesh = _back_to_mesh(slot, obj, mat)
+    back = _mesh_material(obj, slot) if to_mesh else None
     shown = back if back is not None else shared
     if shown.node_tree and any(
             str(n.get(TAG, "")).startswith(prefix) for n in shown.node_tree.nodes):
@@ -945,7 +946,7 @@ def _put_shared_back(slot, prefix, obj):
     # (every flag + --scene 816). The object renamed since is found by its bake's name, not
     # its old one, which another object may have taken (monkey --more --delete-baked
     # --elsewhere --moves --scene 2106, 2108).
-    if _back_to_mesh(slot, obj, mat):
+    if to_mesh:
         slot.material = mat.get(BEHIND)  # (None, mostly)
         slot.link = "DATA"  # the mesh's own material shows again
         # It may be a clean copy waiting too, freed of its bake by this Free (a copy the

@@ -61,6 +61,7 @@ def _round(obj, depsgraph):
 
 
 def _warn_unsigned(obj):
+    """The BakeWarning for an obstacle taken as a thin shell (its field unsigned)."""
     fix = "recalculate its normals (Mesh > Normals) and close it" if obj.type == "MESH" else \
         "close its shape (a cyclic spline, Fill Mode Full; Extrude for a text) or convert it " \
         "to a mesh"
