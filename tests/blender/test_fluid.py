@@ -74,5 +74,5 @@ def test_a_mesh_obstacle_is_its_shape(blender, tmp_path):
 
 def test_a_curve_text_or_metaball_obstacle_is_its_shape(blender, tmp_path):
     r = blender.run("fluid_shaped_obstacles.py", tmp_path)
-    for part in ("FIELD", "RING", "KINDS", "DEFORMING"):
+    for part in ("FIELD", "RING", "KINDS", "DEFORMING", "FAMILY", "FAMILY MOVING"):
         assert f"FLUID CURVE {part} OK" in r.stdout, r.stdout

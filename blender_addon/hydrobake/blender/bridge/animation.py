@@ -1,6 +1,8 @@
 """A scene's animation sampled frame by frame, for the inputs a bake reads per frame."""
 import contextlib
 
+from . import meshes
+
 
 def per_frame(scene, first, last, fn):
     """A generator (``got = yield from per_frame(...)``) giving {frame: fn(frame)} for every
@@ -67,9 +69,14 @@ def may_deform(obj, skip=None):
     ``skip``) that can take the frame or another object's motion (an armature, a cloth, a
     wave, a lattice, geometry nodes), any modifier of an object with animation data (a keyed
     Subdivision level), or animated shape keys or data (a mesh's, or a curve's, a text's or a
-    metaball's: a keyed bevel, body or radius)."""
+    metaball's: a keyed bevel, body or radius). A metaball's family melts into one surface
+    held in its basis's axes: a member's shape changes when any member moves or changes."""
     if obj.type not in SHAPED_TYPES:
         return False
+    if obj.type == "META":
+        family = meshes.metaball_family(obj)
+        return any(m.data.animation_data is not None or (len(family) > 1 and may_move(m))
+                   for m in family)
     mods = [m for m in obj.modifiers if m.show_viewport and m != skip]
     if mods and obj.animation_data is not None:
         return True

@@ -1,10 +1,35 @@
-"""Meshes as height fields (ray casts against evaluated objects in world space) and their
-boxes in the world."""
+"""Meshes as height fields (ray casts against evaluated objects in world space), their boxes in
+the world, and which object holds a metaball's surface."""
 import numpy as np
 from mathutils import Matrix, Vector
 from mathutils.bvhtree import BVHTree
 
 from .depsgraph import evaluated as evaluated_depsgraph, evaluated_object
+
+
+def _name_number(name):
+    """Blender's split of an object's name into base and number: "Mball.002" is ("Mball", 2),
+    "Mball" ("Mball", 0)."""
+    head, dot, tail = name.rpartition(".")
+    return (head, int(tail)) if dot and head and tail.isdigit() else (name, 0)
+
+
+def metaball_family(obj):
+    """The metaballs Blender melts into one surface with ``obj``: those in its scenes whose
+    names share its base ("Mball", "Mball.001"), the lowest number (the basis) first. The
+    basis alone evaluates to the mesh, which holds them all in its own axes; the others
+    evaluate to no face, and their boxes are empty."""
+    base = _name_number(obj.name)[0]
+    found = {o for s in obj.users_scene for o in s.objects
+             if o.type == "META" and _name_number(o.name)[0] == base}
+    found.add(obj)
+    return sorted(found, key=lambda o: (_name_number(o.name)[1], o.name))
+
+
+def shape_holder(obj):
+    """The object whose evaluated mesh is ``obj``'s surface: a metaball's family's basis (the
+    family's one surface), else the object itself."""
+    return metaball_family(obj)[0] if obj.type == "META" else obj
 
 
 def world_bounds(obj):
@@ -77,6 +102,7 @@ def sample_heights(obj, origin, cell_size, shape, direction="DOWN", depsgraph=No
     lowest surface (an object's underside). Rows are j. ``role`` names the setting ``obj``
     is, in the error for an object that is not evaluated."""
     depsgraph = depsgraph or evaluated_depsgraph()
+    obj = shape_holder(obj)
     tree = _world_tree(obj, depsgraph, role)
     lo, hi = world_bounds(obj)
     h, w = shape
@@ -129,7 +155,7 @@ def z_crossings(obj, xs, ys, z_lo, z_hi, depsgraph=None, role=None):
     in ys, between z_lo and z_hi: (heights, counts (len(ys), len(xs))), heights line after line
     (y rows, then x), ascending within a line."""
     depsgraph = depsgraph or evaluated_depsgraph()
-    tree = _world_tree(obj, depsgraph, role)
+    tree = _world_tree(shape_holder(obj), depsgraph, role)
     up = Vector((0.0, 0.0, 1.0))
     eps = 1e-6 * max(z_hi - z_lo, 1e-6)
     counts = np.zeros((len(ys), len(xs)), np.int32)

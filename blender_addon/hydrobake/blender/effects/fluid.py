@@ -203,8 +203,9 @@ class FluidBlender(BlenderEffect):
             obstacles=bpy.props.PointerProperty(
                 name="Obstacles", type=bpy.types.Collection,
                 description="SIMULATE: objects the fluid flows around (a ball as a sphere, a "
-                            "mesh, curve, text or metaball by its shape, a box-shaped one or an "
-                            "object without faces as its own box turned with it), followed "
+                            "mesh, curve or text by its shape, metaballs named alike by the one "
+                            "surface they melt into, a box-shaped one or an object without "
+                            "faces as its own box turned with it), followed "
                             "frame by frame when animated or deformed"),
             paint_collection=bpy.props.PointerProperty(
                 name="Paint", type=bpy.types.Collection,
@@ -264,7 +265,9 @@ class FluidBlender(BlenderEffect):
                                  f"{fp['particle_spacing']:g} m on every axis")
             inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
             if settings.obstacles:
-                found = list(settings.obstacles.all_objects)
+                # (a metaball family's members are one surface, held by its basis)
+                found = list(dict.fromkeys(map(meshes.shape_holder,
+                                               settings.obstacles.all_objects)))
                 if len(found) > MAX_OBSTACLES:
                     # The core takes 64: the others would be left out, the fluid flowing
                     # through them.
@@ -376,11 +379,11 @@ class FluidBlender(BlenderEffect):
         before (the fluid meets it moving there). A round mesh (a ball) is a sphere, decided
         at the first frame; any other mesh is its shape as a distance field (mesh_fields),
         made at the first frame and carried with the object; so is a curve, surface, text or
-        metaball, as the mesh Blender evaluates it to. A mesh whose shape changes gets a
-        field at every frame over that frame's shape, all of one count of points (coarser:
-        DEFORMING_SIDE along the longest side), so that the step changes each into the next
-        and the water meets its surface moving. A box-shaped mesh and an object
-        without faces (an empty, a curve without bevel) are their own bounding box, turned
+        metaball family (found holds its basis), as the mesh Blender evaluates it to. A mesh
+        whose shape changes gets a field at every frame over that frame's shape, all of one
+        count of points (coarser: DEFORMING_SIDE along the longest side), so that the step
+        changes each into the next and the water meets its surface moving. A box-shaped mesh
+        and an object without faces (an empty, a curve without bevel) are their own bounding box, turned
         with them (a box in the world's axes when turned at no frame)."""
         deforming = {k for k, o in enumerate(found) if animation.may_deform(o)}
         movers = {k for k, o in enumerate(found) if animation.may_move(o)} | deforming
