@@ -257,3 +257,49 @@ def test_oblique_sun_is_bent_by_snells_law_per_channel():
         want = cos_t * np.clip((edge - x0) / (lx / 400), 0.0, 1.0)
         for row in m[..., c]:
             np.testing.assert_allclose(row, want, atol=1e-5)
+
+
+def test_a_rising_floor_lifts_the_water_and_keeps_its_volume(tmp_path):
+    """An animated Ground (ground_path): from frame 3 a block of the floor stands 0.2 m
+    higher. The water keeps its depth over it, so the volume is unchanged, the mean surface
+    rises by the block's mean height exactly, the caustics change, and a bake cancelled
+    before the rise resumes to the same bytes as one that never stopped."""
+    params = {"water": {"width": 32, "height": 24, "rain_rate": 0.0, "seed": 2}}
+    raised = np.zeros((24, 32), np.float32)
+    raised[8:16, 10:20] = 0.2
+    inputs = {"map_size": (64, 48), "level": 0.5, "ground_path": {3: raised}}
+    from hydrobake.core import exr
+    runs = {}
+    for name, inp in (("flat", {"map_size": (64, 48), "level": 0.5}), ("rising", inputs)):
+        e = get("caustics")(params, inp)
+        BakeRunner(e, tmp_path / name, 1, 5, checkpoint_every=1).run()
+        e.close()
+        runs[name] = [exr.read(tmp_path / name / f"water_{i:04d}.exr") for i in range(1, 6)]
+    w = runs["rising"]
+    for f in range(5):
+        assert w[f]["depth"].astype(np.float64).sum() == pytest.approx(
+            w[0]["depth"].astype(np.float64).sum(), rel=1e-6)
+    rise = w[2]["height"].astype(np.float64).mean() - w[1]["height"].astype(np.float64).mean()
+    assert rise == pytest.approx(raised.mean(), rel=1e-4), rise
+    assert np.ptp(w[2]["height"]) > 0.05  # (a mound over the block, spreading as waves)
+    for f in (0, 1):  # the same water until the floor moves
+        assert w[f]["height"].tobytes() == runs["flat"][f]["height"].tobytes()
+    read = [(tmp_path / n / "caustics_0004.exr").read_bytes() for n in ("flat", "rising")]
+    assert read[0] != read[1]
+    # cancelled after frame 2, resumed: the same files
+    e = get("caustics")(params, inputs)
+    r = BakeRunner(e, tmp_path / "cut", 1, 5, checkpoint_every=1,
+                   on_frame=lambda s: s.frame == 2 and r.cancel())
+    with pytest.raises(errors.Cancelled):
+        r.run()
+    e.close()
+    e = get("caustics")(params, inputs)
+    BakeRunner(e, tmp_path / "cut", 1, 5, checkpoint_every=1, resume=True).run()
+    e.close()
+    for i in range(1, 6):
+        for s in ("caustics", "water"):
+            assert (tmp_path / "rising" / f"{s}_{i:04d}.exr").read_bytes() == \
+                (tmp_path / "cut" / f"{s}_{i:04d}.exr").read_bytes(), (s, i)
+    with pytest.raises(ValueError, match=r"^ground_path\[3\]: shape \(24, 31\) must match the "
+                       r"water grid \(24, 32\)"):
+        get("caustics")(params, {"ground_path": {3: raised[:, :31]}})

@@ -280,3 +280,15 @@ def test_fluid_moving_obstacles_per_frame(tmp_path):
     assert len(set(placed)) == 6
     refused(paddle({**path, 2: STILL}), whole, "obstacles at frame 2: changed since the bake",
             end=6)
+
+
+def test_caustics_moving_ground(tmp_path):
+    """A moving Ground's heights are recorded per frame: a resume with the floor moving
+    otherwise over the kept frames is refused by the first such frame."""
+    folder = tmp_path / "sinking"
+    low = np.full((20, 24), -0.1, np.float32)
+    run(caustics(ground_path={3: low}), folder, end=4)
+    refused(caustics(ground_path={2: low}), folder, "ground at frame 2: changed since the bake",
+            end=4)
+    refused(caustics(), folder, "ground at frame 1: gone since the bake", end=4)
+    assert run(caustics(ground_path={3: low}), folder, end=4, resume=True).resumed_from == 4

@@ -130,15 +130,20 @@ def water_under_hole(domain):
     return most
 
 
-def fluid_inputs(domain):
-    """The inputs a fluid bake of ``domain`` would take (its Job made, then let go)."""
+def effect_inputs(obj, effect):
+    """The inputs a bake of ``effect`` on ``obj`` would take (its Job made, then let go)."""
     from hydrobake.blender import jobs
-    job = jobs.Job(bpy.context, domain, "fluid")
+    job = jobs.Job(bpy.context, obj, effect)
     try:
         return job.runner.effect.inputs
     finally:
         job.runner.effect.close()
-        del domain.hydrobake_fluid[jobs.BAKING]
+        del getattr(obj, f"hydrobake_{effect}")[jobs.BAKING]
+
+
+def fluid_inputs(domain):
+    """The inputs a fluid bake of ``domain`` would take."""
+    return effect_inputs(domain, "fluid")
 
 
 def baked_glass(blend):

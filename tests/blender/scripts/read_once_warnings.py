@@ -1,8 +1,13 @@
-"""What a bake reads once, at its first frame, though it may move: a pool's ground. One that is
+"""What a bake reads once, at its first frame, though it may move: a pool's Source. One that is
 animated, constrained or deformed is named in a warning (the bake does not follow it); a still
-one, and one under a Subdivision only, is not. The fluid's obstacles are followed frame by
-frame (fluid_moving_obstacles.py), so they are never named."""
+one, and one under a Subdivision only, is not. A pool's Ground and the fluid's obstacles are
+followed frame by frame (fluid_moving_obstacles.py), so they are never named: a keyed Ground's
+heights are taken at every frame where they change."""
+import glob
+import os
+
 import bpy
+import numpy as np
 
 import in_blender
 
@@ -22,7 +27,7 @@ def warnings_of(obj, effect):
         del getattr(obj, f"hydrobake_{effect}")[jobs.BAKING]
 
 
-# --- caustics: a still floor, then one keyed to sink --------------------------------------
+# --- caustics: a still floor, then one keyed to sink (followed); a keyed source ------------
 pool = in_blender.new_plane("Pool")
 pool.data.materials.append(bpy.data.materials.new("Water"))
 floor = in_blender.new_plane("Floor")
@@ -30,14 +35,42 @@ floor.scale, floor.location = (3.0, 3.0, 1.0), (0.0, 0.0, -0.5)
 floor.modifiers.new("Smooth", "SUBSURF")  # still: its shape depends on the mesh alone
 c = pool.hydrobake_caustics
 c.enabled, c.ground_object = True, floor
-c.use_scene_range, c.frame_start, c.frame_end = False, 3, 4
+c.use_scene_range, c.frame_start, c.frame_end = False, 3, 5
 c.water.width, c.map_resolution = 32, 64
 assert warnings_of(pool, "caustics") == []
+assert in_blender.effect_inputs(pool, "caustics")["ground_path"] == {}
+floor.location.z = -0.5
 floor.keyframe_insert("location", frame=1)
+floor.keyframe_insert("location", frame=4)  # still over 3..4, then sinking
 floor.location.z = -0.8
 floor.keyframe_insert("location", frame=10)
+assert warnings_of(pool, "caustics") == []
+inp = in_blender.effect_inputs(pool, "caustics")
+assert sorted(inp["ground_path"]) == [5], sorted(inp["ground_path"])
+sank = inp["ground"] - inp["ground_path"][5]
+scene.frame_set(5)
+want = -0.5 - floor.matrix_world.translation.z
+assert want > 0.001 and np.allclose(sank, want, atol=1e-5), (want, sank.min(), sank.max())
+# baked: the water keeps its volume and sinks with the floor (a flat floor: by as much)
+c.water.rain_rate = 0.0
+assert bpy.ops.hydrobake.bake(effect="caustics", object_name="Pool") == {"FINISHED"}
+from hydrobake.core import exr  # noqa: E402
+water = [exr.read(*glob.glob(os.path.join(bpy.path.abspath(c.bake_folder),
+                                          f"*water_{f:04d}.exr"))) for f in (4, 5)]
+vol = [float(w["depth"].astype(np.float64).sum()) for w in water]
+assert abs(vol[1] - vol[0]) < 1e-6 * vol[0], vol
+fell = float(np.mean(water[0]["height"]) - np.mean(water[1]["height"]))
+assert abs(fell - want) < 1e-4, (fell, want)
+assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Pool") == {"FINISHED"}
+tap = in_blender.new_plane("Tap")
+tap.scale, tap.location = (0.1, 0.1, 1.0), (0.0, 0.0, 0.3)
+c.source_object = tap
+assert warnings_of(pool, "caustics") == []
+tap.keyframe_insert("location", frame=1)
+tap.location.x = 0.5
+tap.keyframe_insert("location", frame=10)
 got = warnings_of(pool, "caustics")
-assert got == ["Ground: 'Floor' is animated, constrained or deformed, but is read once, as "
+assert got == ["Source: 'Tap' is animated, constrained or deformed, but is read once, as "
                "it is at the bake's first frame (3): the bake does not follow it"], got
 c.enabled = False
 

@@ -100,7 +100,9 @@ class CausticsBlender(BlenderEffect):
                 name="Ground", type=bpy.types.Object,
                 poll=_ground_poll,
                 description="Mesh under the water (pool floor, beach); its material gets the "
-                            "caustics. Empty: flat ground 1 m below the water"),
+                            "caustics. Followed frame by frame when animated or deformed (the "
+                            "water keeps its depth over it). Empty: flat ground 1 m below the "
+                            "water"),
             ground_image=bpy.props.PointerProperty(
                 name="Ground Image", type=bpy.types.Image,
                 description="A height map of the ground over the water's extent (used when no "
@@ -112,7 +114,7 @@ class CausticsBlender(BlenderEffect):
             source_object=bpy.props.PointerProperty(
                 name="Source", type=bpy.types.Object, poll=_mesh_poll,
                 description="Where water is poured in (or drained): the cells under this "
-                            "object's footprint"),
+                            "object's footprint at the bake's first frame"),
             source_rate=bpy.props.FloatProperty(
                 name="Source Rate", default=0.05, min=-10.0, max=10.0, subtype="NONE",
                 unit="VELOCITY", description="Water added per second under the source, in "
@@ -220,12 +222,25 @@ class CausticsBlender(BlenderEffect):
         origin, cell, shape, level = grid.origin, grid.cell, grid.shape, grid.level
         params["water"].update(height=shape[0], cell_size=cell)
         depsgraph = evaluated_depsgraph(context)
+        ground_path = {}
         if settings.ground_object:
-            warn_read_once([settings.ground_object], "Ground", frames[0])
-            ground = meshes.sample_heights(settings.ground_object, origin, cell, shape,
-                                           "DOWN", depsgraph, angle=grid.angle, role="Ground")
-            ground[np.isnan(ground)] = level - 1.0 if np.all(np.isnan(ground)) else \
-                np.nanmin(ground)
+            def ground_heights(dg):
+                g = meshes.sample_heights(settings.ground_object, origin, cell, shape, "DOWN",
+                                          dg, angle=grid.angle, role="Ground")
+                g[np.isnan(g)] = level - 1.0 if np.all(np.isnan(g)) else np.nanmin(g)
+                return g
+            ground = ground_heights(depsgraph)
+            gob = settings.ground_object
+            if (animation.may_move(gob) or animation.may_deform(gob)) and frames[1] > frames[0]:
+                # a floor that moves or changes shape: its heights at every frame, kept where
+                # they differ from the frame before
+                got = yield from animation.per_frame(
+                    scene, frames[0] + 1, frames[1],
+                    lambda _f: ground_heights(evaluated_depsgraph(context)))
+                last = ground
+                for f, g in got.items():
+                    if not np.array_equal(g, last):
+                        ground_path[f] = last = g
         elif settings.ground_image is not None:
             px = images.pixels(settings.ground_image, role="Ground Image")[..., 0].astype(
                 np.float64)
@@ -266,11 +281,13 @@ class CausticsBlender(BlenderEffect):
             footprints = yield from animation.per_frame(scene, frames[0], frames[1], footprint)
         sources = None
         if settings.source_object:
+            warn_read_once([settings.source_object], "Source", frames[0])
             under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
                                           depsgraph, angle=grid.angle, role="Source")
             sources = np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
         w = settings.map_resolution
-        inputs = dict(ground=ground.astype(np.float32), level=level, footprints=footprints,
+        inputs = dict(ground=ground.astype(np.float32), ground_path=ground_path, level=level,
+                      footprints=footprints,
                       sources=sources,
                       map_size=(w, max(1, int(round(w * shape[0] / shape[1])))))
         if settings.loop:

@@ -3,6 +3,9 @@
 
 Inputs (all optional, arrays (H, W) float32 on the water grid, row 0 at y = 0):
     ground      ground height in m (default flat at 0)
+    ground_path {frame: (H, W)} the ground's heights from that frame on, for a ground that
+                moves or changes shape (after the first frame). The water keeps its depth
+                over it: a rising floor lifts the water above it, and the volume is kept.
     level       initial water surface height in m (default 0.5 m above the lowest ground)
     footprints  {frame: (H, W) depth in m an object presses the surface down}
     sources     (H, W) water added/removed in m/s (pouring, draining)
@@ -61,6 +64,15 @@ class CausticsEffect(Effect):
             raise ValueError(f"ground: shape {self.ground.shape} must match the water grid "
                              f"{shape} (water.height, water.width)")
         self.water.set_ground(self.ground)
+        self.first_ground = self.ground
+        self.ground_path = {}
+        for f, g in sorted((self.inputs.get("ground_path") or {}).items()):
+            g = np.ascontiguousarray(g, dtype=np.float32)
+            if g.shape != shape:
+                self.close()
+                raise ValueError(f"ground_path[{f}]: shape {g.shape} must match the water grid "
+                                 f"{shape} (water.height, water.width)")
+            self.ground_path[int(f)] = g
         self.level = float(self.inputs.get("level", float(self.ground.min()) + 0.5))
         self.water.set_level(self.level)
         if self.inputs.get("sources") is not None:
@@ -116,8 +128,18 @@ class CausticsEffect(Effect):
         return out
 
     def frame_inputs(self, frame):
-        """What floating objects press into the water at ``frame``."""
-        return {"footprint": digest(self.footprints.get(frame))}
+        """What floating objects press into the water at ``frame``, and where a moving ground
+        is then."""
+        out = {"footprint": digest(self.footprints.get(frame))}
+        if self.ground_path:
+            out["ground"] = digest(self._ground_at(frame))
+        return out
+
+    def _ground_at(self, frame):
+        """The ground's heights at ``frame``: the latest of the path's up to it, else the
+        first frame's."""
+        at = [f for f in self.ground_path if f <= frame]
+        return self.ground_path[max(at)] if at else self.first_ground
 
     def step(self, frame, progress):
         if self.loop is not None and self.preroll is None:
@@ -128,6 +150,9 @@ class CausticsEffect(Effect):
                 self.water.step(progress)
                 roll.append(self.water.surface())
             self.preroll = np.stack(roll)
+        if self.ground_path:  # (set every frame: a resumed state holds its frame's ground)
+            self.ground = self._ground_at(frame)
+            self.water.set_ground(self.ground)
         fp = self.footprints.get(frame)
         self.water.set_footprint(fp)
         self.water.step(progress)
