@@ -231,9 +231,9 @@ def test_shapes_are_read_at_the_bakes_first_frame(blender, tmp_path):
     assert "FIRST FRAME SHAPES OK" in r.stdout
 
 
-def test_a_ground_read_once_is_named_and_obstacles_are_followed(blender, tmp_path):
-    r = blender.run("read_once_warnings.py", tmp_path)
-    assert "READ ONCE WARNINGS OK" in r.stdout
+def test_a_pools_ground_and_source_and_the_obstacles_are_followed(blender, tmp_path):
+    r = blender.run("followed_inputs.py", tmp_path)
+    assert "FOLLOWED INPUTS OK" in r.stdout
 
 
 def test_a_bake_leaves_the_scenes_simulation_caches_alone(blender, tmp_path):

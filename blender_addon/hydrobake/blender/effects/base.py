@@ -4,7 +4,7 @@ import warnings
 
 import bpy
 
-from ..bridge import animation, materials
+from ..bridge import materials
 
 
 class BakeWarning(UserWarning):
@@ -23,17 +23,6 @@ def warn_uv_overlap(obj, uvs, consequence, limit=0.01):
                       f"'{layer.name if layer else ''}' is shared by two or more faces; "
                       f"{consequence}", BakeWarning)
     return share
-
-
-def warn_read_once(objs, role, frame):
-    """A BakeWarning for each object that may move or change shape over the bake's frames
-    (animated, constrained, deformed) but is read once, at its first frame: the bake would
-    not follow it, and without a word the artist would not know why."""
-    for o in objs:
-        if animation.may_move(o) or animation.may_deform(o):
-            warnings.warn(f"{role}: {o.name!r} is animated, constrained or deformed, but is "
-                          f"read once, as it is at the bake's first frame ({frame}): the bake "
-                          "does not follow it", BakeWarning)
 
 
 def offers(takes):

@@ -12,7 +12,7 @@ from mathutils import Vector
 from ..bridge import animation, helper_objects, images, materials, meshes
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph
 from . import register_effect
-from .base import BlenderEffect, offers, warn_read_once
+from .base import BlenderEffect, offers
 
 HEIGHTS_OF = "hydrobake_heights_of"  # on a pool's height texture: the name it was baked as
 
@@ -22,6 +22,21 @@ def _height_textures(pool):
     by the record apply put on them."""
     return [t for t in bpy.data.textures
             if t.name == f"HBK_{pool}_height" or t.get(HEIGHTS_OF) == pool]
+
+
+def _followed(context, obj, frames, read):
+    """(read at the bake's first frame, {frame: read} for the later frames where it differs
+    from the frame before): the path only for an object animated, constrained or deformed.
+    A generator, as animation.per_frame; read(depsgraph) takes the scene at its frame."""
+    first, path = read(evaluated_depsgraph(context)), {}
+    if (animation.may_move(obj) or animation.may_deform(obj)) and frames[1] > frames[0]:
+        got = yield from animation.per_frame(context.scene, frames[0] + 1, frames[1],
+                                             lambda _f: read(evaluated_depsgraph(context)))
+        last = first
+        for f, a in got.items():
+            if not np.array_equal(a, last):
+                path[f] = last = a
+    return first, path
 
 
 class Grid(namedtuple("Grid", "origin angle cell shape level")):
@@ -114,7 +129,7 @@ class CausticsBlender(BlenderEffect):
             source_object=bpy.props.PointerProperty(
                 name="Source", type=bpy.types.Object, poll=_mesh_poll,
                 description="Where water is poured in (or drained): the cells under this "
-                            "object's footprint at the bake's first frame"),
+                            "object's footprint, followed frame by frame when it moves"),
             source_rate=bpy.props.FloatProperty(
                 name="Source Rate", default=0.05, min=-10.0, max=10.0, subtype="NONE",
                 unit="VELOCITY", description="Water added per second under the source, in "
@@ -221,7 +236,6 @@ class CausticsBlender(BlenderEffect):
         grid = cls.grid(obj, params["water"]["width"])
         origin, cell, shape, level = grid.origin, grid.cell, grid.shape, grid.level
         params["water"].update(height=shape[0], cell_size=cell)
-        depsgraph = evaluated_depsgraph(context)
         ground_path = {}
         if settings.ground_object:
             def ground_heights(dg):
@@ -229,18 +243,8 @@ class CausticsBlender(BlenderEffect):
                                           dg, angle=grid.angle, role="Ground")
                 g[np.isnan(g)] = level - 1.0 if np.all(np.isnan(g)) else np.nanmin(g)
                 return g
-            ground = ground_heights(depsgraph)
-            gob = settings.ground_object
-            if (animation.may_move(gob) or animation.may_deform(gob)) and frames[1] > frames[0]:
-                # a floor that moves or changes shape: its heights at every frame, kept where
-                # they differ from the frame before
-                got = yield from animation.per_frame(
-                    scene, frames[0] + 1, frames[1],
-                    lambda _f: ground_heights(evaluated_depsgraph(context)))
-                last = ground
-                for f, g in got.items():
-                    if not np.array_equal(g, last):
-                        ground_path[f] = last = g
+            ground, ground_path = yield from _followed(context, settings.ground_object, frames,
+                                                       ground_heights)
         elif settings.ground_image is not None:
             px = images.pixels(settings.ground_image, role="Ground Image")[..., 0].astype(
                 np.float64)
@@ -279,16 +283,17 @@ class CausticsBlender(BlenderEffect):
                                 settings.disturber_depth).astype(np.float32)
                 return press if press.any() else None
             footprints = yield from animation.per_frame(scene, frames[0], frames[1], footprint)
-        sources = None
+        sources, sources_path = None, {}
         if settings.source_object:
-            warn_read_once([settings.source_object], "Source", frames[0])
-            under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
-                                          depsgraph, angle=grid.angle, role="Source")
-            sources = np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
+            def poured(dg):
+                under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
+                                              dg, angle=grid.angle, role="Source")
+                return np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
+            sources, sources_path = yield from _followed(context, settings.source_object,
+                                                         frames, poured)
         w = settings.map_resolution
         inputs = dict(ground=ground.astype(np.float32), ground_path=ground_path, level=level,
-                      footprints=footprints,
-                      sources=sources,
+                      footprints=footprints, sources=sources, sources_path=sources_path,
                       map_size=(w, max(1, int(round(w * shape[0] / shape[1])))))
         if settings.loop:
             inputs["loop"] = (frames[0], frames[1], settings.loop_blend)

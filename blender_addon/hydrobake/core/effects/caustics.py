@@ -9,6 +9,7 @@ Inputs (all optional, arrays (H, W) float32 on the water grid, row 0 at y = 0):
     level       initial water surface height in m (default 0.5 m above the lowest ground)
     footprints  {frame: (H, W) depth in m an object presses the surface down}
     sources     (H, W) water added/removed in m/s (pouring, draining)
+    sources_path {frame: (H, W)} the sources from that frame on, for a source that moves
     map_size    (width, height) of the caustic map in pixels (default 4 texels per cell)
     view        {"camera": (x, y, z) in the grid's frame, "texture": (h, w, 3) ground colour,
                  "environment": (h, w, 3) lat-long sky or None, "heading": the grid's x axis
@@ -65,14 +66,8 @@ class CausticsEffect(Effect):
                              f"{shape} (water.height, water.width)")
         self.water.set_ground(self.ground)
         self.first_ground = self.ground
-        self.ground_path = {}
-        for f, g in sorted((self.inputs.get("ground_path") or {}).items()):
-            g = np.ascontiguousarray(g, dtype=np.float32)
-            if g.shape != shape:
-                self.close()
-                raise ValueError(f"ground_path[{f}]: shape {g.shape} must match the water grid "
-                                 f"{shape} (water.height, water.width)")
-            self.ground_path[int(f)] = g
+        self.ground_path = self._path("ground_path", shape)
+        self.sources_path = self._path("sources_path", shape)
         self.level = float(self.inputs.get("level", float(self.ground.min()) + 0.5))
         self.water.set_level(self.level)
         if self.inputs.get("sources") is not None:
@@ -103,6 +98,24 @@ class CausticsEffect(Effect):
                     "minus one)")
             self.loop = (first, last, blend)
 
+    def _path(self, name, shape):
+        """{frame: (H, W) float32} of the input ``name``, each checked against the grid."""
+        out = {}
+        for f, a in sorted((self.inputs.get(name) or {}).items()):
+            a = np.ascontiguousarray(a, dtype=np.float32)
+            if a.shape != shape:
+                self.close()
+                raise ValueError(f"{name}[{f}]: shape {a.shape} must match the water grid "
+                                 f"{shape} (water.height, water.width)")
+            out[int(f)] = a
+        return out
+
+    @staticmethod
+    def _at(path, first, frame):
+        """A path's array at ``frame``: the latest of its frames up to it, else ``first``."""
+        at = [f for f in path if f <= frame]
+        return path[max(at)] if at else first
+
     def scalar_inputs(self):
         """The map size (the panel's Map Resolution), the starting level, the loop and the
         preview camera: a resume with any of them changed would not continue this bake."""
@@ -132,14 +145,11 @@ class CausticsEffect(Effect):
         is then."""
         out = {"footprint": digest(self.footprints.get(frame))}
         if self.ground_path:
-            out["ground"] = digest(self._ground_at(frame))
+            out["ground"] = digest(self._at(self.ground_path, self.first_ground, frame))
+        if self.sources_path:
+            out["sources"] = digest(self._at(self.sources_path, self.inputs.get("sources"),
+                                             frame))
         return out
-
-    def _ground_at(self, frame):
-        """The ground's heights at ``frame``: the latest of the path's up to it, else the
-        first frame's."""
-        at = [f for f in self.ground_path if f <= frame]
-        return self.ground_path[max(at)] if at else self.first_ground
 
     def step(self, frame, progress):
         if self.loop is not None and self.preroll is None:
@@ -150,9 +160,13 @@ class CausticsEffect(Effect):
                 self.water.step(progress)
                 roll.append(self.water.surface())
             self.preroll = np.stack(roll)
-        if self.ground_path:  # (set every frame: a resumed state holds its frame's ground)
-            self.ground = self._ground_at(frame)
+        # (set every frame: a resumed state holds those of its own frame)
+        if self.ground_path:
+            self.ground = self._at(self.ground_path, self.first_ground, frame)
             self.water.set_ground(self.ground)
+        if self.sources_path:
+            self.water.set_sources(self._at(self.sources_path, self.inputs.get("sources"),
+                                            frame))
         fp = self.footprints.get(frame)
         self.water.set_footprint(fp)
         self.water.step(progress)
