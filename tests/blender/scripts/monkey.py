@@ -5,7 +5,7 @@ tidied with --moves), Join, Make Single User and Link Materials (--relations), F
 External Data's absolute and relative paths, Pack and Unpack, Purge Unused Data and another
 Cache Folder (--external), the scene's frame rate and range (--scene), the fluid's source
 (a particle emitter and a Mantaflow liquid, --sources), the fluid's obstacles, one keyed
-(--obstacles), any object renamed (a pool's
+(--obstacles, with a pool's sinking floor), any object renamed (a pool's
 ground, a bake's projector, flakes or modifiers: --renames), modifiers, visibility,
 save and reopen, undo, the command line in-process and in a subprocess), with the invariants
 checked after every step:
@@ -219,6 +219,10 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
         if rng.random() < 0.5:
             water.data.materials.append(user_material("WaterMat", nodes=rng.random() < 0.7))
         setup_caustics(water, ground)
+        if obstacles:  # a floor that sinks, followed frame by frame
+            for frame, z in ((1, -0.4), (3, -0.5)):
+                ground.location.z = z
+                ground.keyframe_insert("location", index=2, frame=frame)
     if "rain" in effects:
         glass = uv_plane("Glass", 0.5, (3.0, 0.0, 1.0))
         r = rng.random()
@@ -1880,7 +1884,8 @@ def main():
                    help="also a particle emitter and a baked Mantaflow liquid, the fluid's "
                         "source switched among them")
     p.add_argument("--obstacles", action="store_true",
-                   help="also the fluid's obstacles: a still rock and a keyed paddle")
+                   help="also the fluid's obstacles (a still rock, a keyed paddle, a cone, a "
+                        "swelling hoop) and a pool's floor keyed to sink")
     p.add_argument("--renames", action="store_true",
                    help="also any object renamed (a pool's ground, a collider, a bake's helpers)")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
