@@ -111,6 +111,20 @@ def test_a_closed_handle_refuses_calls():
         w.step()
 
 
+def cut_and_resume(params, inputs, folder, end, cut, every):
+    """Bakes frames 1..end of caustics into ``folder``, cancelled after frame ``cut``, then
+    resumed to the end (a checkpoint every ``every`` frames)."""
+    e = get("caustics")(params, inputs)
+    r = BakeRunner(e, folder, 1, end, checkpoint_every=every,
+                   on_frame=lambda s: s.frame == cut and r.cancel())
+    with pytest.raises(errors.Cancelled):
+        r.run()
+    e.close()
+    e = get("caustics")(params, inputs)
+    BakeRunner(e, folder, 1, end, checkpoint_every=every, resume=True).run()
+    e.close()
+
+
 def test_loop_is_seamless_and_resumes(tmp_path):
     """The frame after the last of a loop is the first again: the last frame's height field
     continues into the first as smoothly as two neighbouring frames do."""
@@ -133,15 +147,7 @@ def test_loop_is_seamless_and_resumes(tmp_path):
     wrap = np.abs(h[0] - h[15]).mean()
     assert wrap <= 1.5 * max(steps), (wrap, steps)  # the seam is an ordinary step
     # Resuming mid-loop keeps the pre-roll: same bytes.
-    e = get("caustics")(params, inputs)
-    r = BakeRunner(e, tmp_path / "c", 1, 16, checkpoint_every=4,
-                   on_frame=lambda s: s.frame == 9 and r.cancel())
-    with pytest.raises(errors.Cancelled):
-        r.run()
-    e.close()
-    e = get("caustics")(params, inputs)
-    BakeRunner(e, tmp_path / "c", 1, 16, checkpoint_every=4, resume=True).run()
-    e.close()
+    cut_and_resume(params, inputs, tmp_path / "c", 16, 9, 4)
     for i in range(1, 17):
         assert (tmp_path / "a" / f"caustics_{i:04d}.exr").read_bytes() == \
             (tmp_path / "c" / f"caustics_{i:04d}.exr").read_bytes()
@@ -287,15 +293,7 @@ def test_a_rising_floor_lifts_the_water_and_keeps_its_volume(tmp_path):
     read = [(tmp_path / n / "caustics_0004.exr").read_bytes() for n in ("flat", "rising")]
     assert read[0] != read[1]
     # cancelled after frame 2, resumed: the same files
-    e = get("caustics")(params, inputs)
-    r = BakeRunner(e, tmp_path / "cut", 1, 5, checkpoint_every=1,
-                   on_frame=lambda s: s.frame == 2 and r.cancel())
-    with pytest.raises(errors.Cancelled):
-        r.run()
-    e.close()
-    e = get("caustics")(params, inputs)
-    BakeRunner(e, tmp_path / "cut", 1, 5, checkpoint_every=1, resume=True).run()
-    e.close()
+    cut_and_resume(params, inputs, tmp_path / "cut", 5, 2, 1)
     for i in range(1, 6):
         for s in ("caustics", "water"):
             assert (tmp_path / "rising" / f"{s}_{i:04d}.exr").read_bytes() == \
