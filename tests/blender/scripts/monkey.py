@@ -168,6 +168,25 @@ def cone(name, location):
     return obj
 
 
+def blobs(name, location):
+    """Two metaballs of one family, ``name`` and ``name``.001, 0.1 m apart; the member drifts
+    0.1 m along x over frames 1-3 (Blender melts the family into one surface, held by the
+    basis: the member is that surface, and it changes shape). Returns the member; a rename
+    takes it out of the family."""
+    objs = []
+    for k in range(2):
+        mb = bpy.data.metaballs.new(f"{name}{'.001' if k else ''}")
+        mb.elements.new().radius = 0.06
+        obj = bpy.data.objects.new(mb.name, mb)
+        bpy.context.scene.collection.objects.link(obj)
+        obj.location = (location[0] + 0.1 * k, location[1], location[2])
+        objs.append(obj)
+    for frame, dx in ((1, 0.1), (3, 0.2)):
+        objs[1].location.x = location[0] + dx
+        objs[1].keyframe_insert("location", index=0, frame=frame)
+    return objs[1]
+
+
 def hoop(name, location):
     """A bevelled circle 0.2 m across whose tube swells from 2 to 4 cm over frames 1-3 (a
     curve obstacle whose shape changes: a field every frame)."""
@@ -253,6 +272,7 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             rocks.objects.link(paddle)
             rocks.objects.link(cone("Cone", (0.6, 3.35, 0.08)))  # a mesh: its shape
             rocks.objects.link(hoop("Hoop", (0.3, 3.2, 0.12)))  # a curve that swells
+            rocks.objects.link(blobs("Blob", (0.2, 3.45, 0.08)))  # a metaball family's member
             for frame, x, turn in ((1, 0.9, 0.0), (3, 0.5, 0.8)):
                 paddle.location.x, paddle.rotation_euler.z = x, turn
                 paddle.keyframe_insert("location", index=0, frame=frame)
@@ -1885,7 +1905,8 @@ def main():
                         "source switched among them")
     p.add_argument("--obstacles", action="store_true",
                    help="also the fluid's obstacles (a still rock, a keyed paddle, a cone, a "
-                        "swelling hoop) and a pool's floor keyed to sink")
+                        "swelling hoop, a metaball family's drifting member) and a pool's floor "
+                        "keyed to sink")
     p.add_argument("--renames", action="store_true",
                    help="also any object renamed (a pool's ground, a collider, a bake's helpers)")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
