@@ -383,8 +383,8 @@ class FluidBlender(BlenderEffect):
         whose shape changes gets a field at every frame over that frame's shape, all of one
         count of points (coarser: DEFORMING_SIDE along the longest side), so that the step
         changes each into the next and the water meets its surface moving. A box-shaped mesh
-        and an object without faces (an empty, a curve without bevel) are their own bounding box, turned
-        with them (a box in the world's axes when turned at no frame)."""
+        and an object without faces (an empty, a curve without bevel) are their own bounding
+        box, turned with them (a box in the world's axes when turned at no frame)."""
         deforming = {k for k, o in enumerate(found) if animation.may_deform(o)}
         movers = {k for k, o in enumerate(found) if animation.may_move(o)} | deforming
         dg = evaluated_depsgraph(context)
