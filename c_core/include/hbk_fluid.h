@@ -152,6 +152,14 @@ typedef struct hbk_fluid_obstacle {
                          * the world's (length within 1e-3 of 1); the others ignore it */
 } hbk_fluid_obstacle_t;
 #define HBK_FLUID_FIELD_MAX_DIM 128
+/* As fill_box over the box of `shape` (an obstacle record, checked as set_obstacles checks
+ * one, "shape." before the name), keeping the lattice points inside it: a sphere, a box, a
+ * turned box, or a mesh (type 3) whose signed distances (negative inside) dims and distance
+ * give as set_obstacle_field takes them (NULL for the other types). The shape is not kept:
+ * water poured in that shape, not an obstacle. */
+HBK_EXPORT hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                             const int32_t dims[3], const float *distance,
+                                             float jitter);
 /* Replaces the obstacle list (count 0..64; NULL with 0 clears), still where they are, and
  * drops a move not stepped yet. */
 HBK_EXPORT hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs,

@@ -225,7 +225,10 @@ float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, d
     X(fluid, deforming_refused)         \
     X(fluid, deforming_growing_ball)    \
     X(fluid, deforming_pending)         \
-    X(fluid, deforming_same_bytes)
+    X(fluid, deforming_same_bytes)      \
+    X(fluid, fill_shape_refused)        \
+    X(fluid, fill_shape_volumes)        \
+    X(fluid, fill_shape_box_and_obstacles)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

@@ -570,3 +570,51 @@ def test_a_growing_mesh_throws_the_water_out_at_its_speed():
     (n, speed), (n_at_once, speed_at_once) = against(lambda f: 40), against(lambda f: 40 + f % 2)
     assert n > 200 and abs(speed - 0.72) < 0.05, (n, speed)
     assert n_at_once < n / 5 and speed_at_once < 0.55, (n_at_once, speed_at_once)
+
+
+def test_water_poured_in_a_shape_fills_it_and_nothing_else(tmp_path):
+    """fill_shape: a torus lying tilted (a mesh's field) holds as many particles as its volume
+    holds lattice cells (2 pi^2 R r^2 / spacing^3), all inside the tube, none in its hole; a
+    sphere likewise; it is not kept as an obstacle (the water falls out of it); bad shapes
+    are refused by name, and a shape with no lattice point inside is refused before a bake
+    of nothing. The shape is part of what a resume compares."""
+    params = {"fluid": {"resolution": (16, 16, 16), "max_particles": 20000, "substeps": 4}}
+    e, ring, tube = (0.32, 0.32, 0.1), 0.2, 0.08
+    q = (np.cos(0.2), np.sin(0.2), 0.0, 0.0)  # tilted about x by 0.4 rad
+    torus = ("mesh", (0.5, 0.5, 0.4), e, q, _torus_field(e, 64, ring, tube))
+    s = 0.02  # the default particle_spacing
+    with fluid.Fluid(params["fluid"]) as f:
+        f.fill_shape(torus)
+        pos, vel = f.particles()
+        assert len(pos) * s ** 3 == pytest.approx(2 * np.pi ** 2 * ring * tube ** 2, rel=0.05)
+        assert not vel.any()
+        c, sn = np.cos(0.4), np.sin(0.4)  # into the torus's own axes: turned back about x
+        d = pos - (0.5, 0.5, 0.4)
+        lx, ly, lz = d[:, 0], c * d[:, 1] + sn * d[:, 2], -sn * d[:, 1] + c * d[:, 2]
+        assert np.all(np.hypot(np.hypot(lx, ly) - ring, lz) < tube + 0.005)
+        assert np.hypot(lx, ly).min() > ring - tube - 0.005  # the hole stays empty
+        f.fill_shape(("sphere", (0.5, 0.5, 0.85), 0.1), jitter=0.2)
+        ball = f.particle_count - len(pos)
+        assert ball * s ** 3 == pytest.approx(4 / 3 * np.pi * 0.001, rel=0.05)
+        f.step()  # nothing holds it: the water falls
+        assert f.particles()[1][:, 2].mean() < -0.1
+        for shape, want in (
+                (("sphere", (0.5, 0.5), 0.1), r"^shape\.centre: must have 3 numbers"),
+                (("mesh", (0.5, 0.5, 0.5), e, (1, 0, 0, 0), None),
+                 r"^shape\.field: must be an array"),
+                (("turned_box", (0.5, 0.5, 0.5), e, (2, 0, 0, 0)),
+                 r"^shape\.rotation: length 2, must be a unit quaternion")):
+            with pytest.raises(errors.InvalidArgument, match=want):
+                f.fill_shape(shape)
+        with pytest.raises(errors.InvalidArgument, match=r"^jitter = 0\.9: must be in \[0, "):
+            f.fill_shape(("sphere", (0.5, 0.5, 0.5), 0.1), jitter=0.9)
+    with pytest.raises(errors.InvalidArgument, match=r"^fill_shape: no particle fits inside"):
+        get("fluid")(params, {"fill_shape": ("sphere", (0.5, 0.5, 0.5), 0.005)})
+    e1 = get("fluid")(params, {"fill_shape": torus})
+    e2 = get("fluid")(params, {"fill_shape": torus[:4] + (torus[4] * 1.01,)})
+    try:
+        assert e1.scalar_inputs()["fill shape"] != e2.scalar_inputs()["fill shape"]
+        assert e1.fluid.particle_count > 0
+    finally:
+        e1.close()
+        e2.close()

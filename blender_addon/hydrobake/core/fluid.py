@@ -33,6 +33,7 @@ _V3 = ctypes.c_float * 3
 Handle.declare("fluid", [
     ("set_particles", [_f32, ctypes.c_void_p, ctypes.c_int32]),
     ("fill_box", [P(_V3), P(_V3), ctypes.c_float]),
+    ("fill_shape", [P(Obstacle), ctypes.c_void_p, ctypes.c_void_p, ctypes.c_float]),
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("move_obstacles", [P(Obstacle), ctypes.c_int32]),
@@ -74,7 +75,7 @@ _SHAPES = {"sphere": (3, "values (kind, centre, size)"),
            "mesh": (5, "values (kind, centre, half_sizes, rotation, field)")}
 
 
-def obstacle_list(obstacles, what, fields=True):
+def obstacle_list(obstacles, what, fields=True, one=False):
     """[(kind, centre (3 floats), size (radius, or 3 half-sizes)[, rotation[, field]])] of
     obstacles given as ("sphere", centre, radius), ("box", centre, half_sizes), ("turned_box",
     centre, half_sizes, rotation): a box turned by the unit quaternion (w, x, y, z), its
@@ -82,10 +83,12 @@ def obstacle_list(obstacles, what, fields=True):
     box holding a mesh, field its signed distances (m, negative inside) at (nz, ny, nx) points
     spanning the box, corners included (2..128 a side; pad the box so the mesh is at least
     half a particle spacing inside it). Each checked by name. With ``fields`` False (a move) a
-    mesh's field may be None: it keeps the one it has."""
+    mesh's field may be None: it keeps the one it has. With ``one``, ``obstacles`` is a single
+    entry, named ``what``."""
     out = []
-    for i, ob in enumerate(args.sequence(obstacles, what, what="obstacles")):
-        name = f"{what}[{i}]"
+    entries = [obstacles] if one else args.sequence(obstacles, what, what="obstacles")
+    for i, ob in enumerate(entries):
+        name = what if one else f"{what}[{i}]"
         items = args.sequence(ob, name, what="values (kind, centre, size[, rotation])")
         # Checked by name: any other kind would be taken as a box (type 1).
         kind = args.choice(items[0] if items else None, f"{name}.kind", OBSTACLE_KINDS)
@@ -126,9 +129,9 @@ def _field(value, name, required):
     return f
 
 
-def _obstacles(obstacles, what, fields=True):
+def _obstacles(obstacles, what, fields=True, one=False):
     """(hbk_fluid_obstacle_t array, count, the checked list) of obstacle_list's entries."""
-    obstacles = obstacle_list(obstacles, what, fields)
+    obstacles = obstacle_list(obstacles, what, fields, one)
     arr = (Obstacle * max(len(obstacles), 1))()
     for i, (kind, c, e, *rot) in enumerate(obstacles):
         ext = _V3(e, 0.0, 0.0) if kind == "sphere" else _V3(*e)
@@ -159,8 +162,22 @@ class Fluid(Handle):
         self.call("fill_box", args.numbers(lo, "lo", 3), args.numbers(hi, "hi", 3),
                   args.number(jitter, "jitter"))
 
+    def fill_shape(self, shape, jitter=0.0):
+        """Particles at rest on fill_box's lattice inside ``shape``, one entry as
+        set_obstacles takes them (a sphere, a box, a turned box, or a mesh with its field),
+        clear of the obstacles: water poured in that shape (it is not kept as an obstacle)."""
+        arr, _, (checked,) = _obstacles(shape, "shape", one=True)
+        field = checked[4] if checked[0] == "mesh" else None
+        dims = None if field is None else (ctypes.c_int32 * 3)(*field.shape[::-1])
+        self.call("fill_shape", arr, None if dims is None else ctypes.addressof(dims),
+                  None if field is None else field.ctypes.data, args.number(jitter, "jitter"))
+
+    @property
+    def particle_count(self):
+        return int(_lib.lib.hbk_fluid_particle_count(self.h))
+
     def particles(self):
-        n = _lib.lib.hbk_fluid_particle_count(self.h)
+        n = self.particle_count
         pos, vel = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
         self.call("get_particles", pos.ctypes.data, vel.ctypes.data, n)
         return pos, vel

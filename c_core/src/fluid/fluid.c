@@ -215,14 +215,17 @@ hbk_result_t hbk_fluid_set_particles(hbk_fluid_t *h, const float *pos, const flo
     return HBK_OK;
 }
 
-hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float hi[3], float jitter)
+/* Adds the lattice of particle_spacing over [lo, hi] (clipped to the box, half a spacing from
+ * its walls), jittered, at rest: the points outside the obstacles and, with a shape, inside
+ * it (a mesh's field: dims and f). `what` names the call in its errors. */
+static hbk_result_t fill(hbk_fluid_t *h, const float lo[3], const float hi[3], float jitter,
+                         const char *what, const hbk_fluid_obstacle_t *shape,
+                         const int32_t *dims, const float *f)
 {
-    HBK_FLUID_ENTER(h);
-    if (!lo || !hi) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "lo, hi: must not be NULL");
     if (!(jitter >= 0.0f && jitter <= 0.5f))
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "jitter = %g: must be in [0, 0.5]",
                         (double)jitter);
-    hbk_result_t ready = hbk_fluid_fields_ready(h, "fill_box");
+    hbk_result_t ready = hbk_fluid_fields_ready(h, what);
     if (ready) return ready;
     const float s = h->p.particle_spacing;
     double a0[3];
@@ -257,6 +260,7 @@ hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float h
                         x[a] = x[a] > h->p.box_max[a] - m ? h->p.box_max[a] - m : x[a];
                     }
                     if (hbk_fluid_in_obstacle(h, x)) continue;
+                    if (shape && !hbk_fluid_in_shape(shape, dims, f, x)) continue;
                     if (pass)
                         for (int a = 0; a < 3; ++a) {
                             h->pos[3 * at + (size_t)a] = x[a];
@@ -266,11 +270,37 @@ hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float h
                 }
         if (!pass && at > (size_t)h->p.max_particles)
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                            "fill_box: %zu particles plus the %d present exceed max_particles = %d",
-                            at - (size_t)h->count, h->count, h->p.max_particles);
+                            "%s: %zu particles plus the %d present exceed max_particles = %d",
+                            what, at - (size_t)h->count, h->count, h->p.max_particles);
     }
     h->count = (int32_t)at;
     return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_fill_box(hbk_fluid_t *h, const float lo[3], const float hi[3], float jitter)
+{
+    HBK_FLUID_ENTER(h);
+    if (!lo || !hi) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "lo, hi: must not be NULL");
+    return fill(h, lo, hi, jitter, "fill_box", NULL, NULL, NULL);
+}
+
+hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                  const int32_t dims[3], const float *distance, float jitter)
+{
+    HBK_FLUID_ENTER(h);
+    if (!shape) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape: must not be NULL");
+    char what[96];
+    if (hbk_fluid_obstacle_problem(shape, what))
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape.%s", what);
+    size_t points = 0;
+    if (shape->type == 3) {
+        hbk_result_t r = hbk_fluid_field_check(h, dims, distance, &points);
+        if (r) return r;
+    }
+    float lo[3], hi[3];
+    hbk_fluid_shape_bounds(shape, lo, hi);
+    return fill(h, lo, hi, jitter, "fill_shape", shape, shape->type == 3 ? dims : NULL,
+                shape->type == 3 ? distance : NULL);
 }
 
 int32_t hbk_fluid_particle_count(const hbk_fluid_t *h) { return h ? h->count : 0; }

@@ -196,6 +196,15 @@ int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3]);
  * under way (moving 0: the field as it is, as a fill meets it); else 0. */
 int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], const float l[3],
                             float m, int moving, float *push, float nl[3], float *grow);
+/* HBK_OK, or the refusal by name of a field: dims (2..HBK_FLUID_FIELD_MAX_DIM each) and
+ * distances (finite, within +-1e6); its point count in *n. */
+hbk_result_t hbk_fluid_field_check(hbk_fluid_t *h, const int32_t dims[3], const float *distance,
+                                   size_t *n);
+/* A shape given as an obstacle record (checked): its box in the world, and whether x lies
+ * inside it (a mesh's: where its field, dims points over the box, is negative). */
+void hbk_fluid_shape_bounds(const hbk_fluid_obstacle_t *o, float lo[3], float hi[3]);
+int hbk_fluid_in_shape(const hbk_fluid_obstacle_t *o, const int32_t dims[3], const float *f,
+                       const float x[3]);
 /* HBK_OK, or the refusal of a step or fill with a mesh obstacle whose field is not set. */
 hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what);
 void hbk_fluid_fields_free(hbk_fluid_t *h);

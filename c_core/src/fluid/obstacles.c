@@ -110,17 +110,9 @@ void hbk_fluid_fields_free(hbk_fluid_t *h)
     }
 }
 
-/* A checked copy of a mesh obstacle's field, in *out (its point count in *n). */
-static hbk_result_t field_copy(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
-                               const float *distance, float **out, size_t *n)
+hbk_result_t hbk_fluid_field_check(hbk_fluid_t *h, const int32_t dims[3], const float *distance,
+                                   size_t *n)
 {
-    if (index < 0 || index >= h->n_obs)
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "index = %d: must be in [0, %d)",
-                        index, h->n_obs);
-    if (h->obs[index].type != 3)
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                        "index = %d: obstacle %d is of type %d, must be 3 (mesh)", index, index,
-                        h->obs[index].type);
     if (!dims || !distance)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "%s: must not be NULL",
                         dims ? "distance" : "dims");
@@ -136,6 +128,22 @@ static hbk_result_t field_copy(hbk_fluid_t *h, int32_t index, const int32_t dims
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                             "distance[%zu] = %g: must be a finite number in [-1e6, 1e6] m", i,
                             (double)distance[i]);
+    return HBK_OK;
+}
+
+/* A checked copy of a mesh obstacle's field, in *out (its point count in *n). */
+static hbk_result_t field_copy(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
+                               const float *distance, float **out, size_t *n)
+{
+    if (index < 0 || index >= h->n_obs)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "index = %d: must be in [0, %d)",
+                        index, h->n_obs);
+    if (h->obs[index].type != 3)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "index = %d: obstacle %d is of type %d, must be 3 (mesh)", index, index,
+                        h->obs[index].type);
+    hbk_result_t r = hbk_fluid_field_check(h, dims, distance, n);
+    if (r) return r;
     *out = malloc(*n * sizeof **out);
     if (!*out) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "distance: out of memory");
     memcpy(*out, distance, *n * sizeof **out);
@@ -196,15 +204,15 @@ hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what)
     return HBK_OK;
 }
 
-int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], const float l[3],
-                            float m, int moving, float *push, float nl[3], float *grow)
+/* The cell of a field over the box [-e, e] holding l: the offset of its lower corner, its
+ * eight corners' offsets from there, the fractions t and the grid steps per metre; 0 where l
+ * lies outside the box (outside the mesh). */
+static int field_cell(const int32_t dims[3], const float e[3], const float l[3], size_t *at,
+                      size_t off[8], float t[3], float scale[3])
 {
-    const int32_t *dims = h->obs_dims[o];
-    const float *f = h->obs_field[o];
-    float t[3], scale[3];
     int32_t i[3];
     for (int a = 0; a < 3; ++a) {
-        if (!(fabsf(l[a]) < e[a])) return 0; /* outside the box: outside the mesh */
+        if (!(fabsf(l[a]) < e[a])) return 0;
         scale[a] = (float)(dims[a] - 1) / (2.0f * e[a]); /* grid steps per metre */
         const float g = (l[a] + e[a]) * scale[a];
         int32_t k = (int32_t)g;
@@ -213,8 +221,19 @@ int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], c
         t[a] = g - (float)k;
     }
     const size_t sx = 1, sy = (size_t)dims[0], sz = sy * (size_t)dims[1];
-    const size_t at = (size_t)i[0] + sy * (size_t)i[1] + sz * (size_t)i[2];
-    const size_t off[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    *at = (size_t)i[0] + sy * (size_t)i[1] + sz * (size_t)i[2];
+    const size_t o[8] = {0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz};
+    memcpy(off, o, sizeof o);
+    return 1;
+}
+
+int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], const float l[3],
+                            float m, int moving, float *push, float nl[3], float *grow)
+{
+    const float *f = h->obs_field[o];
+    float t[3], scale[3];
+    size_t at, off[8];
+    if (!field_cell(h->obs_dims[o], e, l, &at, off, t, scale)) return 0;
     float c[8], dc[8] = {0};
     const float *to = moving ? h->obs_field_to[o] : NULL;
     for (int k = 0; k < 8; ++k) {
@@ -389,4 +408,40 @@ int hbk_fluid_in_obstacle(const hbk_fluid_t *h, const float x[3])
         }
     }
     return 0;
+}
+
+void hbk_fluid_shape_bounds(const hbk_fluid_obstacle_t *o, float lo[3], float hi[3])
+{
+    float ax[9];
+    axes_of(o, ax);
+    for (int a = 0; a < 3; ++a) {
+        /* a box's reach along world axis a: the sum of its axes' components times extents */
+        float r = o->type == 0 ? o->extent[0] : 0.0f;
+        for (int k = 0; o->type != 0 && k < 3; ++k) r += fabsf(ax[3 * k + a]) * o->extent[k];
+        lo[a] = o->center[a] - r;
+        hi[a] = o->center[a] + r;
+    }
+}
+
+int hbk_fluid_in_shape(const hbk_fluid_obstacle_t *o, const int32_t dims[3], const float *f,
+                       const float x[3])
+{
+    const float q[3] = {x[0] - o->center[0], x[1] - o->center[1], x[2] - o->center[2]};
+    if (o->type == 0)
+        return q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < o->extent[0] * o->extent[0];
+    float ax[9], l[3];
+    axes_of(o, ax);
+    for (int k = 0; k < 3; ++k) l[k] = ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] + ax[3 * k + 2] * q[2];
+    if (o->type != 3)
+        return fabsf(l[0]) < o->extent[0] && fabsf(l[1]) < o->extent[1] &&
+               fabsf(l[2]) < o->extent[2];
+    float t[3], scale[3];
+    size_t at, off[8];
+    if (!field_cell(dims, o->extent, l, &at, off, t, scale)) return 0;
+    float c[8];
+    for (int k = 0; k < 8; ++k) c[k] = f[at + off[k]];
+    const float x0 = c[0] + t[0] * (c[1] - c[0]), x1 = c[2] + t[0] * (c[3] - c[2]),
+                x2 = c[4] + t[0] * (c[5] - c[4]), x3 = c[6] + t[0] * (c[7] - c[6]);
+    const float y0 = x0 + t[1] * (x1 - x0), y1 = x2 + t[1] * (x3 - x2);
+    return y0 + t[2] * (y1 - y0) < 0.0f;
 }

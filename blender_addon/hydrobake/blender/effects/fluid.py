@@ -1,5 +1,5 @@
 """Fluid texturing in Blender: the domain object's bounding box is the simulation box; the
-fluid is the built-in SPH (filling a Fill object's box), a particle system's particles, or a
+fluid is the built-in SPH (filling a Fill object's shape), a particle system's particles, or a
 baked Mantaflow liquid (its velocity cache, and its liquid mesh for the surface). The bake
 becomes a Volume object reading the VDB sequence and a surface mesh that follows the frame,
 with a material that blends the sample textures at the advected uvw, cross-fading fields A
@@ -58,6 +58,29 @@ def _round(obj, depsgraph):
     if len(faces) and np.linalg.norm(faces - centre, axis=1).min() < 0.8 * d.max():
         return None
     return tuple(map(float, centre)), float(d.max())
+
+
+def _fill_shape(context, obj, spacing):
+    """The shape the Fill object's water takes, as the core's fill_shape takes it: a ball as a
+    sphere; a mesh, curve, text or metaball family as its signed distance field (made as an
+    obstacle's is); else None, its box (a box-shaped mesh, an object without faces, or an
+    open one, which is warned of)."""
+    dg = evaluated_depsgraph(context)
+    ball = _round(obj, dg)
+    if ball is not None:
+        return ("sphere",) + ball
+    if obj.type not in animation.SHAPED_TYPES:
+        return None
+    ev = evaluated_object(obj, dg, "Fill")
+    shape = mesh_fields.mesh_shape(ev, spacing)
+    if shape is None:
+        return None
+    if not shape.signed:
+        warnings.warn(f"Fill: {obj.name}'s faces do not all face out (a hole, or normals "
+                      "inside), so it has no inside to fill: the water fills its bounding box",
+                      BakeWarning)
+        return None
+    return shape.placed(ev.matrix_world, True)
 
 
 def _warn_unsigned(obj):
@@ -190,7 +213,9 @@ class FluidBlender(BlenderEffect):
         return dict(
             fill_object=bpy.props.PointerProperty(
                 name="Fill", type=bpy.types.Object,
-                description="SIMULATE: particles fill this object's bounding box at frame one"),
+                description="SIMULATE: particles fill this object's shape at frame one (a "
+                            "ball, a closed mesh, curve, text or metaball; a box-shaped one or "
+                            "an object without faces: its bounding box)"),
             particle_object=bpy.props.PointerProperty(
                 name="Particles", type=bpy.types.Object, poll=_has_particles,
                 description="PARTICLES: the object whose first particle system is the fluid "
@@ -255,8 +280,9 @@ class FluidBlender(BlenderEffect):
         inputs = {}
         if fp["source"] == 0:
             if settings.fill_object is None:
-                raise ValueError("Fill: SIMULATE needs an object whose box the fluid fills")
-            flo, fhi = meshes.world_bounds(settings.fill_object)
+                raise ValueError("Fill: SIMULATE needs an object whose shape the fluid fills")
+            fill = meshes.shape_holder(settings.fill_object)
+            flo, fhi = meshes.world_bounds(fill)
             flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
             if np.any(fhi - flo < fp["particle_spacing"]):
                 # The core would fill it with no particle at all: a bake of nothing.
@@ -264,6 +290,9 @@ class FluidBlender(BlenderEffect):
                                  "domain's box by at least particle_spacing = "
                                  f"{fp['particle_spacing']:g} m on every axis")
             inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
+            shape = _fill_shape(context, fill, fp["particle_spacing"])
+            if shape is not None:
+                inputs["fill_shape"] = shape
             if settings.obstacles:
                 # (a metaball family's members are one surface, held by its basis)
                 found = list(dict.fromkeys(map(meshes.shape_holder,

@@ -4,6 +4,8 @@ an OpenVDB file and the textured surface mesh.
 
 Inputs:
     fill         (lo, hi): particles filling a box at rest (SIMULATE)
+    fill_shape   one obstacle-like entry (a sphere, box, turned box or mesh with its field):
+                 particles filling that shape at rest instead of ``fill``'s box (SIMULATE)
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
                  z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
                  are at the first frame (fluid.obstacle_list)
@@ -71,7 +73,13 @@ class FluidEffect(Effect):
         try:
             if inp.get("obstacles"):
                 self.fluid.set_obstacles(inp["obstacles"])
-            if inp.get("fill") is not None:
+            if inp.get("fill_shape") is not None:
+                self.fluid.fill_shape(inp["fill_shape"], float(inp.get("jitter", 0.0)))
+                if self.fluid.particle_count == 0:  # a bake of nothing
+                    raise errors.InvalidArgument(
+                        "fill_shape: no particle fits inside it, within the box and clear of "
+                        "the obstacles (is it thinner than particle_spacing, or outside?)")
+            elif inp.get("fill") is not None:
                 lo, hi = inp["fill"]
                 self.fluid.fill_box(lo, hi, float(inp.get("jitter", 0.0)))
             self.fluid.update_fields()
@@ -121,6 +129,8 @@ class FluidEffect(Effect):
         would even bring back the old rules), nor sample another texture from then on."""
         inp = self.inputs
         out = {"fill": inp.get("fill"), "jitter": float(inp.get("jitter", 0.0)),
+               **({"fill shape": _digested(inp["fill_shape"])}
+                  if inp.get("fill_shape") is not None else {}),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
