@@ -263,6 +263,10 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
         for o in (domain, fill):
             o.location.y += 3.0
         if obstacles:
+            # the water poured as a ball (the Fill by its shape), not the column's box
+            bpy.ops.mesh.primitive_uv_sphere_add(radius=0.12, location=(0.15, 3.25, 0.25))
+            s.fill_object = bpy.context.active_object
+            s.fill_object.name = "Drop"
             rocks = bpy.data.collections.new("Rocks")
             bpy.context.scene.collection.children.link(rocks)
             rock = in_blender.new_box("Rock", (0.1, 0.1, 0.1), (0.8, 3.1, 0.05))
@@ -1905,8 +1909,8 @@ def main():
                         "source switched among them")
     p.add_argument("--obstacles", action="store_true",
                    help="also the fluid's obstacles (a still rock, a keyed paddle, a cone, a "
-                        "swelling hoop, a metaball family's drifting member) and a pool's floor "
-                        "keyed to sink")
+                        "swelling hoop, a metaball family's drifting member), its water poured "
+                        "as a ball, and a pool's floor keyed to sink")
     p.add_argument("--renames", action="store_true",
                    help="also any object renamed (a pool's ground, a collider, a bake's helpers)")
     p.add_argument("--trace", action="store_true", help="print the objects after each step")
