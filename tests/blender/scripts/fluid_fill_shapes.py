@@ -1,8 +1,8 @@
 """The Fill object's shape: a UV sphere's water is a ball (as many particles as its volume
 holds lattice cells, all inside it), a torus fills its tube and leaves the hole dry, a
 metaball family's member fills the family's one surface, a box is its box as before, and an
-open mesh (no inside) fills its box with a warning. A ball of water bakes through the
-operator."""
+open mesh (no inside) fills its box with a warning. The Initial Velocity is every
+particle's at the start. A thrown ball of water bakes through the operator."""
 import bpy
 import numpy as np
 
@@ -14,6 +14,7 @@ from hydrobake.blender import jobs  # noqa: E402
 in_blender.empty_file("fill.blend")
 domain, column, f = in_blender.dam_break((16, 8, 8), frames=(1, 3), substeps=2)
 s = f.fluid.particle_spacing
+velocities = None  # the last filled()'s
 
 
 def filled(obj):
@@ -22,7 +23,9 @@ def filled(obj):
     job = jobs.Job(bpy.context, domain, "fluid")
     try:
         e = job.runner.effect
-        return e.inputs.get("fill_shape"), e.fluid.particles()[0], list(job.warnings)
+        global velocities
+        pos, velocities = e.fluid.particles()
+        return e.inputs.get("fill_shape"), pos, list(job.warnings)
     finally:
         job.runner.effect.close()
         del domain.hydrobake_fluid[jobs.BAKING]
@@ -80,6 +83,12 @@ shape, pos, warned = filled(cone)
 assert shape is None and len(pos) > 0
 assert [w for w in warned if "Fill: Cone's faces do not all face out" in w], warned
 print("FLUID FILL OPEN OK")
+
+# thrown: every particle starts with the Initial Velocity
+f.fill_velocity = (1.5, 0.0, 0.5)
+shape, pos, _ = filled(ball)
+assert len(pos) > 0 and np.all(velocities == np.float32((1.5, 0.0, 0.5))), velocities[:3]
+print("FLUID FILL THROWN OK")
 
 # baked through the operator
 f.fill_object = ball

@@ -216,6 +216,11 @@ class FluidBlender(BlenderEffect):
                 description="SIMULATE: particles fill this object's shape at frame one (a "
                             "ball, a closed mesh, curve, text or metaball; a box-shaped one or "
                             "an object without faces: its bounding box)"),
+            fill_velocity=bpy.props.FloatVectorProperty(
+                name="Initial Velocity", size=3, default=(0.0, 0.0, 0.0), min=-100.0,
+                max=100.0, subtype="VELOCITY", unit="VELOCITY",
+                description="SIMULATE: the velocity the Fill's water starts with (world axes; "
+                            "a ball of water thrown at a wall)"),
             particle_object=bpy.props.PointerProperty(
                 name="Particles", type=bpy.types.Object, poll=_has_particles,
                 description="PARTICLES: the object whose first particle system is the fluid "
@@ -290,6 +295,8 @@ class FluidBlender(BlenderEffect):
                                  "domain's box by at least particle_spacing = "
                                  f"{fp['particle_spacing']:g} m on every axis")
             inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
+            if any(settings.fill_velocity):
+                inputs["fill_velocity"] = tuple(map(float, settings.fill_velocity))
             shape = _fill_shape(context, fill, fp["particle_spacing"])
             if shape is not None:
                 inputs["fill_shape"] = shape
@@ -789,8 +796,8 @@ class FluidBlender(BlenderEffect):
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("fill_object", "particle_object", "liquid_domain", "obstacles",
-                     "paint_collection"):
+        for name in ("fill_object", "fill_velocity", "particle_object", "liquid_domain",
+                     "obstacles", "paint_collection"):
             col.prop(settings, name)
         box = col.box()
         box.label(text=f"Feature rules: {len(settings.rules)}")

@@ -6,6 +6,7 @@ Inputs:
     fill         (lo, hi): particles filling a box at rest (SIMULATE)
     fill_shape   one obstacle-like entry (a sphere, box, turned box or mesh with its field):
                  particles filling that shape at rest instead of ``fill``'s box (SIMULATE)
+    fill_velocity (vx, vy, vz) m/s: the velocity the filled particles start with (default 0)
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
                  z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
                  are at the first frame (fluid.obstacle_list)
@@ -43,7 +44,7 @@ import os
 
 import numpy as np
 
-from .. import arrays, errors, solid_textures
+from .. import args, arrays, errors, solid_textures
 from ..fluid import Fluid, OBSTACLE_KINDS, obstacle_list
 from . import register
 from .base import Effect, plain
@@ -82,6 +83,15 @@ class FluidEffect(Effect):
             elif inp.get("fill") is not None:
                 lo, hi = inp["fill"]
                 self.fluid.fill_box(lo, hi, float(inp.get("jitter", 0.0)))
+            if inp.get("fill_velocity") is not None:
+                v = tuple(args.numbers(inp["fill_velocity"], "fill_velocity", 3))
+                if not all(abs(c) <= 1000.0 for c in v):
+                    raise errors.InvalidArgument(
+                        f"fill_velocity = ({', '.join(f'{c:g}' for c in v)}): each component "
+                        "must be a finite number in [-1000, 1000] m/s")
+                pos, vel = self.fluid.particles()
+                vel[:] = v
+                self.fluid.set_particles(pos, vel)
             self.fluid.update_fields()
             for texture, lo, hi in inp.get("rules") or []:
                 self.fluid.set_feature_rule(texture, lo, hi)
@@ -129,6 +139,8 @@ class FluidEffect(Effect):
         would even bring back the old rules), nor sample another texture from then on."""
         inp = self.inputs
         out = {"fill": inp.get("fill"), "jitter": float(inp.get("jitter", 0.0)),
+               **({"fill velocity": [float(c) for c in inp["fill_velocity"]]}
+                  if inp.get("fill_velocity") is not None else {}),
                **({"fill shape": _digested(inp["fill_shape"])}
                   if inp.get("fill_shape") is not None else {}),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
