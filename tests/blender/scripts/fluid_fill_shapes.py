@@ -1,7 +1,8 @@
 """The Fill object's shape: a UV sphere's water is a ball (as many particles as its volume
 holds lattice cells, all inside it), a torus fills its tube and leaves the hole dry, a
 metaball family's member fills the family's one surface, a box is its box as before, and an
-open mesh (no inside) fills its box with a warning. The Initial Velocity is every
+open mesh (no inside) fills its box with a warning, and so does a ball not in the scene (its
+shape cannot be read; a box says nothing). The Initial Velocity is every
 particle's at the start. A thrown ball of water bakes through the operator."""
 import bpy
 import numpy as np
@@ -83,6 +84,23 @@ shape, pos, warned = filled(cone)
 assert shape is None and len(pos) > 0
 assert [w for w in warned if "Fill: Cone's faces do not all face out" in w], warned
 print("FLUID FILL OPEN OK")
+
+# not in the scene (appended beside the domain, say): its box, as before shapes were read;
+# said of a ball, not of a box
+held = {o: list(o.users_collection) for o in (ball, column)}
+for o, colls in held.items():
+    for c in colls:
+        c.objects.unlink(o)
+shape, pos, warned = filled(column)
+assert shape is None and len(pos) > 0 and not [w for w in warned if "Fill" in w], warned
+shape, pos, warned = filled(ball)
+assert shape is None and len(pos) * s ** 3 > 0.2 ** 3, len(pos)  # (the ball's 0.24 m box)
+assert [w for w in warned if "Fill: 'Sphere' is not evaluated" in w and
+        "its shape cannot be read" in w], warned
+for o, colls in held.items():
+    for c in colls:
+        c.objects.link(o)
+print("FLUID FILL UNEVALUATED OK")
 
 # thrown: every particle starts with the Initial Velocity
 f.fill_velocity = (1.5, 0.0, 0.5)

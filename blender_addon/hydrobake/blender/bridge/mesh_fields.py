@@ -40,7 +40,7 @@ class MeshShape:
                 self.field if first else None)
 
 
-def _is_box(co, lo, hi):
+def is_box(co, lo, hi):
     """Whether every vertex sits on a corner of the vertices' box (a cube, a board)."""
     tol = 1e-5 * max(float(np.max(hi - lo)), 1e-9)
     return bool(np.all((np.abs(co - lo) <= tol) | (np.abs(co - hi) <= tol)))
@@ -88,7 +88,7 @@ def mesh_sample(ev):
         mesh.polygons.foreach_get("loop_total", totals)
     finally:
         ev.to_mesh_clear()
-    if not polys or len(co) < 4 or _is_box(co, co.min(axis=0), co.max(axis=0)):
+    if not polys or len(co) < 4 or is_box(co, co.min(axis=0), co.max(axis=0)):
         return None
     return MeshSample(co, polys, _closed(co, loops, starts, totals))
 

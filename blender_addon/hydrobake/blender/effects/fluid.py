@@ -15,6 +15,7 @@ from ...core import mantaflow, solid_textures
 from .. import paths
 from ..bridge import (animation, frame_meshes, helper_objects, mesh_fields, meshes, tileable,
                       volumes)
+from ..bridge.depsgraph import enabled as depsgraph_enabled
 from ..bridge.depsgraph import evaluated as evaluated_depsgraph, evaluated_object
 from . import fluid_paint, register_effect
 from .base import BakeWarning, BlenderEffect, offers
@@ -65,12 +66,27 @@ def _fill_shape(context, obj, spacing):
     sphere; a mesh, curve, text or metaball family as its signed distance field (made as an
     obstacle's is); else None, its box (a box-shaped mesh, an object without faces, or an
     open one, which is warned of)."""
+    if obj.type not in animation.SHAPED_TYPES:
+        return None
     dg = evaluated_depsgraph(context)
+    if not depsgraph_enabled(dg.view_layer, obj):
+        # not evaluated (an object appended beside the domain, not in the scene): its box,
+        # as before shapes were read; said where the box is not its shape
+        co = np.empty(3 * len(obj.data.vertices) if obj.type == "MESH" else 0, np.float64)
+        if obj.type == "MESH":
+            obj.data.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)
+        if not (len(co) and mesh_fields.is_box(co, co.min(axis=0), co.max(axis=0))):
+            warnings.warn(f"Fill: {obj.name!r} is not evaluated in view layer "
+                          f"{dg.view_layer.name!r} (Show in Viewports is off, or none of its "
+                          "collections is in the scene, included and enabled in viewports), so "
+                          "its shape cannot be read: the water fills its bounding box; turn on "
+                          "Show In > Viewports and include one of its collections to fill its "
+                          "shape", BakeWarning)
+        return None
     ball = _round(obj, dg)
     if ball is not None:
         return ("sphere",) + ball
-    if obj.type not in animation.SHAPED_TYPES:
-        return None
     ev = evaluated_object(obj, dg, "Fill")
     shape = mesh_fields.mesh_shape(ev, spacing)
     if shape is None:
