@@ -72,11 +72,13 @@ def _fill_shape(context, obj, spacing):
     if not depsgraph_enabled(dg.view_layer, obj):
         # not evaluated (an object appended beside the domain, not in the scene): its box,
         # as before shapes were read; said where the box is not its shape
-        co = np.empty(3 * len(obj.data.vertices) if obj.type == "MESH" else 0, np.float64)
-        if obj.type == "MESH":
+        boxy = obj.type == "MESH" and len(obj.data.vertices) > 0
+        if boxy:
+            co = np.empty(3 * len(obj.data.vertices), np.float64)
             obj.data.vertices.foreach_get("co", co)
-        co = co.reshape(-1, 3)
-        if not (len(co) and mesh_fields.is_box(co, co.min(axis=0), co.max(axis=0))):
+            co = co.reshape(-1, 3)
+            boxy = mesh_fields.is_box(co, co.min(axis=0), co.max(axis=0))
+        if not boxy:
             warnings.warn(f"Fill: {obj.name!r} is not evaluated in view layer "
                           f"{dg.view_layer.name!r} (Show in Viewports is off, or none of its "
                           "collections is in the scene, included and enabled in viewports), so "
