@@ -329,3 +329,12 @@ def test_a_moving_source_pours_where_it_is_each_frame(tmp_path):
     assert under[2] - under[1] > 0.1 * 0.4 * 0.05, under
     with pytest.raises(ValueError, match=r"^sources_path\[2\]: shape \(23, 32\)"):
         get("caustics")(params, {"sources_path": {2: tap[:23]}})
+    bad = tap.copy()
+    bad[4, 6] = np.nan
+    with pytest.raises(ValueError, match=r"^sources_path\[3\]\[4, 6\] = nan: must be a finite "
+                       r"number in \[-1000, 1000\] m/s$"):
+        get("caustics")(params, {"sources_path": {3: bad}})
+    bad[4, 6] = 2e6
+    with pytest.raises(ValueError, match=r"^ground_path\[2\]\[4, 6\] = 2e\+06: must be a "
+                       r"finite number in \[-1e\+06, 1e\+06\] m$"):
+        get("caustics")(params, {"ground_path": {2: bad}})

@@ -66,8 +66,8 @@ class CausticsEffect(Effect):
                              f"{shape} (water.height, water.width)")
         self.water.set_ground(self.ground)
         self.first_ground = self.ground
-        self.ground_path = self._path("ground_path", shape)
-        self.sources_path = self._path("sources_path", shape)
+        self.ground_path = self._path("ground_path", shape, 1e6, "m")
+        self.sources_path = self._path("sources_path", shape, 1e3, "m/s")
         self.level = float(self.inputs.get("level", float(self.ground.min()) + 0.5))
         self.water.set_level(self.level)
         if self.inputs.get("sources") is not None:
@@ -98,15 +98,23 @@ class CausticsEffect(Effect):
                     "minus one)")
             self.loop = (first, last, blend)
 
-    def _path(self, name, shape):
-        """{frame: (H, W) float32} of the input ``name``, each checked against the grid."""
+    def _path(self, name, shape, limit, unit):
+        """{frame: (H, W) float32} of the input ``name``, each checked against the grid and
+        the water's range for it (here, not when the bake reaches that frame)."""
         out = {}
         for f, a in sorted((self.inputs.get(name) or {}).items()):
             a = np.ascontiguousarray(a, dtype=np.float32)
+            bad = None
             if a.shape != shape:
+                bad = (f"{name}[{f}]: shape {a.shape} must match the water grid {shape} "
+                       "(water.height, water.width)")
+            elif not np.all(np.abs(a) <= limit):
+                at = tuple(int(i) for i in np.argwhere(~(np.abs(a) <= limit))[0])
+                bad = (f"{name}[{f}]{list(at)} = {a[at]:g}: must be a finite number in "
+                       f"[-{limit:g}, {limit:g}] {unit}")
+            if bad is not None:
                 self.close()
-                raise ValueError(f"{name}[{f}]: shape {a.shape} must match the water grid "
-                                 f"{shape} (water.height, water.width)")
+                raise ValueError(bad)
             out[int(f)] = a
         return out
 
