@@ -34,6 +34,8 @@ Handle.declare("fluid", [
     ("set_particles", [_f32, ctypes.c_void_p, ctypes.c_int32]),
     ("fill_box", [P(_V3), P(_V3), ctypes.c_float]),
     ("fill_shape", [P(Obstacle), ctypes.c_void_p, ctypes.c_void_p, ctypes.c_float]),
+    ("set_inflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P(_V3),
+                    ctypes.c_float]),
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("move_obstacles", [P(Obstacle), ctypes.c_int32]),
@@ -60,6 +62,7 @@ Handle.declare("fluid", [
 _lib.declare([
     ("hbk_fluid_particle_count", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_substeps_taken", ctypes.c_int32, [ctypes.c_void_p]),
+    ("hbk_fluid_inflow_added", ctypes.c_int32, [ctypes.c_void_p, P(ctypes.c_int32)]),
     ("hbk_fluid_grid_vertices", ctypes.c_size_t, [ctypes.c_void_p, P(ctypes.c_int32 * 3)]),
     ("hbk_fluid_volume_size", ctypes.c_size_t, [ctypes.c_void_p, ctypes.c_int32]),
     ("hbk_fluid_uvw_weight", ctypes.c_float, [ctypes.c_void_p]),
@@ -171,6 +174,31 @@ class Fluid(Handle):
         dims = None if field is None else (ctypes.c_int32 * 3)(*field.shape[::-1])
         self.call("fill_shape", arr, None if dims is None else ctypes.addressof(dims),
                   None if field is None else field.ctypes.data, args.number(jitter, "jitter"))
+
+    def set_inflow(self, shape, velocity=(0.0, 0.0, 0.0), jitter=0.0):
+        """Water poured in from ``shape`` (one entry as fill_shape takes it) at ``velocity``
+        (m/s) from the next step on: at every SPH substep, each point of fill_box's lattice
+        inside it with no particle nearer than a spacing gains one moving at ``velocity``,
+        until max_particles. None stops it. Not in the saved state: set it again after
+        load_state."""
+        if shape is None:
+            self.call("set_inflow", None, None, None, _V3(0.0, 0.0, 0.0), 0.0)
+            return
+        arr, _, (checked,) = _obstacles(shape, "shape", one=True)
+        field = checked[4] if checked[0] == "mesh" else None
+        dims = None if field is None else (ctypes.c_int32 * 3)(*field.shape[::-1])
+        self.call("set_inflow", ctypes.addressof(arr),
+                  None if dims is None else ctypes.addressof(dims),
+                  None if field is None else field.ctypes.data,
+                  args.numbers(velocity, "velocity", 3), args.number(jitter, "jitter"))
+
+    @property
+    def inflow_added(self):
+        """(particles the inflow added in the last step, whether it stopped at
+        max_particles)."""
+        capped = ctypes.c_int32()
+        added = _lib.lib.hbk_fluid_inflow_added(self.h, ctypes.byref(capped))
+        return int(added), bool(capped.value)
 
     @property
     def particle_count(self):

@@ -45,6 +45,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     if (!h) return;
     free(h->pos); free(h->vel); free(h->pos0); free(h->vel0);
     free(h->in_vel); free(h->in_surface);
+    hbk_fluid_inflow_free(h);
     hbk_fluid_fields_free(h);
     vols_free(&h->v);
     vols_free(&h->scratch);
@@ -405,9 +406,12 @@ hbk_result_t hbk_fluid_update_fields(hbk_fluid_t *h)
     return HBK_OK;
 }
 
-static void restore_particles(hbk_fluid_t *h, int sim)
+/* The particles as the step found them (`count` of them: those an inflow added go). */
+static void restore_particles(hbk_fluid_t *h, int sim, int32_t count)
 {
     if (!sim) return;
+    h->count = count;
+    h->inflow_added = h->inflow_capped = 0;
     memcpy(h->pos, h->pos0, 3 * (size_t)h->count * sizeof(float));
     memcpy(h->vel, h->vel0, 3 * (size_t)h->count * sizeof(float));
 }
@@ -424,6 +428,8 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     double t0 = omp_get_wtime();
     hbk_report(progress, 0.0f);
     int32_t taken = 0;
+    const int32_t count0 = h->count;
+    h->inflow_added = h->inflow_capped = 0;
     if (sim) {
         memcpy(h->pos0, h->pos, 3 * (size_t)h->count * sizeof(float));
         memcpy(h->vel0, h->vel, 3 * (size_t)h->count * sizeof(float));
@@ -434,9 +440,10 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
         hbk_fluid_obstacles_at(h, 0.0); /* their speed, for the stable step */
         while (left > 0.0) {
             if (hbk_cancelled(progress)) {
-                restore_particles(h, sim);
+                restore_particles(h, sim, count0);
                 return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
             }
+            hbk_fluid_inflow_emit(h, taken); /* (its speed counts for the stable step) */
             double step = hbk_fluid_sph_stable_dt(h, threads);
             step = step < longest ? step : longest;
             double parts = ceil(left / step * (1.0 - 1e-9)); /* no extra step for rounding */
@@ -447,7 +454,7 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
             hbk_fluid_obstacles_at(h, parts == 1.0 ? 1.0 : (frame_dt - (left - step)) / frame_dt);
             hbk_result_t r = hbk_fluid_sph_substep(h, (float)step, threads);
             if (r) {
-                restore_particles(h, sim);
+                restore_particles(h, sim, count0);
                 return hbk_fail(&h->msg, r, "SPH: out of memory");
             }
             left = parts == 1.0 ? 0.0 : left - step;
@@ -457,10 +464,10 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     }
     double t1 = omp_get_wtime();
     hbk_result_t r = build_fields(h, threads);
-    if (r) { restore_particles(h, sim); return r; }
+    if (r) { restore_particles(h, sim, count0); return r; }
     double t2 = omp_get_wtime();
     if (hbk_cancelled(progress)) {
-        restore_particles(h, sim);
+        restore_particles(h, sim, count0);
         return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
     }
     hbk_report(progress, 0.8f);
@@ -494,7 +501,7 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     }
     double t3 = omp_get_wtime();
     if (hbk_cancelled(progress)) {
-        restore_particles(h, sim);
+        restore_particles(h, sim, count0);
         return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
     }
     hbk_fluid_vols_t tmp = h->v;

@@ -137,6 +137,15 @@ struct hbk_fluid {
     struct mc_table *mc_table;  /* triangles per cube configuration (marching_cubes.c) */
     double ms[4];
     int32_t substeps_taken;     /* by the last step */
+    /* Not state: the inflow (inflow.c): its lattice points inside the shape and the box, the
+     * velocity and jitter they start with, and a grid of cells over their reach (each of
+     * inflow_cell m, at least a spacing) listing the particles near them. */
+    float *inflow_pts;
+    int32_t inflow_n;
+    float inflow_vel[3], inflow_jitter, inflow_cell, inflow_lo[3];
+    int32_t inflow_dims[3];
+    int32_t *inflow_head, *inflow_next; /* cells + 1, max_particles */
+    int32_t inflow_added, inflow_capped; /* by the last step */
 };
 
 #define HBK_OMP_THREADS(h) hbk_threads((h)->p.threads)
@@ -243,6 +252,12 @@ static inline float hbk_fluid_lane_sum(const float p[8])
 {
     return ((p[0] + p[1]) + (p[2] + p[3])) + ((p[4] + p[5]) + (p[6] + p[7]));
 }
+
+/* inflow.c: the inflow's particles for the substep `substep` of the step under way (none
+ * without an inflow or at max_particles); frees the inflow at destroy. */
+void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep);
+void hbk_fluid_inflow_free(hbk_fluid_t *h);
+#define HBK_FLUID_STREAM_INFLOW 0xf1a3u
 
 /* sph.c: one substep on h->pos / h->vel. */
 #define HBK_FLUID_MAX_SUBSTEPS 10000 /* per frame, however fast the fluid */

@@ -7,6 +7,10 @@ Inputs:
     fill_shape   one obstacle-like entry (a sphere, box, turned box or mesh with its field):
                  particles filling that shape at rest instead of ``fill``'s box (SIMULATE)
     fill_velocity (vx, vy, vz) m/s: the velocity the filled particles start with (default 0)
+    inflow       {frame: shape or None}: water poured in from that frame's step on (SIMULATE):
+                 a shape as ``fill_shape`` takes it, None for none; the latest frame given at
+                 or before a step's frame holds (a tap turned on and off, moved or reshaped)
+    inflow_velocity (vx, vy, vz) m/s: the velocity the inflow's water leaves at (default 0)
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
                  z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
                  are at the first frame (fluid.obstacle_list)
@@ -98,6 +102,17 @@ class FluidEffect(Effect):
         except BaseException:
             self.fluid.close()
             raise
+        self.inflow = self._inflow(inp.get("inflow") or {})
+        self._inflow_keys, self._inflow_on = sorted(self.inflow), None
+        self.inflow_velocity = tuple(args.numbers(inp.get("inflow_velocity", (0.0,) * 3),
+                                                  "inflow_velocity", 3))
+        if not all(abs(c) <= 1000.0 for c in self.inflow_velocity):
+            raise errors.InvalidArgument(
+                f"inflow_velocity = ({', '.join(f'{c:g}' for c in self.inflow_velocity)}): "
+                "each component must be a finite number in [-1000, 1000] m/s")
+        if self.inflow and self.params["fluid"].source != 0:
+            raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
+                                         "pours an inflow")
         self.path = self._path(inp.get("obstacles") or [], inp.get("obstacle_path") or {})
         self._path_keys = sorted(self.path)
         self.particles = inp.get("particles") or {}
@@ -126,6 +141,20 @@ class FluidEffect(Effect):
             out[int(f)] = obs
         return out
 
+    @staticmethod
+    def _inflow(given):
+        """{frame: checked shape or None} of the inflow input."""
+        if not isinstance(given, dict):
+            raise errors.InvalidArgument(f"inflow: {type(given).__name__}: must be a dict "
+                                         "{frame: shape or None}")
+        return {int(f): None if sh is None else obstacle_list(sh, f"inflow[{f}]", one=True)[0]
+                for f, sh in given.items()}
+
+    def _inflow_at(self, frame):
+        """The frame the inflow's shape at ``frame`` was given for (None: none given yet)."""
+        i = bisect.bisect_right(self._inflow_keys, frame)
+        return self._inflow_keys[i - 1] if i else None
+
     def _obstacles_at(self, frame):
         """The obstacles where the path has them at ``frame``."""
         i = bisect.bisect_right(self._path_keys, frame)
@@ -143,6 +172,7 @@ class FluidEffect(Effect):
                   if inp.get("fill_velocity") is not None else {}),
                **({"fill shape": _digested(inp["fill_shape"])}
                   if inp.get("fill_shape") is not None else {}),
+               **({"inflow velocity": list(self.inflow_velocity)} if self.inflow else {}),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
@@ -170,6 +200,14 @@ class FluidEffect(Effect):
         else:
             out = {"particles": arrays.digest(*self.particles.get(frame, (None, None))),
                    "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
+        if self.inflow:  # the shape this frame's step pours from (a resume must match it)
+            key = self._inflow_at(frame)
+            shape = None if key is None else self.inflow[key]
+            out["inflow"] = arrays.digest(None) if shape is None else arrays.digest(
+                np.array([OBSTACLE_KINDS.index(shape[0])], np.int64),
+                np.array(list(shape[1]) + list(np.ravel(shape[2])) +
+                         (list(shape[3]) if len(shape) > 3 else []), np.float32),
+                shape[4] if len(shape) > 4 else None)
         if self.path:
             obs = self._obstacles_at(frame)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
@@ -194,6 +232,11 @@ class FluidEffect(Effect):
             self.fluid.paint_sphere(texture, centre, radius, falloff)
         if self.path:
             self.fluid.move_obstacles(self._obstacles_at(frame))
+        key = self._inflow_at(frame)
+        if key != self._inflow_on:  # (a resumed bake: from its first frame's)
+            shape = None if key is None else self.inflow[key]
+            self.fluid.set_inflow(shape, self.inflow_velocity, float(self.inputs.get("jitter", 0.0)))
+            self._inflow_on = key
         self.fluid.step(progress)
         # Points are painted on the frame's own surface (as the artist saw it), so they land
         # after its step.
