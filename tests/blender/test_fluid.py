@@ -83,3 +83,9 @@ def test_the_fill_object_is_filled_by_its_shape(blender, tmp_path):
     for part in ("BOX", "BALL", "TORUS", "METABALLS", "OPEN", "UNEVALUATED", "THROWN",
                  "BAKED"):
         assert f"FLUID FILL {part} OK" in r.stdout, r.stdout
+
+
+def test_the_inflow_pours_from_its_shape_in_its_frames(blender, tmp_path):
+    r = blender.run("fluid_inflow.py", tmp_path)
+    for part in ("FRAMES", "FOLLOWED", "REFUSED", "BAKED"):
+        assert f"FLUID INFLOW {part} OK" in r.stdout, r.stdout

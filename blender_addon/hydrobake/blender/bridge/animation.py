@@ -1,7 +1,10 @@
 """A scene's animation sampled frame by frame, for the inputs a bake reads per frame."""
 import contextlib
 
+import numpy as np
+
 from . import meshes
+from .depsgraph import evaluated as evaluated_depsgraph
 
 
 def per_frame(scene, first, last, fn):
@@ -38,6 +41,21 @@ def at_frame(scene, frame, always=False):
         yield
     finally:
         scene.frame_set(keep, subframe=sub)
+
+
+def followed(context, obj, frames, read, same=np.array_equal):
+    """(read at the bake's first frame, {frame: read} for the later frames where it differs
+    from the frame before, by ``same``): the path only for an object animated, constrained
+    or deformed. A generator, as per_frame; read(depsgraph) takes the scene at its frame."""
+    first, path = read(evaluated_depsgraph(context)), {}
+    if (may_move(obj) or may_deform(obj)) and frames[1] > frames[0]:
+        got = yield from per_frame(context.scene, frames[0] + 1, frames[1],
+                                   lambda _f: read(evaluated_depsgraph(context)))
+        last = first
+        for f, a in got.items():
+            if not same(a, last):
+                path[f] = last = a
+    return first, path
 
 
 def may_move(obj):

@@ -24,21 +24,6 @@ def _height_textures(pool):
             if t.name == f"HBK_{pool}_height" or t.get(HEIGHTS_OF) == pool]
 
 
-def _followed(context, obj, frames, read):
-    """(read at the bake's first frame, {frame: read} for the later frames where it differs
-    from the frame before): the path only for an object animated, constrained or deformed.
-    A generator, as animation.per_frame; read(depsgraph) takes the scene at its frame."""
-    first, path = read(evaluated_depsgraph(context)), {}
-    if (animation.may_move(obj) or animation.may_deform(obj)) and frames[1] > frames[0]:
-        got = yield from animation.per_frame(context.scene, frames[0] + 1, frames[1],
-                                             lambda _f: read(evaluated_depsgraph(context)))
-        last = first
-        for f, a in got.items():
-            if not np.array_equal(a, last):
-                path[f] = last = a
-    return first, path
-
-
 class Grid(namedtuple("Grid", "origin angle cell shape level")):
     """The water grid: ``origin`` the world (x, y) of its corner, ``angle`` its u axis's
     heading from world x (radians, about z), ``shape`` (rows, columns), ``level`` world z."""
@@ -243,7 +228,7 @@ class CausticsBlender(BlenderEffect):
                                           dg, angle=grid.angle, role="Ground")
                 g[np.isnan(g)] = level - 1.0 if np.all(np.isnan(g)) else np.nanmin(g)
                 return g
-            ground, ground_path = yield from _followed(context, settings.ground_object, frames,
+            ground, ground_path = yield from animation.followed(context, settings.ground_object, frames,
                                                        ground_heights)
         elif settings.ground_image is not None:
             px = images.pixels(settings.ground_image, role="Ground Image")[..., 0].astype(
@@ -289,7 +274,7 @@ class CausticsBlender(BlenderEffect):
                 under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
                                               dg, angle=grid.angle, role="Source")
                 return np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
-            sources, sources_path = yield from _followed(context, settings.source_object,
+            sources, sources_path = yield from animation.followed(context, settings.source_object,
                                                          frames, poured)
         w = settings.map_resolution
         inputs = dict(ground=ground.astype(np.float32), ground_path=ground_path, level=level,

@@ -61,13 +61,21 @@ def _round(obj, depsgraph):
     return tuple(map(float, centre)), float(d.max())
 
 
-def _fill_shape(context, obj, spacing):
-    """The shape the Fill object's water takes, as the core's fill_shape takes it: a ball as a
-    sphere; a mesh, curve, text or metaball family as its signed distance field (made as an
-    obstacle's is); else None, its box (a box-shaped mesh, an object without faces, or an
-    open one, which is warned of)."""
+def _fill_shape(context, obj, spacing, role="Fill", made=None):
+    """The shape the Fill (or Inflow) object's water takes, as the core's fill_shape takes
+    it: a ball as a sphere; a mesh, curve, text or metaball family as its signed distance
+    field (made as an obstacle's is); else None, its box (a box-shaped mesh, an object
+    without faces, or an open one, which is warned of). With ``made`` (a dict kept between
+    the frames of one object) an object that does not deform has its field made once and
+    placed where it is, and each warning is given once."""
     if obj.type not in animation.SHAPED_TYPES:
         return None
+    made = {} if made is None else made
+
+    def warn(text):
+        if text not in made.setdefault("warned", set()):
+            made["warned"].add(text)
+            warnings.warn(text, BakeWarning)
     dg = evaluated_depsgraph(context)
     if not depsgraph_enabled(dg.view_layer, obj):
         # not evaluated (an object appended beside the domain, not in the scene): its box,
@@ -79,26 +87,32 @@ def _fill_shape(context, obj, spacing):
             co = co.reshape(-1, 3)
             boxy = mesh_fields.is_box(co, co.min(axis=0), co.max(axis=0))
         if not boxy:
-            warnings.warn(f"Fill: {obj.name!r} is not evaluated in view layer "
-                          f"{dg.view_layer.name!r} (Show in Viewports is off, or none of its "
-                          "collections is in the scene, included and enabled in viewports), so "
-                          "its shape cannot be read: the water fills its bounding box; turn on "
-                          "Show In > Viewports and include one of its collections to fill its "
-                          "shape", BakeWarning)
+            warn(f"{role}: {obj.name!r} is not evaluated in view layer "
+                 f"{dg.view_layer.name!r} (Show in Viewports is off, or none of its "
+                 "collections is in the scene, included and enabled in viewports), so "
+                 "its shape cannot be read: the water fills its bounding box; turn on "
+                 "Show In > Viewports and include one of its collections to fill its "
+                 "shape")
         return None
     ball = _round(obj, dg)
     if ball is not None:
         return ("sphere",) + ball
-    ev = evaluated_object(obj, dg, "Fill")
-    shape = mesh_fields.mesh_shape(ev, spacing)
+    ev = evaluated_object(obj, dg, role)
+    if "shape" not in made or animation.may_deform(obj):
+        made["shape"] = mesh_fields.mesh_shape(ev, spacing)
+    shape = made["shape"]
     if shape is None:
         return None
     if not shape.signed:
-        warnings.warn(f"Fill: {obj.name}'s faces do not all face out (a hole, or normals "
-                      "inside), so it has no inside to fill: the water fills its bounding box",
-                      BakeWarning)
+        warn(f"{role}: {obj.name}'s faces do not all face out (a hole, or normals "
+             "inside), so it has no inside to fill: the water fills its bounding box")
         return None
     return shape.placed(ev.matrix_world, True)
+
+
+def _same_shape(a, b):
+    """Whether two shapes as _inflow_shape gives them are the same (fields compared whole)."""
+    return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
 def _warn_unsigned(obj):
@@ -239,6 +253,22 @@ class FluidBlender(BlenderEffect):
                 max=100.0, subtype="VELOCITY", unit="VELOCITY",
                 description="SIMULATE: the velocity the Fill's water starts with (world axes; "
                             "a ball of water thrown at a wall)"),
+            inflow_object=bpy.props.PointerProperty(
+                name="Inflow", type=bpy.types.Object,
+                description="SIMULATE: water pours in from this object's shape (a tap, a "
+                            "hose), as fast as the water before leaves it, from Inflow Start "
+                            "to Inflow End; followed when it moves. Stops at Max Particles"),
+            inflow_velocity=bpy.props.FloatVectorProperty(
+                name="Inflow Velocity", size=3, default=(0.0, 0.0, -1.0), min=-100.0,
+                max=100.0, subtype="VELOCITY", unit="VELOCITY",
+                description="SIMULATE: the velocity the Inflow's water leaves at (world "
+                            "axes); the faster, the more water a second"),
+            inflow_start=bpy.props.IntProperty(
+                name="Inflow Start", default=1, min=-1048574, max=1048574,
+                description="SIMULATE: the first frame the Inflow pours"),
+            inflow_end=bpy.props.IntProperty(
+                name="Inflow End", default=250, min=-1048574, max=1048574,
+                description="SIMULATE: the last frame the Inflow pours"),
             particle_object=bpy.props.PointerProperty(
                 name="Particles", type=bpy.types.Object, poll=_has_particles,
                 description="PARTICLES: the object whose first particle system is the fluid "
@@ -318,6 +348,9 @@ class FluidBlender(BlenderEffect):
             shape = _fill_shape(context, fill, fp["particle_spacing"])
             if shape is not None:
                 inputs["fill_shape"] = shape
+            if settings.inflow_object is not None:
+                inputs["inflow"] = yield from cls._inflow(context, settings, fp, frames, lo, hi)
+                inputs["inflow_velocity"] = tuple(map(float, settings.inflow_velocity))
             if settings.obstacles:
                 # (a metaball family's members are one surface, held by its basis)
                 found = list(dict.fromkeys(map(meshes.shape_holder,
@@ -373,6 +406,47 @@ class FluidBlender(BlenderEffect):
             rules.append((rule.texture, lo, hi))
         inputs["rules"] = rules
         return params, inputs
+
+    @staticmethod
+    def _inflow(context, settings, fp, frames, lo, hi):
+        """The core's inflow input, {frame: shape or None}: None before Inflow Start and after
+        Inflow End; in between the Inflow object's shape (as the Fill's: a ball, a field, or
+        its box) at the start and wherever it moves or changes shape after."""
+        obj = settings.inflow_object
+        start, end = settings.inflow_start, settings.inflow_end
+        if end < start:
+            raise ValueError(f"Inflow End = {end} is before Inflow Start = {start}: the "
+                             "Inflow would never pour")
+        holder = meshes.shape_holder(obj)
+        spacing = fp["particle_spacing"]
+        made = {}
+
+        def shape(_dg):
+            flo, fhi = meshes.world_bounds(holder)
+            flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
+            if np.any(fhi - flo < spacing):
+                # no lattice point inside the box: it would pour nothing
+                raise ValueError(f"Inflow: {obj.name!r} must overlap the domain's box by at "
+                                 f"least particle_spacing = {spacing:g} m on every axis")
+            got = _fill_shape(context, holder, spacing, "Inflow", made)
+            if got is None:
+                got = ("box", tuple(map(float, (flo + fhi) / 2)),
+                       tuple(map(float, (fhi - flo) / 2)))
+            return got
+        first, path = yield from animation.followed(context, holder, frames, shape,
+                                                    same=_same_shape)
+        out = {frames[0]: None} if start > frames[0] else {}
+        if start <= frames[1] and end >= frames[0]:
+            on = max(start, frames[0])
+            out[on] = first
+            for f in sorted(path):  # (the shape a later start begins with, then its moves)
+                if f <= on:
+                    out[on] = path[f]
+                elif f <= end:
+                    out[f] = path[f]
+            if end < frames[1]:
+                out[end + 1] = None
+        return out
 
     @staticmethod
     def _mantaflow(context, obj, settings, fp, frames):
@@ -814,8 +888,15 @@ class FluidBlender(BlenderEffect):
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("fill_object", "fill_velocity", "particle_object", "liquid_domain",
-                     "obstacles", "paint_collection"):
+        for name in ("fill_object", "fill_velocity", "inflow_object"):
+            col.prop(settings, name)
+        if settings.inflow_object is not None:
+            sub = col.column(align=True)
+            sub.prop(settings, "inflow_velocity")
+            row = sub.row(align=True)
+            row.prop(settings, "inflow_start", text="Start")
+            row.prop(settings, "inflow_end", text="End")
+        for name in ("particle_object", "liquid_domain", "obstacles", "paint_collection"):
             col.prop(settings, name)
         box = col.box()
         box.label(text=f"Feature rules: {len(settings.rules)}")
