@@ -288,8 +288,10 @@ assert "Bare caustics: Ground: Bare cannot be the Ground, which takes a mesh oth
 # into a traceback (a camera as the ground failed in to_mesh).
 for attr, value, label, takes in (("ground_object", low, "Ground",
                                    "a mesh other than the water itself"),
-                                  ("source_object", low, "Source", "a mesh"),
-                                  ("disturber_object", low, "Disturber", "a mesh"),
+                                  ("source_object", low, "Source",
+                                   "a mesh, curve, surface, text or metaball"),
+                                  ("disturber_object", low, "Disturber",
+                                   "a mesh, curve, surface, text or metaball"),
                                   ("sun_object", floor, "Sun", "a sun lamp"),
                                   ("preview_camera", floor, "Preview Camera", "a camera")):
     b.ground_object = None

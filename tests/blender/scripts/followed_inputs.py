@@ -1,5 +1,6 @@
 """Inputs that move are followed frame by frame, never read once at the first frame: a pool's
-Ground and Source and the fluid's obstacles. A keyed Ground's heights and a keyed Source's
+Ground and Source and the fluid's obstacles. (A curve is a Source and a metaball a Disturber
+too.) A keyed Ground's heights and a keyed Source's
 footprint are taken at every frame where they change (a still one, and one under a
 Subdivision only, has no path); the bake keeps the water's volume over a sinking floor and
 pours where the source is. No warning names any of them."""
@@ -85,6 +86,27 @@ poured = float(depth[1].astype(np.float64).sum() - depth[0].astype(np.float64).s
 want = float(inp["sources_path"][5].astype(np.float64).sum()) * c.water.dt
 assert abs(poured - want) < 1e-3 * want, (poured, want)
 assert bpy.ops.hydrobake.free_bake(effect="caustics", object_name="Pool") == {"FINISHED"}
+# a curve as the Source (a bevelled circle: a ring) pours under its footprint, its hole dry;
+# a metaball family's member as the Disturber presses where the family's surface crosses
+bpy.ops.curve.primitive_bezier_circle_add(radius=0.4, location=(0.0, 0.0, 0.3))
+ring = bpy.context.active_object
+ring.data.bevel_depth = 0.05
+c.source_object = ring
+under = in_blender.effect_inputs(pool, "caustics")["sources"] > 0
+annulus = 2 * np.pi * 0.4 * 0.1 / cell ** 2  # cells under the ring's tube
+assert abs(under.sum() / annulus - 1.0) < 0.25 and not under[14:18, 14:18].any(), \
+    (under.sum(), annulus)
+c.source_object = None
+blobs = []
+for x in (-0.5, 0.5):
+    bpy.ops.object.metaball_add(type="BALL", radius=0.3, location=(x, 0.0, 0.0))
+    blobs.append(bpy.context.active_object)
+blobs[0].name, blobs[1].name = "Blob", "Blob.001"
+c.disturber_object = blobs[1]
+pressed = in_blender.effect_inputs(pool, "caustics")["footprints"][3]
+cols = np.nonzero(pressed.any(axis=0))[0]
+assert pressed is not None and cols.min() < 8 and cols.max() > 24, cols  # both blobs
+c.disturber_object = None
 c.enabled = False
 
 # --- fluid: one still rock, one swaying under a Wave, one following an Empty: followed ------

@@ -60,9 +60,9 @@ def _ground_poll(self, obj):
     return obj.type == "MESH" and obj != self.id_data
 
 
-@offers("a mesh")
-def _mesh_poll(_self, obj):
-    return obj.type == "MESH"
+@offers("a mesh, curve, surface, text or metaball")
+def _shaped_poll(_self, obj):
+    return obj.type in animation.SHAPED_TYPES
 
 
 @offers("a sun lamp")
@@ -112,7 +112,7 @@ class CausticsBlender(BlenderEffect):
                 name="Ground Image Scale", default=1.0, min=0.0, max=100.0, subtype="DISTANCE",
                 unit="LENGTH", description="Depth in metres of a pixel value of 1"),
             source_object=bpy.props.PointerProperty(
-                name="Source", type=bpy.types.Object, poll=_mesh_poll,
+                name="Source", type=bpy.types.Object, poll=_shaped_poll,
                 description="Where water is poured in (or drained): the cells under this "
                             "object's footprint, followed frame by frame when it moves"),
             source_rate=bpy.props.FloatProperty(
@@ -120,7 +120,7 @@ class CausticsBlender(BlenderEffect):
                 unit="VELOCITY", description="Water added per second under the source, in "
                                              "metres of depth (negative drains)"),
             disturber_object=bpy.props.PointerProperty(
-                name="Disturber", type=bpy.types.Object, poll=_mesh_poll,
+                name="Disturber", type=bpy.types.Object, poll=_shaped_poll,
                 description="Object moving through the surface; its footprint pushes the water "
                             "every frame"),
             disturber_depth=bpy.props.FloatProperty(
