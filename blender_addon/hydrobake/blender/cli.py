@@ -487,6 +487,8 @@ def _bake(args, resume, stop):
         if job.runner.resumed_from is not None:
             print(f"hydrobake: {obj.name}/{name} resumed after frame {job.runner.resumed_from}",
                   flush=True)
+        for text in job.runner.effect.notes():
+            print(f"hydrobake: {obj.name}/{name} note: {text}", file=sys.stderr, flush=True)
         print(f"hydrobake: {obj.name}/{name} {s.status.lower()} in "
               f"{time.monotonic() - t0:.1f}s -> {job.folder}", flush=True)
     # Overrides are for this run: the file keeps its own settings (and the bake's wiring).

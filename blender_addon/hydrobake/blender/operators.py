@@ -137,12 +137,18 @@ class HYDROBAKE_OT_bake(_EffectTarget, bpy.types.Operator):
                         "undoes what was")
             return False
 
+    def _notes(self, job):
+        for text in job.runner.effect.notes():
+            self.report({"WARNING"}, f"{job.object_name} {job.effect_name}: {text}")
+
     def _report(self, job):
         s = job.runner.state
         if s.status == "FINISHED":
             self.report({"INFO"}, f"Baked {s.done} frames of {job.effect_name} to {job.folder}")
+            self._notes(job)
             return {"FINISHED"}
         if s.status == "CANCELLED":
+            self._notes(job)
             self.report({"WARNING"}, f"Bake cancelled: frames {s.frame_start}-"
                         f"{s.frame_start + s.done - 1} are kept" if s.done else "Bake cancelled")
             return {"CANCELLED"}

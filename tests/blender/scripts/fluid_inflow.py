@@ -1,8 +1,8 @@
 """The Inflow object: a tap pours from its shape only from Inflow Start to Inflow End (the
 core's input is None outside them), a ball pours as a sphere, a keyed tap is followed frame
 by frame (its path is exactly its keys'), an Inflow outside the domain or ending before it
-starts is refused by name, and a bake through the operator pours: the particles grow only in
-the pouring frames, by the tap's flow, and the water leaves at the Inflow Velocity."""
+starts is refused by name, and a bake pours: the particles grow only in the pouring frames,
+by the tap's flow; at Max Particles it stops, and the bake's end says so."""
 import bpy
 import numpy as np
 
@@ -106,3 +106,15 @@ want = 16 * 1.0 / 24 / s
 for fr in (4, 5):
     assert 0.8 * want < grew[fr] < 1.2 * want, (grew, want)
 print("FLUID INFLOW BAKED OK")
+
+# Max Particles reached: the inflow stops there, and the bake says so when it ends
+f.fluid.max_particles = counts[3] + 20
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+job = jobs.Job(bpy.context, domain, "fluid", folder_override=bpy.path.abspath("//capped"))
+job.runner.run()
+job.finalize(bpy.context)
+notes = job.runner.effect.notes()
+assert notes == [f"the inflow stopped pouring at frame 4: the fluid holds max_particles = "
+                 f"{counts[3] + 20} particles; raise it for more water"], notes
+bpy.ops.wm.save_mainfile()  # (the test bakes it again from the command line)
+print("FLUID INFLOW CAPPED OK")

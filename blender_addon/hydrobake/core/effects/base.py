@@ -84,6 +84,11 @@ class Effect:
         made from other ones (frames after it are baked again, from the scene as it is now)."""
         return {}
 
+    def notes(self):
+        """What the artist should hear of the frames stepped (a fluid's inflow that stopped at
+        max_particles, say), reported when the bake ends: [] for nothing. Kept past close()."""
+        return []
+
     def step(self, frame, progress):
         """Advances the simulation to ``frame``. ``progress`` is the hbk_progress_t to pass to
         long C calls (they poll its cancel flag and raise Cancelled)."""

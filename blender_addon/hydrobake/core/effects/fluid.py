@@ -104,6 +104,7 @@ class FluidEffect(Effect):
             raise
         self.inflow = self._inflow(inp.get("inflow") or {})
         self._inflow_keys, self._inflow_on = sorted(self.inflow), None
+        self._capped_at = None  # the first frame the inflow stopped at max_particles
         self.inflow_velocity = tuple(args.numbers(inp.get("inflow_velocity", (0.0,) * 3),
                                                   "inflow_velocity", 3))
         if not all(abs(c) <= 1000.0 for c in self.inflow_velocity):
@@ -238,11 +239,20 @@ class FluidEffect(Effect):
             self.fluid.set_inflow(shape, self.inflow_velocity, float(self.inputs.get("jitter", 0.0)))
             self._inflow_on = key
         self.fluid.step(progress)
+        if self._capped_at is None and self.fluid.inflow_added[1]:
+            self._capped_at = frame
         # Points are painted on the frame's own surface (as the artist saw it), so they land
         # after its step.
         for texture, positions, coverage, radius, falloff in self.paint_points.get(frame, []):
             self.fluid.paint_points(texture, positions, coverage, radius, falloff)
         self.mesh = self.fluid.surface(progress)
+
+    def notes(self):
+        if self._capped_at is None:
+            return []
+        return [f"the inflow stopped pouring at frame {self._capped_at}: the fluid holds "
+                f"max_particles = {self.params['fluid'].max_particles} particles; raise it "
+                "for more water"]
 
     def outputs(self, frame):
         threads = int(self.params["fluid"].threads) or (os.cpu_count() or 1)
