@@ -228,7 +228,15 @@ float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, d
     X(fluid, deforming_same_bytes)      \
     X(fluid, fill_shape_refused)        \
     X(fluid, fill_shape_volumes)        \
-    X(fluid, fill_shape_box_and_obstacles)
+    X(fluid, fill_shape_box_and_obstacles) \
+    X(fluid, inflow_refused)            \
+    X(fluid, inflow_rate)               \
+    X(fluid, inflow_starts_in_the_shape) \
+    X(fluid, inflow_clear_of_water)     \
+    X(fluid, inflow_obstacles)          \
+    X(fluid, inflow_capacity)           \
+    X(fluid, inflow_cancel)             \
+    X(fluid, inflow_deterministic)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

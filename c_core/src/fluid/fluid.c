@@ -443,13 +443,13 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
                 restore_particles(h, sim, count0);
                 return hbk_fail(&h->msg, HBK_ERR_CANCELLED, "step: cancelled");
             }
-            hbk_fluid_inflow_emit(h, taken); /* (its speed counts for the stable step) */
             double step = hbk_fluid_sph_stable_dt(h, threads);
             step = step < longest ? step : longest;
             double parts = ceil(left / step * (1.0 - 1e-9)); /* no extra step for rounding */
             const double room = (double)(HBK_FLUID_MAX_SUBSTEPS - taken);
             parts = parts < 1.0 ? 1.0 : parts > room ? room : parts;
             step = parts == 1.0 ? left : left / parts;
+            hbk_fluid_inflow_emit(h, taken, step); /* (its speed counted for the step) */
             /* collide places the particles at the substep's end: the obstacles too */
             hbk_fluid_obstacles_at(h, parts == 1.0 ? 1.0 : (frame_dt - (left - step)) / frame_dt);
             hbk_result_t r = hbk_fluid_sph_substep(h, (float)step, threads);

@@ -80,10 +80,11 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "inflow: the shape holds %zu particles at once: must hold at most "
                         "max_particles = %d", n, h->p.max_particles);
-    /* Cells of at least a spacing (so a particle nearer than that lies in the 27 around a
-     * point), over the points' reach plus their jitter; larger for a thin turned shape whose
-     * box holds many more cells than points. */
-    const float s = h->p.particle_spacing, reach = 2.0f * s;
+    /* Cells of at least two spacings, so that the 27 around a point hold every particle
+     * within two spacings of it (the nearest, if it is under s + a substep's travel away),
+     * over the points' reach plus their jitter; larger for a thin turned shape whose box
+     * holds many more cells than points. */
+    const float s = h->p.particle_spacing, reach = 3.0f * s;
     float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     float *pts = malloc((3 * n + 3) * sizeof *pts);
     if (!pts) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
@@ -96,7 +97,7 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
         }
     double span = 1.0;
     for (int a = 0; a < 3; ++a) span *= (double)(hi[a] - lo[a] + 2.0f * reach) / s;
-    double cell = s * fmax(1.0, cbrt(span / (8.0 * (double)n + 64.0)));
+    double cell = s * fmax(2.0, cbrt(span / (8.0 * (double)n + 64.0)));
     int32_t gd[3];
     size_t cells = 1;
     for (int a = 0; a < 3; ++a) {
@@ -145,17 +146,19 @@ static inline int64_t cell_of(const hbk_fluid_t *h, const float x[3], int32_t c[
     return c[0] + (int64_t)h->inflow_dims[0] * (c[1] + (int64_t)h->inflow_dims[1] * c[2]);
 }
 
-void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep)
+/* A point pours once the water before has left it by a spacing: at a substep's start, the
+ * nearest particle is d >= s away. The new one starts d - s further along the flow (at most
+ * what one substep carries it), where it would be had it left the moment the point cleared:
+ * so a stream's particles follow one another a spacing apart and the tap pours speed x
+ * cross-section whatever the substep, not one row per whole number of substeps. */
+void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt)
 {
-    if (!h->inflow_n || h->count >= h->p.max_particles) {
-        h->inflow_capped |= h->inflow_n && h->count >= h->p.max_particles;
-        return;
-    }
+    if (!h->inflow_n) return;
     const int32_t *gd = h->inflow_dims;
     const size_t cells = (size_t)gd[0] * (size_t)gd[1] * (size_t)gd[2];
     for (size_t c = 0; c < cells; ++c) h->inflow_head[c] = -1;
-    /* The particles near the points, listed by cell (which is first within a cell does not
-     * matter: a point asks only whether any is nearer than a spacing). */
+    /* The particles near the points, listed by cell (the order within a cell does not
+     * matter: a point takes the nearest). */
     for (int32_t p = 0; p < h->count; ++p) {
         int32_t c3[3];
         const int64_t c = cell_of(h, h->pos + 3 * (size_t)p, c3);
@@ -163,7 +166,12 @@ void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep)
         h->inflow_next[p] = h->inflow_head[c];
         h->inflow_head[c] = p;
     }
-    const float s = h->p.particle_spacing, s2 = s * s, m = 0.5f * s, jit = h->inflow_jitter * s;
+    const float s = h->p.particle_spacing, m = 0.5f * s, jit = h->inflow_jitter * s;
+    const float *u = h->inflow_vel;
+    const float speed = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    float most = (float)(speed * dt); /* the farthest a substep carries it (under s, so the
+                                       * nearest, if nearer than s + that, is within reach) */
+    most = most < s ? most : s;
     const int32_t before = h->count;
     for (int32_t i = 0; i < h->inflow_n; ++i) {
         float x[3];
@@ -180,27 +188,37 @@ void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep)
         }
         int32_t c3[3];
         if (cell_of(h, x, c3) < 0 || hbk_fluid_in_obstacle(h, x)) continue;
-        int clear = 1;
-        for (int dz = -1; dz <= 1 && clear; ++dz)
-            for (int dy = -1; dy <= 1 && clear; ++dy)
-                for (int dx = -1; dx <= 1 && clear; ++dx) {
+        float d2 = INFINITY; /* to the nearest particle, from the cells within reach */
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
                     const int32_t cx = c3[0] + dx, cy = c3[1] + dy, cz = c3[2] + dz;
                     if (cx < 0 || cy < 0 || cz < 0 || cx >= gd[0] || cy >= gd[1] || cz >= gd[2])
                         continue;
                     for (int32_t p = h->inflow_head[cx + (int64_t)gd[0] * (cy + (int64_t)gd[1] * cz)];
-                         p >= 0 && clear; p = h->inflow_next[p]) {
+                         p >= 0; p = h->inflow_next[p]) {
                         const float *y = h->pos + 3 * (size_t)p;
-                        const float d0 = y[0] - x[0], d1 = y[1] - x[1], d2 = y[2] - x[2];
-                        clear = d0 * d0 + d1 * d1 + d2 * d2 >= s2;
+                        const float d0 = y[0] - x[0], d1 = y[1] - x[1], d2_ = y[2] - x[2];
+                        const float r2 = d0 * d0 + d1 * d1 + d2_ * d2_;
+                        d2 = r2 < d2 ? r2 : d2;
                     }
                 }
-        if (!clear) continue;
-        if (h->count >= h->p.max_particles) {
+        if (d2 < s * s) continue;
+        if (h->count >= h->p.max_particles) { /* a point was ready: the room ran out */
             h->inflow_capped = 1;
             break;
         }
+        /* (nothing within the cells' reach, 2 s: the first of a stream, a substep's travel) */
+        float ahead = sqrtf(d2) - s;
+        ahead = ahead < most ? ahead : most;
+        const float k = speed > 0.0f ? ahead / speed : 0.0f;
+        for (int a = 0; a < 3; ++a) {
+            x[a] += k * u[a];
+            x[a] = x[a] < h->p.box_min[a] + m ? h->p.box_min[a] + m : x[a];
+            x[a] = x[a] > h->p.box_max[a] - m ? h->p.box_max[a] - m : x[a];
+        }
         memcpy(h->pos + 3 * (size_t)h->count, x, sizeof x);
-        memcpy(h->vel + 3 * (size_t)h->count, h->inflow_vel, sizeof h->inflow_vel);
+        memcpy(h->vel + 3 * (size_t)h->count, u, 3 * sizeof *u);
         ++h->count;
     }
     h->inflow_added += h->count - before;

@@ -253,9 +253,9 @@ static inline float hbk_fluid_lane_sum(const float p[8])
     return ((p[0] + p[1]) + (p[2] + p[3])) + ((p[4] + p[5]) + (p[6] + p[7]));
 }
 
-/* inflow.c: the inflow's particles for the substep `substep` of the step under way (none
- * without an inflow or at max_particles); frees the inflow at destroy. */
-void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep);
+/* inflow.c: the inflow's particles for substep number `substep` of the step under way, `dt`
+ * s long (none without an inflow or at max_particles); frees the inflow at destroy. */
+void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt);
 void hbk_fluid_inflow_free(hbk_fluid_t *h);
 #define HBK_FLUID_STREAM_INFLOW 0xf1a3u
 

@@ -152,6 +152,11 @@ double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads)
         const float s2 = vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2];
         v2 = s2 > v2 ? s2 : v2;
     }
+    /* an inflow pours particles at its speed */
+    if (h->inflow_n) {
+        const float *u = h->inflow_vel, u2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+        v2 = u2 > v2 ? u2 : v2;
+    }
     /* an obstacle moving into the fluid sets particles moving at its speed */
     double dt = 0.4 * H / (sqrt((double)p->stiffness) + sqrt((double)v2) + h->obs_speed);
     if (p->viscosity > 0.0f) {

@@ -1,7 +1,7 @@
-/* Fluid, one scenario per source: the built-in SPH (obstacles with a mesh, paint, feature
- * rules, a capture), particles set every frame, and a velocity grid. Each steps, builds the
- * surface, reads every volume and the mesh, then saves and loads into a second handle that
- * steps on. */
+/* Fluid, one scenario per source: the built-in SPH (obstacles with a mesh, an inflow, paint,
+ * feature rules, a capture), particles set every frame, and a velocity grid. Each steps,
+ * builds the surface, reads every volume and the mesh, then saves and loads into a second
+ * handle that steps on. */
 #include <float.h>
 #include <math.h>
 #include "alloc_failure.h"
@@ -95,6 +95,15 @@ static void inputs(af_ctx_t *c, hbk_fluid_t *h, int32_t source, int f)
     AF_CALL(c, hbk_fluid_set_velocity_grid(h, vel, surf), hbk_fluid_message(h));
 }
 
+/* An inflow (SIMULATE) clear of the fill and the obstacles: 2 x 2 x 2 lattice points poured
+ * down at 3 m/s, so every step grows the particle count (8, 3, 2: the SPH's lists with it). */
+static hbk_result_t inflow(hbk_fluid_t *h)
+{
+    const hbk_fluid_obstacle_t tap = {1, {0.7f, 0.3f, 0.6f}, {0.06f, 0.06f, 0.06f}, {0}};
+    const float vel[3] = {1.0f, 0.0f, -3.0f};
+    return hbk_fluid_set_inflow(h, &tap, NULL, NULL, vel, 0.2f);
+}
+
 static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
 {
     const hbk_fluid_params_t p = params(source);
@@ -115,6 +124,7 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
             field[i] = sqrtf((float)((i % 3 - 1) * (i % 3 - 1) + (i / 3 % 3 - 1) * (i / 3 % 3 - 1) +
                                      (i / 9 - 1) * (i / 9 - 1))) * 0.1f - 0.06f;
         AF_CALL(c, hbk_fluid_set_obstacle_field(s->a, 1, dims, field), hbk_fluid_message(s->a));
+        AF_CALL(c, inflow(s->a), hbk_fluid_message(s->a));
     } else {
         inputs(c, s->a, source, 0);
         if (af_failed(c)) return;
@@ -149,6 +159,8 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
     AF_CALL(c, hbk_fluid_save_state(s->a, buf, size), hbk_fluid_message(s->a));
     AF_CREATE(c, hbk_fluid_create(&s->b, &p, &m), s->b, m);
     AF_CALL(c, hbk_fluid_load_state(s->b, buf, size), hbk_fluid_message(s->b));
+    if (source == HBK_FLUID_SIMULATE) /* (not in the state: set again) */
+        AF_CALL(c, inflow(s->b), hbk_fluid_message(s->b));
     if (source != HBK_FLUID_SIMULATE) inputs(c, s->b, source, 4);
     if (af_failed(c)) return;
     AF_CALL(c, hbk_fluid_step(s->b, NULL), hbk_fluid_message(s->b));

@@ -11,6 +11,7 @@ Inputs:
                  a shape as ``fill_shape`` takes it, None for none; the latest frame given at
                  or before a step's frame holds (a tap turned on and off, moved or reshaped)
     inflow_velocity (vx, vy, vz) m/s: the velocity the inflow's water leaves at (default 0)
+                 (the inflow's lattice points are jittered by ``jitter``, as the fill's)
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
                  z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
                  are at the first frame (fluid.obstacle_list)
@@ -99,22 +100,11 @@ class FluidEffect(Effect):
             self.fluid.update_fields()
             for texture, lo, hi in inp.get("rules") or []:
                 self.fluid.set_feature_rule(texture, lo, hi)
+            self._check_inflow(inp)
+            self.path = self._path(inp.get("obstacles") or [], inp.get("obstacle_path") or {})
         except BaseException:
             self.fluid.close()
             raise
-        self.inflow = self._inflow(inp.get("inflow") or {})
-        self._inflow_keys, self._inflow_on = sorted(self.inflow), None
-        self._capped_at = None  # the first frame the inflow stopped at max_particles
-        self.inflow_velocity = tuple(args.numbers(inp.get("inflow_velocity", (0.0,) * 3),
-                                                  "inflow_velocity", 3))
-        if not all(abs(c) <= 1000.0 for c in self.inflow_velocity):
-            raise errors.InvalidArgument(
-                f"inflow_velocity = ({', '.join(f'{c:g}' for c in self.inflow_velocity)}): "
-                "each component must be a finite number in [-1000, 1000] m/s")
-        if self.inflow and self.params["fluid"].source != 0:
-            raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
-                                         "pours an inflow")
-        self.path = self._path(inp.get("obstacles") or [], inp.get("obstacle_path") or {})
         self._path_keys = sorted(self.path)
         self.particles = inp.get("particles") or {}
         self.velocity = inp.get("velocity") or {}
@@ -141,6 +131,33 @@ class FluidEffect(Effect):
                     "(the same obstacles, moved)")
             out[int(f)] = obs
         return out
+
+    def _check_inflow(self, inp):
+        """The inflow inputs, checked whole before the first frame: each shape by the library
+        too (as it will be set at its frame), so that a shape it refuses (holding more
+        particles than max_particles, say) stops the bake before it starts, not at that
+        frame."""
+        self.inflow = self._inflow(inp.get("inflow") or {})
+        self._inflow_keys, self._inflow_on = sorted(self.inflow), None
+        self._capped_at = None  # the first frame the inflow stopped at max_particles
+        self.inflow_velocity = tuple(args.numbers(inp.get("inflow_velocity", (0.0,) * 3),
+                                                  "inflow_velocity", 3))
+        if not all(abs(c) <= 1000.0 for c in self.inflow_velocity):
+            raise errors.InvalidArgument(
+                f"inflow_velocity = ({', '.join(f'{c:g}' for c in self.inflow_velocity)}): "
+                "each component must be a finite number in [-1000, 1000] m/s")
+        if self.inflow and self.params["fluid"].source != 0:
+            raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
+                                         "pours an inflow")
+        jitter = float(inp.get("jitter", 0.0))
+        for f in self._inflow_keys:
+            if self.inflow[f] is not None:
+                try:
+                    self.fluid.set_inflow(self.inflow[f], self.inflow_velocity, jitter)
+                except errors.InvalidArgument as exc:
+                    raise errors.InvalidArgument(
+                        f"inflow[{f}]: {str(exc).removeprefix('inflow: ')}") from None
+        self.fluid.set_inflow(None)
 
     @staticmethod
     def _inflow(given):

@@ -1,0 +1,208 @@
+"""The fluid's inflow through the binding and the core effect: refusals by name, the rate it
+pours at, a tap turned on and off by frame, what a resume compares, and a bake cut and
+resumed giving the same bytes as one that was not."""
+import numpy as np
+import pytest
+
+from hydrobake.core import errors, fluid
+from hydrobake.core.bake import BakeRunner
+from hydrobake.core.effects import get
+from test_fluid_binding import grid_values
+
+# The 1 m box at 16^3 (spacing 2 cm), no gravity, little viscosity: a jet keeps its speed.
+STILL = {"resolution": (16, 16, 16), "gravity": (0.0, 0.0, 0.0), "viscosity": 0.01,
+         "max_particles": 4000, "threads": 1}
+# A tap across x: one lattice point thick (x 0.195), 4 x 4 points in y and z (0.465..0.525);
+# its bounds lie half a spacing off the lattice, so rounding cannot add or drop a row.
+TAP = ("box", (0.2, 0.5, 0.5), (0.015, 0.045, 0.045))
+POINTS, S, DT = 16, 0.02, 1 / 24
+
+
+def test_set_inflow_refusals_name_themselves_and_leave_the_tap():
+    with fluid.Fluid(dict(STILL, max_particles=100)) as f:
+        f.set_inflow(TAP, (1.0, 0.0, 0.0))
+        for shape, kw, want in (
+                (("sphere", (0.5, 0.5), 0.1), {}, r"^shape\.centre: must have 3 numbers"),
+                (("cone", (0.5, 0.5, 0.5), 0.1), {}, r"^shape\.kind"),
+                (("turned_box", (0.5, 0.5, 0.5), (0.1, 0.1, 0.1), (2, 0, 0, 0)), {},
+                 r"^shape\.rotation: length 2, must be a unit quaternion"),
+                (("mesh", (0.5, 0.5, 0.5), (0.1, 0.1, 0.1), (1, 0, 0, 0), None), {},
+                 r"^shape\.field: must be an array"),
+                (TAP, {"velocity": (1.0, 2.0)}, r"^velocity: must have 3 numbers, got 2"),
+                (TAP, {"velocity": (float("nan"), 0, 0)},
+                 r"^velocity\[0\] = nan: must be a finite number in \[-1000, 1000\] m/s"),
+                (TAP, {"velocity": (0, 2000, 0)},
+                 r"^velocity\[1\] = 2000: must be a finite number in \[-1000, 1000\] m/s"),
+                (TAP, {"jitter": 0.7}, r"^jitter = 0\.7: must be in \[0, 0\.5\]"),
+                # 5 x 5 x 5 lattice points at once, more than max_particles
+                (("box", (0.5, 0.5, 0.5), (0.055, 0.055, 0.055)), {},
+                 r"^inflow: the shape holds 125 particles at once: must hold at most "
+                 r"max_particles = 100")):
+            with pytest.raises(errors.InvalidArgument, match=want):
+                f.set_inflow(shape, **kw)
+        # still the first tap: whole rows of its 16 points (see the rate)
+        f.step()
+        poured, capped = f.inflow_added
+        assert poured >= 2 * POINTS and poured % POINTS == 0 and not capped
+        f.set_inflow(None)  # stops it
+        f.step()
+        assert f.inflow_added == (0, False) and f.particle_count == poured
+    with fluid.Fluid(dict(STILL, source="PARTICLES")) as f:
+        with pytest.raises(errors.InvalidArgument, match=r"^inflow: source = 1: only the "
+                                                         r"simulation \(0\) pours an inflow"):
+            f.set_inflow(TAP, (1.0, 0.0, 0.0))
+
+
+def test_the_tap_pours_k2_v_dt_over_spacing_a_frame():
+    """16 points at 1 m/s: a row every s / v = 20 ms, 33.3 particles a 1/24 s frame, give or
+    take the row a frame's end can cut over 7 frames (a point pours at a substep's start once
+    the particle before has gone a spacing, the new one as far along as if it had left then:
+    the rows stay a spacing apart). Every particle moves at v within 0.1% (the jet's middle is
+    a lattice at rest density: its rounding leaves a little pressure), on the tap's rows
+    downstream of it."""
+    with fluid.Fluid(STILL) as f:
+        f.set_inflow(TAP, (1.0, 0.0, 0.0))
+        counts, substeps = [], set()
+        for _ in range(8):
+            before = f.particle_count
+            f.step()
+            added, capped = f.inflow_added
+            assert added == f.particle_count - before and not capped
+            counts.append(f.particle_count)
+            substeps.add(f.substeps_taken)
+        per_frame = (counts[-1] - counts[0]) / 7
+        want = POINTS * 1.0 * DT / S
+        assert len(substeps) == 1  # (equal frames)
+        assert abs(per_frame - want) <= POINTS / 7, (per_frame, want)
+        pos, vel = f.particles()
+        np.testing.assert_allclose(vel, np.tile((1.0, 0.0, 0.0), (len(vel), 1)), atol=1e-3)
+        rows = (pos[:, 1:] - 0.465) / S
+        np.testing.assert_allclose(rows, np.round(rows), atol=1e-3)
+        assert rows.min() > -0.5 and rows.max() < 3.5 and pos[:, 0].min() >= 0.195 - 1e-6
+
+
+def tap_effect(inflow, velocity=(1.0, 0.0, 0.0), fluid_params=STILL, **inputs):
+    return get("fluid")({"fluid": fluid_params},
+                        dict(inputs, inflow=inflow, inflow_velocity=velocity))
+
+
+def test_a_tap_turned_on_at_frame_3_and_off_at_6_pours_in_frames_3_to_5_only():
+    e = tap_effect({3: TAP, 6: None}, fill=((0.6, 0.6, 0.0), (0.8, 0.8, 0.1)))
+    try:
+        counts = [e.fluid.particle_count]
+        for frame in range(1, 10):
+            e.step(frame, None)
+            assert e.fluid.inflow_added[0] == e.fluid.particle_count - counts[-1]
+            counts.append(e.fluid.particle_count)
+        added = dict(zip(range(1, 10), np.diff(counts)))
+        assert {f: n for f, n in added.items() if f not in (3, 4, 5)} == \
+            {1: 0, 2: 0, 6: 0, 7: 0, 8: 0, 9: 0}
+        # whole rows, a spacing apart: 33.3 a frame, give or take a row
+        assert all(added[f] % POINTS == 0 and abs(added[f] - POINTS * DT / S) <= POINTS
+                   for f in (3, 4, 5)), added
+        assert abs(sum(added[f] for f in (3, 4, 5)) - 3 * POINTS * DT / S) <= POINTS, added
+    finally:
+        e.close()
+
+
+def test_inflow_inputs_are_checked_by_name():
+    fill = ((0.6, 0.6, 0.0), (0.8, 0.8, 0.1))
+    for inflow, velocity, want in (
+            ({1: TAP}, (1.0, 2.0), r"^inflow_velocity: must have 3 numbers, got 2"),
+            ({1: TAP}, (2000.0, 0.0, 0.0),
+             r"^inflow_velocity = \(2000, 0, 0\): each component must be a finite number in "
+             r"\[-1000, 1000\] m/s"),
+            ({1: TAP}, (float("nan"), 0.0, 0.0), r"^inflow_velocity = \(nan, 0, 0\): each "),
+            ({1: TAP}, "fast", r"^inflow_velocity"),
+            ([TAP], (1.0, 0.0, 0.0), r"^inflow: list: must be a dict \{frame: shape or None\}"),
+            ({3: ("sphere", (0.5, 0.5), 0.1)}, (1.0, 0.0, 0.0),
+             r"^inflow\[3\]\.centre: must have 3 numbers")):
+        with pytest.raises(errors.InvalidArgument, match=want):
+            tap_effect(inflow, velocity, fill=fill)
+    # the library's own check of each shape, before the first frame (not at the frame it
+    # pours from, which would stop a bake halfway)
+    with pytest.raises(errors.InvalidArgument, match=r"^inflow\[2\]: the shape holds 3375 "
+                                                     r"particles at once: must hold at most "
+                                                     r"max_particles = 100"):
+        tap_effect({1: None, 2: ("box", (0.5, 0.5, 0.5), (0.15, 0.15, 0.15))},
+                   fluid_params=dict(STILL, max_particles=100),
+                   fill=((0.6, 0.6, 0.0), (0.7, 0.7, 0.04)))
+
+
+@pytest.mark.parametrize("source", ["PARTICLES", "VELOCITY_GRID"])
+def test_an_inflow_is_refused_for_another_source(source):
+    with pytest.raises(errors.InvalidArgument, match=r"^inflow: only the simulation \(source "
+                                                     r"SIMULATE\) pours an inflow"):
+        tap_effect({1: TAP}, fluid_params=dict(STILL, source=source))
+
+
+def test_what_a_resume_compares_names_the_tap_and_its_velocity():
+    """The frame's inputs carry the shape poured from at that frame (None's digest before and
+    after), the scalar inputs the velocity; neither is there without an inflow."""
+    moved = ("box", (0.25, 0.5, 0.5), TAP[2])
+    a = tap_effect({3: TAP, 6: None})
+    b = tap_effect({3: moved, 6: None})
+    c = tap_effect({3: TAP, 6: None}, velocity=(2.0, 0.0, 0.0))
+    plain = get("fluid")({"fluid": STILL}, {"fill": ((0.6, 0.6, 0.0), (0.8, 0.8, 0.1))})
+    try:
+        ins = {f: a.frame_inputs(f)["inflow"] for f in range(1, 9)}
+        assert ins[1] == ins[2] == ins[6] == ins[8] != ins[3] == ins[4] == ins[5]
+        for f in (1, 2, 6, 7):
+            assert b.frame_inputs(f)["inflow"] == ins[f]
+        for f in (3, 4, 5):
+            assert b.frame_inputs(f)["inflow"] != ins[f]
+            assert c.frame_inputs(f)["inflow"] == ins[f]
+        assert a.scalar_inputs()["inflow velocity"] == [1.0, 0.0, 0.0]
+        assert c.scalar_inputs()["inflow velocity"] == [2.0, 0.0, 0.0]
+        assert "inflow velocity" not in plain.scalar_inputs()
+        assert "inflow" not in plain.frame_inputs(3)
+    finally:
+        for e in (a, b, c, plain):
+            e.close()
+    # a mesh tap: its field is part of the digest
+    field = np.full((4, 4, 4), -0.01, np.float32)
+    mesh = ("mesh", (0.2, 0.5, 0.5), (0.015, 0.045, 0.045), (1.0, 0.0, 0.0, 0.0), field)
+    d = tap_effect({3: mesh})
+    e = tap_effect({3: mesh[:4] + (field * 2,)})
+    try:
+        assert d.frame_inputs(3)["inflow"] != e.frame_inputs(3)["inflow"]
+        assert d.frame_inputs(2)["inflow"] == e.frame_inputs(2)["inflow"]
+    finally:
+        d.close()
+        e.close()
+
+
+POOL = dict(STILL, gravity=(0.0, 0.0, -9.81), substeps=8)
+
+
+def pour(folder, end, resume=False, tap=TAP):
+    """Bakes frames 1..end of a jittered tap pouring into a pool from frame 3 to 5;
+    returns the runner and the particles' bytes at the end."""
+    e = get("fluid")({"fluid": POOL},
+                     {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
+                      "inflow": {3: tap, 6: None}, "inflow_velocity": (1.0, 0.0, -0.5)})
+    try:
+        r = BakeRunner(e, folder, 1, end, checkpoint_every=2, resume=resume)
+        r.run()
+        pos, vel = e.fluid.particles()
+        return r, pos.tobytes() + vel.tobytes()
+    finally:
+        e.close()
+
+
+def test_a_bake_cut_while_pouring_and_resumed_gives_the_same_bytes(tmp_path):
+    _, whole = pour(tmp_path / "a", 8)
+    pour(tmp_path / "b", 4)  # cut with the tap on
+    r, resumed = pour(tmp_path / "b", 8, resume=True)
+    assert r.resumed_from == 4
+    assert resumed == whole
+    for i in range(1, 9):
+        name = f"surface_{i:04d}.npz"
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+        assert grid_values(tmp_path / "a" / f"fluid_{i:04d}.vdb") == \
+            grid_values(tmp_path / "b" / f"fluid_{i:04d}.vdb")
+    # another tap is another bake: refused at the first frame it pours
+    pour(tmp_path / "c", 4)
+    with pytest.raises(errors.StateError, match=r"^cannot resume the bake in .*: inflow at "
+                                                r"frame 3: changed since the bake"):
+        pour(tmp_path / "c", 8, resume=True, tap=("box", (0.25, 0.5, 0.5), TAP[2]))
