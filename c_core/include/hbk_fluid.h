@@ -165,15 +165,17 @@ HBK_EXPORT hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obs
  * from the next step on. At the start of every SPH substep each point of fill_box's lattice
  * inside the shape (and the box), jittered by up to `jitter` spacings (0..0.5, keyed by seed,
  * frame, substep and point), outside the obstacles and with no particle nearer than
- * particle_spacing, gains a particle moving at `velocity`, until max_particles. The shape is
- * not an obstacle. NULL shape stops the inflow. Not part of the saved state (set it again
+ * particle_spacing, gains a particle moving at `velocity`, until max_particles: started as
+ * far along the flow as it would be had it left when the point cleared (at most a substep's
+ * travel), so a stream's particles follow a spacing apart and the inflow pours velocity x
+ * cross-section. The stable step counts its speed. The shape is not an obstacle. NULL shape stops the inflow. Not part of the saved state (set it again
  * after load_state, as the obstacles). HBK_ERR_INVALID_ARGUMENT also for another source or
  * a shape holding more lattice points than max_particles; HBK_ERR_OUT_OF_MEMORY. */
 HBK_EXPORT hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
                                              const int32_t dims[3], const float *distance,
                                              const float velocity[3], float jitter);
-/* Particles the inflow added in the last step; *capped receives 1 if it stopped short at
- * max_particles (either may be NULL). 0 for NULL. */
+/* Particles the inflow added in the last step; *capped receives 1 if a point ready to pour
+ * found the fluid at max_particles (capped may be NULL). 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped);
 /* Replaces the obstacle list (count 0..64; NULL with 0 clears), still where they are, and
  * drops a move not stepped yet. */
