@@ -174,6 +174,9 @@ HBK_EXPORT hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obs
 HBK_EXPORT hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
                                              const int32_t dims[3], const float *distance,
                                              const float velocity[3], float jitter);
+/* The lattice points the inflow pours from (0 without one, or for a shape no point of the
+ * lattice lies in: it pours nothing). 0 for NULL. */
+HBK_EXPORT int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h);
 /* Particles the inflow added in the last step; *capped receives 1 if a point ready to pour
  * found the fluid at max_particles (capped may be NULL). 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped);

@@ -66,6 +66,7 @@ void test_fluid_inflow_refused(void)
     h = make(&p);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, v, 0.0f));
+    CHECK(hbk_fluid_inflow_points(h) == TAP_POINTS && hbk_fluid_inflow_points(NULL) == 0);
     size_t s0, s1;
     unsigned char *before = fluid_state_of(h, &s0);
     CHECK(before);
@@ -109,9 +110,19 @@ void test_fluid_inflow_refused(void)
     CHECK(hbk_fluid_particle_count(h) == poured);
     /* NULL stops it: the next step adds none */
     CHECK_OK(hbk_fluid_set_inflow(h, NULL, NULL, NULL, NULL, 0.0f));
+    CHECK(hbk_fluid_inflow_points(h) == 0);
     CHECK_OK(hbk_fluid_step(h, NULL));
     CHECK(hbk_fluid_inflow_added(h, &capped) == 0 && capped == 0);
     CHECK(hbk_fluid_particle_count(h) == poured);
+    /* a shape out of the box, or thinner than the lattice: taken, pouring nothing */
+    const hbk_fluid_obstacle_t out = {0, {1.5f, 0.5f, 0.5f}, {0.1f, 0, 0}, {0}},
+                               thin = {0, {0.5f, 0.5f, 0.5f}, {0.004f, 0, 0}, {0}};
+    CHECK_OK(hbk_fluid_set_inflow(h, &out, NULL, NULL, v, 0.0f));
+    CHECK(hbk_fluid_inflow_points(h) == 0);
+    CHECK_OK(hbk_fluid_set_inflow(h, &thin, NULL, NULL, v, 0.0f));
+    CHECK(hbk_fluid_inflow_points(h) == 0);
+    CHECK_OK(hbk_fluid_step(h, NULL));
+    CHECK(hbk_fluid_inflow_added(h, &capped) == 0 && capped == 0);
     CHECK(hbk_fluid_inflow_added(NULL, &capped) == 0 && capped == 0);
     hbk_fluid_destroy(h);
 }

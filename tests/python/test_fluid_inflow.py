@@ -119,6 +119,22 @@ def test_inflow_inputs_are_checked_by_name():
              r"^inflow\[3\]\.centre: must have 3 numbers")):
         with pytest.raises(errors.InvalidArgument, match=want):
             tap_effect(inflow, velocity, fill=fill)
+    # a shape no particle fits in at any frame (outside the box, or thinner than the
+    # lattice) pours nothing: refused; outside at one frame only, it pours nothing there
+    with pytest.raises(errors.InvalidArgument, match=r"^inflow: no particle fits inside its "
+                                                     r"shape at any frame, within the box"):
+        tap_effect({1: ("sphere", (1.5, 0.5, 0.5), 0.1), 3: ("sphere", (0.5, 0.5, 0.5), 0.004)},
+                   fill=fill)
+    e = tap_effect({1: ("sphere", (1.5, 0.5, 0.5), 0.1), 3: TAP}, fill=fill)
+    try:
+        n0 = e.fluid.particle_count
+        for frame in (1, 2):
+            e.step(frame, None)
+        assert e.fluid.particle_count == n0
+        e.step(3, None)
+        assert e.fluid.particle_count > n0
+    finally:
+        e.close()
     # the library's own check of each shape, before the first frame (not at the frame it
     # pours from, which would stop a bake halfway)
     with pytest.raises(errors.InvalidArgument, match=r"^inflow\[2\]: the shape holds 3375 "

@@ -63,6 +63,7 @@ _lib.declare([
     ("hbk_fluid_particle_count", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_substeps_taken", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_inflow_added", ctypes.c_int32, [ctypes.c_void_p, P(ctypes.c_int32)]),
+    ("hbk_fluid_inflow_points", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_grid_vertices", ctypes.c_size_t, [ctypes.c_void_p, P(ctypes.c_int32 * 3)]),
     ("hbk_fluid_volume_size", ctypes.c_size_t, [ctypes.c_void_p, ctypes.c_int32]),
     ("hbk_fluid_uvw_weight", ctypes.c_float, [ctypes.c_void_p]),
@@ -191,6 +192,11 @@ class Fluid(Handle):
                   None if dims is None else ctypes.addressof(dims),
                   None if field is None else field.ctypes.data,
                   args.numbers(velocity, "velocity", 3), args.number(jitter, "jitter"))
+
+    @property
+    def inflow_points(self):
+        """Lattice points the inflow pours from (0: none, or a shape too thin or outside)."""
+        return int(_lib.lib.hbk_fluid_inflow_points(self.h))
 
     @property
     def inflow_added(self):

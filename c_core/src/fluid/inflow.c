@@ -129,6 +129,8 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
     return HBK_OK;
 }
 
+int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h) { return h ? h->inflow_n : 0; }
+
 int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped)
 {
     if (capped) *capped = h ? h->inflow_capped : 0;

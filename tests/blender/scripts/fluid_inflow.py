@@ -77,7 +77,16 @@ f.inflow_start, f.inflow_end = 5, 3
 refused("Inflow End = 3 is before Inflow Start = 5")
 f.inflow_start, f.inflow_end = 3, 5
 tap.location.z = 2.0
-refused("Inflow: 'Tap' must overlap the domain's box")
+refused("Inflow: 'Tap' must overlap the domain's box by at least particle_spacing")
+# out of the box at some frames only: it pours nothing there (None), not refused
+tap.keyframe_insert("location", index=2, frame=4)
+tap.location.z = 0.4
+tap.keyframe_insert("location", index=2, frame=5)
+inputs, e = prepared()
+e.close()
+assert sorted(inputs["inflow"]) == [1, 3, 5, 6] and inputs["inflow"][3] is None and \
+    inputs["inflow"][5][0] == "box", inputs["inflow"]
+tap.animation_data_clear()
 tap.location.z = 0.4
 print("FLUID INFLOW REFUSED OK")
 

@@ -111,7 +111,10 @@ def _fill_shape(context, obj, spacing, role="Fill", made=None):
 
 
 def _same_shape(a, b):
-    """Whether two shapes as _inflow_shape gives them are the same (fields compared whole)."""
+    """Whether two shapes as _fill_shape gives them (or None) are the same (fields compared
+    whole)."""
+    if a is None or b is None:
+        return a is b
     return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
@@ -425,9 +428,7 @@ class FluidBlender(BlenderEffect):
             flo, fhi = meshes.world_bounds(holder)
             flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
             if np.any(fhi - flo < spacing):
-                # no lattice point inside the box: it would pour nothing
-                raise ValueError(f"Inflow: {obj.name!r} must overlap the domain's box by at "
-                                 f"least particle_spacing = {spacing:g} m on every axis")
+                return None  # out of the box at this frame: it pours nothing there
             got = _fill_shape(context, holder, spacing, "Inflow", made)
             if got is None:
                 got = ("box", tuple(map(float, (flo + fhi) / 2)),
@@ -435,6 +436,10 @@ class FluidBlender(BlenderEffect):
             return got
         first, path = yield from animation.followed(context, holder, frames, shape,
                                                     same=_same_shape)
+        if first is None and all(sh is None for sh in path.values()):
+            raise ValueError(f"Inflow: {obj.name!r} must overlap the domain's box by at least "
+                             f"particle_spacing = {spacing:g} m on every axis (at some frame "
+                             "of the bake)")
         out = {frames[0]: None} if start > frames[0] else {}
         if start <= frames[1] and end >= frames[0]:
             on = max(start, frames[0])

@@ -150,6 +150,7 @@ class FluidEffect(Effect):
             raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
                                          "pours an inflow")
         jitter = float(inp.get("jitter", 0.0))
+        points = 0
         for f in self._inflow_keys:
             if self.inflow[f] is not None:
                 try:
@@ -157,7 +158,13 @@ class FluidEffect(Effect):
                 except errors.InvalidArgument as exc:
                     raise errors.InvalidArgument(
                         f"inflow[{f}]: {str(exc).removeprefix('inflow: ')}") from None
+                points += self.fluid.inflow_points
         self.fluid.set_inflow(None)
+        if any(sh is not None for sh in self.inflow.values()) and points == 0:
+            # (one frame's shape outside the box pours nothing there; every one is a mistake)
+            raise errors.InvalidArgument(
+                "inflow: no particle fits inside its shape at any frame, within the box (is "
+                "it thinner than particle_spacing, or outside?)")
 
     @staticmethod
     def _inflow(given):
