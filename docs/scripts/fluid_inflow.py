@@ -11,10 +11,9 @@ import os
 import sys
 
 import bpy
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tank_scene import bake, box, floor, render, start  # noqa: E402
+from tank_scene import bake, box, floor, start, two_frames  # noqa: E402
 
 out = start("inflow.blend")
 scene = bpy.context.scene
@@ -31,19 +30,4 @@ solids = bpy.data.collections.new("Solids")
 scene.collection.children.link(solids)
 floor(0.4, 0.25)
 bake(tank, pool, solids, 16, (40, 25, 30))
-halves = []
-for frame in (8, 16):
-    path = os.path.join(out, f"fluid_inflow_{frame}.png")
-    if frame == 8:  # (the camera, sun and sky, once)
-        render(frame, (0.4, -0.95, 0.72), 66, (400, 330), path)
-    else:
-        scene.frame_set(frame)
-        scene.render.filepath = path
-        bpy.ops.render.render(write_still=True)
-    img = bpy.data.images.load(path)
-    halves.append(np.array(img.pixels[:], np.float32).reshape(330, 400, 4))
-both = bpy.data.images.new("both", 800, 330, alpha=True)
-both.pixels[:] = np.concatenate(halves, axis=1).ravel()
-both.filepath_raw, both.file_format = os.path.join(out, "fluid_inflow.png"), "PNG"
-both.save()
-print("SAVED", both.filepath_raw)
+two_frames((8, 16), (0.4, -0.95, 0.72), 66, out, "fluid_inflow")

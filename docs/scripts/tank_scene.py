@@ -73,3 +73,26 @@ def render(frame, camera, tilt, size, path):
     scene.render.filepath = path
     bpy.ops.render.render(write_still=True)
     print("RENDERED", scene.render.filepath)
+
+
+def two_frames(frames, camera, tilt, out, name):
+    """Renders ``frames`` (two) as render() does, 400 x 330 each, side by side into
+    OUT/name.png (each also as name_FRAME.png)."""
+    import numpy as np
+    scene = bpy.context.scene
+    halves = []
+    for frame in frames:
+        path = os.path.join(out, f"{name}_{frame}.png")
+        if frame == frames[0]:  # (the camera, sun and sky, once)
+            render(frame, camera, tilt, (400, 330), path)
+        else:
+            scene.frame_set(frame)
+            scene.render.filepath = path
+            bpy.ops.render.render(write_still=True)
+        img = bpy.data.images.load(path)
+        halves.append(np.array(img.pixels[:], np.float32).reshape(330, 400, 4))
+    both = bpy.data.images.new("both", 800, 330, alpha=True)
+    both.pixels[:] = np.concatenate(halves, axis=1).ravel()
+    both.filepath_raw, both.file_format = os.path.join(out, f"{name}.png"), "PNG"
+    both.save()
+    print("SAVED", both.filepath_raw)

@@ -56,6 +56,8 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side);
 /* A fluid in the default 1 m box at 16^3 with gravity (0, 0, gz) (the obstacle tests' lone
  * particles; threads 0: the default), and a malloc'd copy of a handle's saved state (NULL on failure). */
 hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads);
+/* A handle of these parameters, or NULL with the reason on stderr. */
+hbk_fluid_t *fluid_make(const hbk_fluid_params_t *p);
 unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size);
 /* Whether two handles' saved states are the same bytes. */
 int fluid_same_state(hbk_fluid_t *a, hbk_fluid_t *b);

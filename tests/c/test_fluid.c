@@ -17,17 +17,6 @@ static hbk_fluid_params_t params(int32_t res, int32_t source)
     return p;
 }
 
-static hbk_fluid_t *make(const hbk_fluid_params_t *p)
-{
-    hbk_fluid_t *h = NULL;
-    hbk_message_t m;
-    if (hbk_fluid_create(&h, p, &m) != HBK_OK) {
-        fprintf(stderr, "create: %s\n", m.text);
-        return NULL;
-    }
-    return h;
-}
-
 /* Circular distance of two uvw values. */
 static double cdist(double a, double b)
 {
@@ -120,7 +109,7 @@ void test_fluid_params_rejects(void)
     /* Setters and calls refuse by name and change nothing. */
     p = params(8, HBK_FLUID_SIMULATE);
     p.max_particles = 10;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float out_of_box[3] = {0.5f, 2.0f, 0.5f};
     CHECK(hbk_fluid_set_particles(h, out_of_box, NULL, 1) == HBK_ERR_INVALID_ARGUMENT);
@@ -165,7 +154,7 @@ void test_fluid_uniform_flow_shift(void)
     p.reset_period = 0.0f;
     p.uvw_tile = 4.0f / 16.0f;
     p.dt = 0.1f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const double d = 0.3; /* voxels per frame */
     const float vel[3] = {(float)(d / 16.0 / 0.1), 0.0f, 0.0f};
@@ -203,7 +192,7 @@ void test_fluid_zero_flow_bitwise(void)
     hbk_fluid_params_t p = params(12, HBK_FLUID_PARTICLES);
     p.reset_period = 0.0f;
     p.paint_duration = 100.0f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float lo[3] = {0.2f, 0.2f, 0.0f}, hi[3] = {0.8f, 0.8f, 0.4f}, c[3] = {0.5f, 0.5f, 0.2f};
     CHECK_OK(hbk_fluid_fill_box(h, lo, hi, 0.3f));
@@ -225,7 +214,7 @@ void test_fluid_zero_flow_bitwise(void)
 void test_fluid_wrap_short_way(void)
 {
     hbk_fluid_params_t p = params(4, HBK_FLUID_VELOCITY_GRID);
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const size_t nv = h->n_vert;
     for (size_t i = 0; i < nv; ++i) {
@@ -270,7 +259,7 @@ void test_fluid_wrap_flags_advect(void)
         p.reset_period = 0.0f;
         p.max_flow = 8.0f;
         p.dt = 0.1f;
-        hbk_fluid_t *h = make(&p);
+        hbk_fluid_t *h = fluid_make(&p);
         CHECK(h);
         const int32_t n = R + 1;
         for (int32_t k = 0; k < n; ++k)
@@ -320,7 +309,7 @@ void test_fluid_blend_normalised(void)
     p.textures = 4;
     p.paint_duration = 0.1f;
     p.paint_fade = 0.2f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     size_t nv = hbk_fluid_grid_vertices(h, NULL);
     float *vel = malloc(3 * nv * sizeof *vel), *surf = malloc(nv * sizeof *surf);
@@ -375,7 +364,7 @@ static void rules_exact(void)
     enum { T = 4 };
     hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
     p.textures = T;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     if (!h) return;
     const size_t nv = hbk_fluid_grid_vertices(h, NULL);
@@ -453,7 +442,7 @@ void test_fluid_rules_after_flow(void)
 {
     hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
     p.textures = 2;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     if (!h) return;
     const size_t nv = hbk_fluid_grid_vertices(h, NULL);
@@ -516,7 +505,7 @@ void test_fluid_density_lattice(void)
     const double s = 1.0 / 16.0, H = 2.0 / 16.0;
     const double mass = 1000.0 / lattice_kernel_sum(s, H, 0, 0, 0);
     for (int shifted = 0; shifted < 2; ++shifted) {
-        hbk_fluid_t *h = make(&p);
+        hbk_fluid_t *h = fluid_make(&p);
         CHECK(h);
         const int n = shifted ? 16 : 17;
         float *pos = malloc(3 * (size_t)n * n * n * sizeof *pos);
@@ -582,7 +571,7 @@ static void sph_push_apart(int n)
     p.substeps = 1;
     p.dt = 1e-4f;
     p.max_particles = 3;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float pos[9] = {0.5f, 0.5f, 0.5f, 0.512f, 0.5f, 0.5f, 0.506f, 0.51f, 0.503f};
     CHECK_OK(hbk_fluid_set_particles(h, pos, NULL, n));
@@ -617,7 +606,7 @@ void test_fluid_sph_rest(void)
     p.box_max[2] = 0.4f;
     p.max_particles = 2000;
     p.damping = 5.0f;
-    hbk_fluid_t *settle = make(&p);
+    hbk_fluid_t *settle = fluid_make(&p);
     CHECK(settle);
     const float lo[3] = {0, 0, 0}, hi[3] = {0.2f, 0.2f, 0.2f};
     CHECK_OK(hbk_fluid_fill_box(settle, lo, hi, 0.0f));
@@ -628,7 +617,7 @@ void test_fluid_sph_rest(void)
     void *buf = malloc(sz);
     CHECK_OK(hbk_fluid_save_state(settle, buf, sz));
     p.damping = 0.0f; /* now real fluid: it must stay at rest by itself */
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     CHECK_OK(hbk_fluid_load_state(h, buf, sz));
     float *pos0 = malloc(3 * (size_t)n * sizeof *pos0), *pos = malloc(3 * (size_t)n * sizeof *pos),
@@ -690,7 +679,7 @@ void test_fluid_sph_stable_steps(void)
     const int32_t asked[3] = {1, 8, 120};
     for (int c = 0; c < 3; ++c) {
         p.substeps = asked[c];
-        CHECK(h[c] = make(&p));
+        CHECK(h[c] = fluid_make(&p));
         if (!h[c]) return;
         CHECK_OK(hbk_fluid_fill_box(h[c], lo, hi, 0.0f));
     }
@@ -756,7 +745,7 @@ void test_fluid_mc_closed(void)
 {
     hbk_fluid_params_t p = params(24, HBK_FLUID_PARTICLES);
     p.max_particles = 600;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     float pos[3 * 600];
     for (int i = 0; i < 600; ++i) {
@@ -791,7 +780,7 @@ void test_fluid_mc_closed(void)
 void test_fluid_mc_closed_noise(void)
 {
     hbk_fluid_params_t p = params(12, HBK_FLUID_VELOCITY_GRID);
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const size_t nvg = hbk_fluid_grid_vertices(h, NULL);
     float *vel = calloc(3 * nvg, sizeof *vel), *surf = malloc(nvg * sizeof *surf);
@@ -840,7 +829,7 @@ static void sphere_field(float *surf, int res, double R)
 void test_fluid_mc_sphere(void)
 {
     hbk_fluid_params_t p = params(48, HBK_FLUID_VELOCITY_GRID);
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const double R = 0.3;
     size_t nvg = hbk_fluid_grid_vertices(h, NULL);
@@ -903,7 +892,7 @@ void test_fluid_mesh_uvw_unwrapped(void)
     p.reset_period = 0.0f;
     p.uvw_tile = 0.25f;
     p.dt = 0.1f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const size_t nvg = hbk_fluid_grid_vertices(h, NULL);
     float *vel = malloc(3 * nvg * sizeof *vel), *surf = malloc(nvg * sizeof *surf);
@@ -970,7 +959,7 @@ void test_fluid_crossfade(void)
     hbk_fluid_params_t p = params(8, HBK_FLUID_VELOCITY_GRID);
     p.dt = 0.1f;
     p.reset_period = 0.8f; /* 8 frames */
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float vel[3] = {0.05f, 0.02f, 0.0f};
     uniform_grid(h, vel);
@@ -1003,7 +992,7 @@ static hbk_fluid_t *scene_r(int threads, float metaball_radius)
     p.substeps = 10;
     p.seed = 1234;
     p.reset_period = 0.25f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     if (!h) return NULL;
     const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {0.3f, 0.3f, 0.3f}, c[3] = {0.15f, 0.15f, 0.2f};
     if (hbk_fluid_fill_box(h, lo, hi, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
@@ -1134,7 +1123,7 @@ void test_fluid_reload_every_frame(void)
     hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
     p.threads = 2;
     p.reset_period = 8.0f * p.dt; /* field B resets at frame 4, A at 8 */
-    hbk_fluid_t *h[2] = {make(&p), make(&p)};
+    hbk_fluid_t *h[2] = {fluid_make(&p), fluid_make(&p)};
     CHECK(h[0] && h[1]);
     float lo[HBK_FLUID_FEATURE_COUNT], hi[HBK_FLUID_FEATURE_COUNT];
     for (int c = 0; c < HBK_FLUID_FEATURE_COUNT; ++c) lo[c] = -FLT_MAX, hi[c] = FLT_MAX;
@@ -1181,7 +1170,7 @@ static hbk_fluid_t *rising(size_t fluid, size_t rise, int32_t textures)
     hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
     p.textures = textures;
     p.max_flow = 8.0f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     if (!h) return NULL;
     const size_t nv = hbk_fluid_grid_vertices(h, NULL);
     float *v = calloc(3 * nv, sizeof *v), *surf = calloc(nv, sizeof *surf);
@@ -1401,7 +1390,7 @@ static hbk_fluid_t *box_scene(int32_t res, const float hi[3], const float top[3]
     p.smoothing_length = p.metaball_radius = H;
     p.max_particles = max_particles;
     p.threads = 2;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     if (h && hbk_fluid_fill_box(h, lo, top, 0.2f) != HBK_OK) { hbk_fluid_destroy(h); return NULL; }
     return h;
 }
@@ -1434,7 +1423,7 @@ static hbk_fluid_t *converging_grid(void)
     p.max_flow = 40.0f;
     p.textures = 5;
     p.threads = 2;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     if (!h) return NULL;
     int32_t n[3];
     const size_t nv = hbk_fluid_grid_vertices(h, n);
@@ -1519,7 +1508,7 @@ void test_fluid_stretch_fade(void)
         p.reset_period = 1.0f; /* 24 frames: A at 0, 24; B at 12 */
         p.max_flow = 8.0f;
         p.stretch_fade = mode == 1 ? 0.0f : fade;
-        hbk_fluid_t *h = make(&p);
+        hbk_fluid_t *h = fluid_make(&p);
         CHECK(h);
         if (mode == 2) {
             const float u[3] = {0.4f, 0.2f, 0.0f};
@@ -1601,7 +1590,7 @@ void test_fluid_sums_staggered(void)
     static const int32_t res[] = {8, 32, 128};
     for (size_t k = 0; k < sizeof res / sizeof res[0]; ++k) {
         hbk_fluid_params_t p = params(res[k], HBK_FLUID_PARTICLES);
-        hbk_fluid_t *h = make(&p);
+        hbk_fluid_t *h = fluid_make(&p);
         CHECK(h != NULL);
         if (!h) continue;
         const float *s[4] = {h->g_wsum, h->g_mp[0], h->g_mp[1], h->g_mp[2]};
@@ -1623,7 +1612,7 @@ void test_fluid_paint_points(void)
     hbk_fluid_params_t p = params(16, HBK_FLUID_SIMULATE);
     const float c[3] = {0.4f, 0.5f, 0.45f};
     hbk_fluid_t *h[4];
-    for (int k = 0; k < 4; ++k) CHECK((h[k] = make(&p)) != NULL);
+    for (int k = 0; k < 4; ++k) CHECK((h[k] = fluid_make(&p)) != NULL);
     float *before = volume(h[0], HBK_FLUID_VOL_BLEND);
     const size_t n = hbk_fluid_volume_size(h[0], HBK_FLUID_VOL_BLEND);
     const float none = 0.0f;
@@ -1773,7 +1762,7 @@ void test_fluid_sph_pair_exact(void)
     p.substeps = 1;
     p.dt = 1e-4f;
     p.max_particles = 2;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const double H = p.smoothing_length, rho0 = 1000.0, k = 200.0, mu = 10.0, dt = (double)p.dt;
     const double W0 = 15.0 / (M_PI * pow(H, 3));
@@ -1823,7 +1812,7 @@ void test_fluid_sph_momentum(void)
     p.max_particles = N;
     p.dt = 2e-4f;
     p.substeps = 1;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     float pos[3 * N], vel[3 * N], u[6];
     for (int i = 0; i < N; ++i) {
@@ -1854,7 +1843,7 @@ void test_fluid_sph_momentum(void)
 
     p = params(8, HBK_FLUID_SIMULATE); /* H = 2 spacings, 1/24 s, gravity */
     p.max_particles = 1;
-    CHECK(h = make(&p));
+    CHECK(h = fluid_make(&p));
     const float one[3] = {0.5f, 0.5f, 0.8f};
     CHECK_OK(hbk_fluid_set_particles(h, one, NULL, 1));
     CHECK_OK(hbk_fluid_step(h, NULL));
@@ -1879,7 +1868,7 @@ void test_fluid_sph_lattice_rest_density(void)
         p.smoothing_length = hs[c] * p.particle_spacing;
         p.gravity[2] = 0.0f;
         p.max_particles = 1000;
-        hbk_fluid_t *h = make(&p);
+        hbk_fluid_t *h = fluid_make(&p);
         CHECK(h);
         const float lo[3] = {0, 0, 0}, hi[3] = {0.2f, 0.2f, 0.2f};
         CHECK_OK(hbk_fluid_fill_box(h, lo, hi, 0.0f));
@@ -1907,7 +1896,7 @@ void test_fluid_features_known_fields(void)
     hbk_fluid_params_t p = params(16, HBK_FLUID_VELOCITY_GRID);
     p.dt = 0.1f;
     p.max_flow = 8.0f; /* 8 voxels of 1/16 m per 0.1 s: 5 m/s */
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const int32_t n = 17;
     const size_t nv = hbk_fluid_grid_vertices(h, NULL), F = HBK_FLUID_FEATURE_COUNT;
@@ -1995,7 +1984,7 @@ void test_fluid_crossfade_schedule(void)
     p.dt = 0.05f;
     p.reset_period = 0.5f; /* 10 frames: A at 0, 10, 20; B at 5, 15, 25 */
     p.uvw_tile = 0.5f;     /* four cells a tile */
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float vel[3] = {0.03f, -0.02f, 0.01f};
     uniform_grid(h, vel);
@@ -2032,7 +2021,7 @@ void test_fluid_blend_advect_shift(void)
     p.dt = 0.125f;
     p.textures = 3;
     p.reset_period = 0.0f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const int32_t n = 17;
     const size_t nv = hbk_fluid_grid_vertices(h, NULL);

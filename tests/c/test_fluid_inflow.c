@@ -20,13 +20,6 @@ static hbk_fluid_params_t still_box(int32_t max_particles)
     return p;
 }
 
-static hbk_fluid_t *make(const hbk_fluid_params_t *p)
-{
-    hbk_fluid_t *h = NULL;
-    hbk_message_t m;
-    return hbk_fluid_create(&h, p, &m) == HBK_OK ? h : NULL;
-}
-
 /* Positions and velocities (malloc'd, 3 floats each per particle; count in *n). */
 static float *particles(hbk_fluid_t *h, int32_t *n, float **vel)
 {
@@ -53,7 +46,7 @@ void test_fluid_inflow_refused(void)
 {
     hbk_fluid_params_t p = still_box(100);
     p.source = HBK_FLUID_PARTICLES;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float v[3] = {1, 0, 0};
     CHECK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, v, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
@@ -63,7 +56,7 @@ void test_fluid_inflow_refused(void)
 
     /* A good tap first: every refusal after it must leave it (and the state) as it was. */
     p = still_box(100);
-    h = make(&p);
+    h = fluid_make(&p);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, v, 0.0f));
     CHECK(hbk_fluid_inflow_points(h) == TAP_POINTS && hbk_fluid_inflow_points(NULL) == 0);
@@ -143,7 +136,7 @@ void test_fluid_inflow_rate(void)
     for (int c = 0; c < 2; ++c) {
         const float v = vs[c], vel[3] = {v, 0, 0};
         hbk_fluid_params_t p = still_box(4000);
-        hbk_fluid_t *h = make(&p);
+        hbk_fluid_t *h = fluid_make(&p);
         CHECK(h);
         CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, vel, 0.0f));
         int32_t first = 0, n = 0, substeps = 0;
@@ -197,7 +190,7 @@ void test_fluid_inflow_starts_in_the_shape(void)
     const float c = cosf(0.3f), sn = sinf(0.3f); /* turned 0.6 rad about z */
     const hbk_fluid_obstacle_t tb = {2, {0.4f, 0.5f, 0.5f}, {0.05f, 0.08f, 0.03f}, {c, 0, 0, sn}};
     const float vel[3] = {0.8f, -0.5f, 0.25f}, jit = 0.3f, s = 0.02f;
-    hbk_fluid_t *g = make(&p), *h = make(&p), *k = make(&p);
+    hbk_fluid_t *g = fluid_make(&p), *h = fluid_make(&p), *k = fluid_make(&p);
     CHECK(g && h && k);
     CHECK_OK(hbk_fluid_fill_shape(g, &tb, NULL, NULL, 0.0f)); /* the lattice points inside */
     CHECK_OK(hbk_fluid_set_inflow(h, &tb, NULL, NULL, vel, 0.0f));
@@ -251,7 +244,7 @@ void test_fluid_inflow_clear_of_water(void)
     const hbk_fluid_obstacle_t tap = {1, {0.25f, 0.5f, 0.5f}, {0.05f, 0.1f, 0.1f}, {0}};
     const float still[3] = {0, 0, 0}, s = 0.02f;
     hbk_fluid_params_t p = still_box(4000);
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float lo[3] = {0.2f, 0.41f, 0.4f}, hi[3] = {0.3f, 0.5f, 0.6f};
     CHECK_OK(hbk_fluid_fill_box(h, lo, hi, 0.0f));
@@ -283,7 +276,7 @@ void test_fluid_inflow_clear_of_water(void)
     CHECK(hbk_fluid_inflow_added(h, NULL) == 0);
     hbk_fluid_destroy(h);
     /* filled on the tap's own lattice: none at all */
-    h = make(&p);
+    h = fluid_make(&p);
     CHECK(h);
     const float tlo[3] = {0.2f, 0.4f, 0.4f}, thi[3] = {0.3f, 0.6f, 0.6f};
     CHECK_OK(hbk_fluid_fill_box(h, tlo, thi, 0.0f));
@@ -303,7 +296,7 @@ void test_fluid_inflow_obstacles(void)
     const hbk_fluid_obstacle_t tap = {1, {0.2f, 0.5f, 0.5f}, {0.015f, 0.065f, 0.065f}, {0}};
     const float still[3] = {0, 0, 0};
     hbk_fluid_params_t p = still_box(4000);
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     /* a box around (0.195, 0.485, 0.485): y and z 0.465, 0.485, 0.505 inside, 0.445 and
      * 0.525 0.04 away (outside 0.03); a sphere of radius 0.005 (0.015 with the half
@@ -333,7 +326,7 @@ void test_fluid_inflow_obstacles(void)
 void test_fluid_inflow_capacity(void)
 {
     hbk_fluid_params_t p = still_box(4000);
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float vel[3] = {1, 0, 0};
     CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, vel, 0.0f));
@@ -342,7 +335,7 @@ void test_fluid_inflow_capacity(void)
     CHECK(n0 >= TAP_POINTS);
     hbk_fluid_destroy(h);
     p.max_particles = most;
-    h = make(&p);
+    h = fluid_make(&p);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, vel, 0.0f));
     const int32_t want[4][2] = {{n0, 0}, {18, 1}, {0, 1}, {0, 1}};
@@ -360,13 +353,13 @@ void test_fluid_inflow_capacity(void)
     /* a tap holding more points than max_particles at once is refused (16 > 10) */
     hbk_fluid_destroy(h);
     p.max_particles = 10;
-    h = make(&p);
+    h = fluid_make(&p);
     CHECK(h);
     CHECK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, vel, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
     CHECK(strstr(hbk_fluid_message(h), "the shape holds 16 particles at once"));
     p.max_particles = 16; /* exactly: taken */
     hbk_fluid_destroy(h);
-    h = make(&p);
+    h = fluid_make(&p);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, vel, 0.0f));
     CHECK_OK(hbk_fluid_step(h, NULL));
@@ -375,7 +368,7 @@ void test_fluid_inflow_capacity(void)
     /* cut short within a step's one substep: 6 particles there, room for 10 of the 16 */
     p.dt = 1e-4f;
     p.substeps = 1;
-    h = make(&p);
+    h = fluid_make(&p);
     CHECK(h);
     const float lo[3] = {0.6f, 0.5f, 0.5f}, hi[3] = {0.73f, 0.525f, 0.525f}; /* 6 x 1 x 1 */
     CHECK_OK(hbk_fluid_fill_box(h, lo, hi, 0.0f));
@@ -388,7 +381,7 @@ void test_fluid_inflow_capacity(void)
     hbk_fluid_destroy(h);
     /* full, but every point under water: nothing stopped short, so not capped */
     p = still_box(500);
-    h = make(&p);
+    h = fluid_make(&p);
     CHECK(h);
     const float wlo[3] = {0.2f, 0.4f, 0.4f}, whi[3] = {0.3f, 0.6f, 0.6f}, still[3] = {0, 0, 0};
     const hbk_fluid_obstacle_t under = {1, {0.25f, 0.5f, 0.5f}, {0.05f, 0.1f, 0.1f}, {0}};
@@ -423,7 +416,7 @@ static hbk_fluid_t *tapped_pool(void)
 {
     hbk_fluid_params_t p = still_box(4000);
     p.gravity[2] = -9.81f;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     const float lo[3] = {0.5f, 0.3f, 0.0f}, hi[3] = {0.7f, 0.7f, 0.1f}, vel[3] = {1, 0, -0.5f};
     if (!h || hbk_fluid_fill_box(h, lo, hi, 0.2f) != HBK_OK ||
         hbk_fluid_step(h, NULL) != HBK_OK || /* the pool moving */
@@ -484,7 +477,7 @@ static float *poured(int32_t threads, uint64_t seed, int32_t *n, unsigned char *
     p.gravity[2] = -9.81f;
     p.threads = threads;
     p.seed = seed;
-    hbk_fluid_t *h = make(&p);
+    hbk_fluid_t *h = fluid_make(&p);
     const float lo[3] = {0.1f, 0.35f, 0.0f}, hi[3] = {0.4f, 0.65f, 0.1f}, vel[3] = {0.5f, 0, -1};
     const hbk_fluid_obstacle_t ball = {0, {0.2f, 0.5f, 0.3f}, {0.05f, 0, 0}, {0}};
     float *out = NULL;

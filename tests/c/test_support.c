@@ -28,6 +28,17 @@ int hbk_test_break_param(void *params, const hbk_param_info_t *p, int side)
     return 1;
 }
 
+hbk_fluid_t *fluid_make(const hbk_fluid_params_t *p)
+{
+    hbk_fluid_t *h = NULL;
+    hbk_message_t m;
+    if (hbk_fluid_create(&h, p, &m) != HBK_OK) {
+        fprintf(stderr, "create: %s\n", m.text);
+        return NULL;
+    }
+    return h;
+}
+
 hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads)
 {
     hbk_fluid_params_t p;
