@@ -70,6 +70,23 @@ assert sorted(xs) == list(range(1, 9)), xs
 assert all(abs(xs[fr] - (0.3 + 0.4 * (fr - 1) / 7)) < 1e-5 for fr in xs), xs
 tap.animation_data_clear()
 tap.location.x = 0.3
+# a ring (a mesh: its field) keyed to move: its field made once, placed where it is
+bpy.ops.mesh.primitive_torus_add(major_radius=0.06, minor_radius=0.025,
+                                 location=(0.3, 0.25, 0.35))
+ring = bpy.context.active_object
+f.inflow_object = ring
+ring.keyframe_insert("location", frame=1)
+ring.location.y = 0.3
+ring.keyframe_insert("location", frame=8)
+inputs, e = prepared()
+e.close()
+shapes = [inputs["inflow"][fr] for fr in sorted(inputs["inflow"])]
+assert len(shapes) == 8 and all(sh[0] == "mesh" for sh in shapes), [sh[0] for sh in shapes]
+assert all(sh[4] is shapes[0][4] for sh in shapes)  # (one field, placed 8 times)
+ys = [sh[1][1] for sh in shapes]
+assert abs(ys[0] - 0.25) < 1e-5 and abs(ys[-1] - 0.3) < 1e-5 and ys == sorted(ys), ys
+f.inflow_object = tap
+bpy.data.objects.remove(ring)
 print("FLUID INFLOW FOLLOWED OK")
 
 # refused by name: ending before it starts, outside the domain
