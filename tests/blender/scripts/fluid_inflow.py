@@ -134,6 +134,32 @@ assert abs(grew[4] + grew[5] - 2 * want) <= 16 and grew[3] >= 64, (grew, want)
 print("poured", grew, "a frame of the stream, formula", want)
 print("FLUID INFLOW BAKED OK")
 
+# no Fill: the domain starts dry and the tap pours into it from frame 3; frames 1-2 bake an
+# empty fluid (no surface, no density) and the bake wires as any other
+import glob  # noqa: E402
+import os  # noqa: E402
+from hydrobake.core import vdb  # noqa: E402
+puddle, f.fill_object = f.fill_object, None
+f.inflow_start, f.inflow_end = 3, 5
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+folder = bpy.path.abspath(jobs.folder_of(domain, "fluid"))
+dens = {fr: vdb.read(glob.glob(os.path.join(folder, f"*fluid_{fr:04d}.vdb"))[0])["density"]
+        for fr in (2, 4)}
+assert dens[2].activeVoxelCount() == 0 and dens[4].activeVoxelCount() > 0, \
+    {fr: d.activeVoxelCount() for fr, d in dens.items()}
+faces = {}
+for fr in (2, 4):
+    bpy.context.scene.frame_set(fr)
+    surface = bpy.data.objects["HBK_Domain_surface"]
+    faces[fr] = len(surface.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.polygons)
+assert faces[2] == 0 and faces[4] > 0, faces
+assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+f.fill_object = None
+f.inflow_object = None
+refused("Fill: SIMULATE needs an object whose shape the fluid fills (or an Inflow to pour it")
+f.fill_object, f.inflow_object = puddle, tap
+print("FLUID INFLOW DRY START OK")
+
 # Max Particles reached: the inflow stops there, and the bake says so when it ends
 f.fluid.max_particles = counts[3] + 20
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}

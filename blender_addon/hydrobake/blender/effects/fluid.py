@@ -250,7 +250,8 @@ class FluidBlender(BlenderEffect):
                 name="Fill", type=bpy.types.Object,
                 description="SIMULATE: particles fill this object's shape at frame one (a "
                             "ball, a closed mesh, curve, text or metaball; a box-shaped one or "
-                            "an object without faces: its bounding box)"),
+                            "an object without faces: its bounding box). Empty with an Inflow: "
+                            "the domain starts dry"),
             fill_velocity=bpy.props.FloatVectorProperty(
                 name="Initial Velocity", size=3, default=(0.0, 0.0, 0.0), min=-100.0,
                 max=100.0, subtype="VELOCITY", unit="VELOCITY",
@@ -335,22 +336,24 @@ class FluidBlender(BlenderEffect):
                           f"{2.0 * cell:.3g} m, or a finer resolution", BakeWarning)
         inputs = {}
         if fp["source"] == 0:
-            if settings.fill_object is None:
-                raise ValueError("Fill: SIMULATE needs an object whose shape the fluid fills")
-            fill = meshes.shape_holder(settings.fill_object)
-            flo, fhi = meshes.world_bounds(fill)
-            flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
-            if np.any(fhi - flo < fp["particle_spacing"]):
-                # The core would fill it with no particle at all: a bake of nothing.
-                raise ValueError(f"Fill: {settings.fill_object.name!r} must overlap the "
-                                 "domain's box by at least particle_spacing = "
-                                 f"{fp['particle_spacing']:g} m on every axis")
-            inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
-            if any(settings.fill_velocity):
-                inputs["fill_velocity"] = tuple(map(float, settings.fill_velocity))
-            shape = _fill_shape(context, fill, fp["particle_spacing"])
-            if shape is not None:
-                inputs["fill_shape"] = shape
+            if settings.fill_object is None and settings.inflow_object is None:
+                raise ValueError("Fill: SIMULATE needs an object whose shape the fluid fills "
+                                 "(or an Inflow to pour it from)")
+            if settings.fill_object is not None:
+                fill = meshes.shape_holder(settings.fill_object)
+                flo, fhi = meshes.world_bounds(fill)
+                flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
+                if np.any(fhi - flo < fp["particle_spacing"]):
+                    # The core would fill it with no particle at all: a bake of nothing.
+                    raise ValueError(f"Fill: {settings.fill_object.name!r} must overlap the "
+                                     "domain's box by at least particle_spacing = "
+                                     f"{fp['particle_spacing']:g} m on every axis")
+                inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
+                if any(settings.fill_velocity):
+                    inputs["fill_velocity"] = tuple(map(float, settings.fill_velocity))
+                shape = _fill_shape(context, fill, fp["particle_spacing"])
+                if shape is not None:
+                    inputs["fill_shape"] = shape
             if settings.inflow_object is not None:
                 inputs["inflow"] = yield from cls._inflow(context, settings, fp, frames, lo, hi)
                 inputs["inflow_velocity"] = tuple(map(float, settings.inflow_velocity))
