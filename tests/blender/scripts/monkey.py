@@ -214,7 +214,8 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
     //manta/), textured by its own velocity (VELOCITY_GRID) half the time. ``obstacles``
     (--obstacles) gives the fluid an Obstacles collection of a still, tilted rock, a cone (a
     mesh), a curve hoop that swells, and a paddle keyed to move into the water turning
-    (followed frame by frame), and a keyed tap as its Inflow from frame 2."""
+    (followed frame by frame), and a keyed tap as its Inflow from frame 2 (a third of the
+    seeds with no Fill: the domain starts dry)."""
     rng = random.Random(seed * 7919 + 1)
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
                  bpy.data.lights):
@@ -288,6 +289,8 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
                 tap.location.x = x
                 tap.keyframe_insert("location", index=0, frame=frame)
             s.inflow_object, s.inflow_velocity, s.inflow_start = tap, (0.5, 0.0, -1.0), 2
+            if random.Random(seed * 31 + 7).random() < 0.3:  # (its own draw: the rest stays)
+                s.fill_object = None  # the domain starts dry, the tap its only water
         if sources:  # its own generator: the fixed seeds' scenes stay as they were
             emitter = in_blender.new_box("Emitter", (0.3, 0.3, 0.05), (0.5, 3.25, 0.4))
             ps = emitter.modifiers.new("Drops", "PARTICLE_SYSTEM").particle_system.settings
