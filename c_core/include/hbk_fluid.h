@@ -168,9 +168,10 @@ HBK_EXPORT hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obs
  * particle_spacing, gains a particle moving at `velocity`, until max_particles: started as
  * far along the flow as it would be had it left when the point cleared (at most a substep's
  * travel), so a stream's particles follow a spacing apart and the inflow pours velocity x
- * cross-section. The stable step counts its speed. The shape is not an obstacle. NULL shape stops the inflow. Not part of the saved state (set it again
- * after load_state, as the obstacles). HBK_ERR_INVALID_ARGUMENT also for another source or
- * a shape holding more lattice points than max_particles; HBK_ERR_OUT_OF_MEMORY. */
+ * cross-section. The stable step counts its speed. The shape is not an obstacle. NULL shape
+ * stops the inflow. Not part of the saved state (set it again after load_state, as the
+ * obstacles). HBK_ERR_INVALID_ARGUMENT also for another source or a shape holding more
+ * lattice points than max_particles; HBK_ERR_OUT_OF_MEMORY. */
 HBK_EXPORT hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
                                              const int32_t dims[3], const float *distance,
                                              const float velocity[3], float jitter);

@@ -144,6 +144,17 @@ def _obstacles(obstacles, what, fields=True, one=False):
     return arr, len(obstacles), obstacles
 
 
+def _shape(shape):
+    """One obstacle-like entry, checked as "shape", as fill_shape and set_inflow take it: the
+    record, its field's dims and its distances (both None but for a mesh), each an object a
+    void pointer argument takes (and that keeps its memory alive for the call)."""
+    arr, _, (checked,) = _obstacles(shape, "shape", one=True)
+    if checked[0] != "mesh":
+        return arr, None, None
+    field = checked[4]
+    return arr, (ctypes.c_int32 * 3)(*field.shape[::-1]), field.ctypes
+
+
 class Fluid(Handle):
     prefix = "fluid"
 
@@ -170,11 +181,8 @@ class Fluid(Handle):
         """Particles at rest on fill_box's lattice inside ``shape``, one entry as
         set_obstacles takes them (a sphere, a box, a turned box, or a mesh with its field),
         clear of the obstacles: water poured in that shape (it is not kept as an obstacle)."""
-        arr, _, (checked,) = _obstacles(shape, "shape", one=True)
-        field = checked[4] if checked[0] == "mesh" else None
-        dims = None if field is None else (ctypes.c_int32 * 3)(*field.shape[::-1])
-        self.call("fill_shape", arr, None if dims is None else ctypes.addressof(dims),
-                  None if field is None else field.ctypes.data, args.number(jitter, "jitter"))
+        arr, dims, field = _shape(shape)
+        self.call("fill_shape", arr, dims, field, args.number(jitter, "jitter"))
 
     def set_inflow(self, shape, velocity=(0.0, 0.0, 0.0), jitter=0.0):
         """Water poured in from ``shape`` (one entry as fill_shape takes it) at ``velocity``
@@ -185,12 +193,8 @@ class Fluid(Handle):
         if shape is None:
             self.call("set_inflow", None, None, None, _V3(0.0, 0.0, 0.0), 0.0)
             return
-        arr, _, (checked,) = _obstacles(shape, "shape", one=True)
-        field = checked[4] if checked[0] == "mesh" else None
-        dims = None if field is None else (ctypes.c_int32 * 3)(*field.shape[::-1])
-        self.call("set_inflow", ctypes.addressof(arr),
-                  None if dims is None else ctypes.addressof(dims),
-                  None if field is None else field.ctypes.data,
+        arr, dims, field = _shape(shape)
+        self.call("set_inflow", ctypes.addressof(arr), dims, field,
                   args.numbers(velocity, "velocity", 3), args.number(jitter, "jitter"))
 
     @property

@@ -229,16 +229,12 @@ static hbk_result_t fill(hbk_fluid_t *h, const float lo[3], const float hi[3], f
     hbk_result_t ready = hbk_fluid_fields_ready(h, what);
     if (ready) return ready;
     const float s = h->p.particle_spacing;
-    double a0[3];
-    int32_t n[3];
-    for (int a = 0; a < 3; ++a) {
+    for (int a = 0; a < 3; ++a)
         if (!isfinite(lo[a]) || !isfinite(hi[a]))
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "lo[%d], hi[%d]: must be finite", a, a);
-        const double l = fmax(lo[a], h->p.box_min[a]) + 0.5 * s;
-        const double u = fmin(hi[a], h->p.box_max[a]) - 0.5 * s;
-        a0[a] = l;
-        n[a] = u >= l ? (int32_t)floor((u - l) / s + 1e-6) + 1 : 0;
-    }
+    double a0[3];
+    int32_t n[3];
+    hbk_fluid_lattice(h, lo, hi, a0, n);
     /* Two passes, the first counting: lattice points inside an obstacle are left out (there
      * the collision would throw them out at once, a burst of spray at the first step), and
      * the rest must fit. Each point's jitter is keyed by its place in the lattice. */
@@ -255,11 +251,9 @@ static hbk_result_t fill(hbk_fluid_t *h, const float lo[3], const float hi[3], f
                     float x[3];
                     for (int a = 0; a < 3; ++a) {
                         const float jit = jitter * s * (2.0f * hbk_u32_to_unit(rnd[a]) - 1.0f);
-                        const float m = 0.5f * s;
                         x[a] = (float)(a0[a] + (double)ijk[a] * s) + jit;
-                        x[a] = x[a] < h->p.box_min[a] + m ? h->p.box_min[a] + m : x[a];
-                        x[a] = x[a] > h->p.box_max[a] - m ? h->p.box_max[a] - m : x[a];
                     }
+                    hbk_fluid_into_box(h, x);
                     if (hbk_fluid_in_obstacle(h, x)) continue;
                     if (shape && !hbk_fluid_in_shape(shape, dims, f, x)) continue;
                     if (pass)

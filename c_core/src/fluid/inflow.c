@@ -23,12 +23,7 @@ static void lattice(const hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
     hbk_fluid_shape_bounds(shape, lo, hi);
     double a0[3];
     int32_t m[3];
-    for (int a = 0; a < 3; ++a) {
-        const double l = fmax(lo[a], h->p.box_min[a]) + 0.5 * s;
-        const double u = fmin(hi[a], h->p.box_max[a]) - 0.5 * s;
-        a0[a] = l;
-        m[a] = u >= l ? (int32_t)floor((u - l) / s + 1e-6) + 1 : 0;
-    }
+    hbk_fluid_lattice(h, lo, hi, a0, m);
     *n = 0;
     for (int32_t k = 0; k < m[2]; ++k)
         for (int32_t j = 0; j < m[1]; ++j)
@@ -168,7 +163,7 @@ void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt)
         h->inflow_next[p] = h->inflow_head[c];
         h->inflow_head[c] = p;
     }
-    const float s = h->p.particle_spacing, m = 0.5f * s, jit = h->inflow_jitter * s;
+    const float s = h->p.particle_spacing, jit = h->inflow_jitter * s;
     const float *u = h->inflow_vel;
     const float speed = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
     float most = (float)(speed * dt); /* the farthest a substep carries it (under s, so the
@@ -182,12 +177,10 @@ void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt)
                        key[2] = {(uint32_t)h->p.seed, (uint32_t)(h->p.seed >> 32)};
         uint32_t rnd[4];
         hbk_philox4x32(ctr, key, rnd);
-        for (int a = 0; a < 3; ++a) {
+        for (int a = 0; a < 3; ++a)
             x[a] = h->inflow_pts[3 * (size_t)i + (size_t)a] +
                    jit * (2.0f * hbk_u32_to_unit(rnd[a]) - 1.0f);
-            x[a] = x[a] < h->p.box_min[a] + m ? h->p.box_min[a] + m : x[a];
-            x[a] = x[a] > h->p.box_max[a] - m ? h->p.box_max[a] - m : x[a];
-        }
+        hbk_fluid_into_box(h, x);
         int32_t c3[3];
         if (cell_of(h, x, c3) < 0 || hbk_fluid_in_obstacle(h, x)) continue;
         float d2 = INFINITY; /* to the nearest particle, from the cells within reach */
@@ -197,8 +190,8 @@ void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt)
                     const int32_t cx = c3[0] + dx, cy = c3[1] + dy, cz = c3[2] + dz;
                     if (cx < 0 || cy < 0 || cz < 0 || cx >= gd[0] || cy >= gd[1] || cz >= gd[2])
                         continue;
-                    for (int32_t p = h->inflow_head[cx + (int64_t)gd[0] * (cy + (int64_t)gd[1] * cz)];
-                         p >= 0; p = h->inflow_next[p]) {
+                    const int64_t c = cx + (int64_t)gd[0] * (cy + (int64_t)gd[1] * cz);
+                    for (int32_t p = h->inflow_head[c]; p >= 0; p = h->inflow_next[p]) {
                         const float *y = h->pos + 3 * (size_t)p;
                         const float d0 = y[0] - x[0], d1 = y[1] - x[1], d2_ = y[2] - x[2];
                         const float r2 = d0 * d0 + d1 * d1 + d2_ * d2_;
@@ -214,11 +207,8 @@ void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt)
         float ahead = sqrtf(d2) - s;
         ahead = ahead < most ? ahead : most;
         const float k = speed > 0.0f ? ahead / speed : 0.0f;
-        for (int a = 0; a < 3; ++a) {
-            x[a] += k * u[a];
-            x[a] = x[a] < h->p.box_min[a] + m ? h->p.box_min[a] + m : x[a];
-            x[a] = x[a] > h->p.box_max[a] - m ? h->p.box_max[a] - m : x[a];
-        }
+        for (int a = 0; a < 3; ++a) x[a] += k * u[a];
+        hbk_fluid_into_box(h, x);
         memcpy(h->pos + 3 * (size_t)h->count, x, sizeof x);
         memcpy(h->vel + 3 * (size_t)h->count, u, 3 * sizeof *u);
         ++h->count;

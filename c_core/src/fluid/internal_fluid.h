@@ -156,6 +156,30 @@ struct hbk_fluid {
         hbk_message_clear(&(h)->msg);              \
     } while (0)
 
+/* fill_box's lattice of particle_spacing over [lo, hi] clipped to the box, half a spacing
+ * from its walls: its first point a0 and its points per axis n (0 where it is too narrow). */
+static inline void hbk_fluid_lattice(const hbk_fluid_t *h, const float lo[3], const float hi[3],
+                                     double a0[3], int32_t n[3])
+{
+    const double s = h->p.particle_spacing;
+    for (int a = 0; a < 3; ++a) {
+        const double l = fmax(lo[a], h->p.box_min[a]) + 0.5 * s;
+        const double u = fmin(hi[a], h->p.box_max[a]) - 0.5 * s;
+        a0[a] = l;
+        n[a] = u >= l ? (int32_t)floor((u - l) / s + 1e-6) + 1 : 0;
+    }
+}
+
+/* x moved into the box, half a spacing from its walls (as collide keeps particles). */
+static inline void hbk_fluid_into_box(const hbk_fluid_t *h, float x[3])
+{
+    const float m = 0.5f * h->p.particle_spacing;
+    for (int a = 0; a < 3; ++a) {
+        x[a] = x[a] < h->p.box_min[a] + m ? h->p.box_min[a] + m : x[a];
+        x[a] = x[a] > h->p.box_max[a] - m ? h->p.box_max[a] - m : x[a];
+    }
+}
+
 /* SPH kernels (Mueller et al. 2003, as Harada et al. 2007 use them). */
 static inline double hbk_poly6(double r2, double h)
 {

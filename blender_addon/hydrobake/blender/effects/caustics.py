@@ -228,8 +228,8 @@ class CausticsBlender(BlenderEffect):
                                           dg, angle=grid.angle, role="Ground")
                 g[np.isnan(g)] = level - 1.0 if np.all(np.isnan(g)) else np.nanmin(g)
                 return g
-            ground, ground_path = yield from animation.followed(context, settings.ground_object, frames,
-                                                       ground_heights)
+            ground, ground_path = yield from animation.followed(
+                context, settings.ground_object, frames, ground_heights)
         elif settings.ground_image is not None:
             px = images.pixels(settings.ground_image, role="Ground Image")[..., 0].astype(
                 np.float64)
@@ -274,8 +274,8 @@ class CausticsBlender(BlenderEffect):
                 under = meshes.sample_heights(settings.source_object, origin, cell, shape, "UP",
                                               dg, angle=grid.angle, role="Source")
                 return np.where(np.isnan(under), 0.0, settings.source_rate).astype(np.float32)
-            sources, sources_path = yield from animation.followed(context, settings.source_object,
-                                                         frames, poured)
+            sources, sources_path = yield from animation.followed(
+                context, settings.source_object, frames, poured)
         w = settings.map_resolution
         inputs = dict(ground=ground.astype(np.float32), ground_path=ground_path, level=level,
                       footprints=footprints, sources=sources, sources_path=sources_path,

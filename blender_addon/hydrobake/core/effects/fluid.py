@@ -149,12 +149,13 @@ class FluidEffect(Effect):
         if self.inflow and self.params["fluid"].source != 0:
             raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
                                          "pours an inflow")
-        jitter = float(inp.get("jitter", 0.0))
+        self._inflow_jitter = float(inp.get("jitter", 0.0))
         points = 0
         for f in self._inflow_keys:
             if self.inflow[f] is not None:
                 try:
-                    self.fluid.set_inflow(self.inflow[f], self.inflow_velocity, jitter)
+                    self.fluid.set_inflow(self.inflow[f], self.inflow_velocity,
+                                          self._inflow_jitter)
                 except errors.InvalidArgument as exc:
                     raise errors.InvalidArgument(
                         f"inflow[{f}]: {str(exc).removeprefix('inflow: ')}") from None
@@ -260,7 +261,7 @@ class FluidEffect(Effect):
         key = self._inflow_at(frame)
         if key != self._inflow_on:  # (a resumed bake: from its first frame's)
             shape = None if key is None else self.inflow[key]
-            self.fluid.set_inflow(shape, self.inflow_velocity, float(self.inputs.get("jitter", 0.0)))
+            self.fluid.set_inflow(shape, self.inflow_velocity, self._inflow_jitter)
             self._inflow_on = key
         self.fluid.step(progress)
         if self._capped_at is None and self.fluid.inflow_added[1]:
