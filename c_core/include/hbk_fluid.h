@@ -181,6 +181,16 @@ HBK_EXPORT int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h);
 /* Particles the inflow added in the last step; *capped receives 1 if a point ready to pour
  * found the fluid at max_particles (capped may be NULL). 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped);
+/* An outflow (SIMULATE): a drain. After every SPH substep the particles inside `shape` (an
+ * obstacle record and a mesh's field, checked as fill_shape takes them; the field is copied)
+ * are removed, the others keeping their order. The shape is not an obstacle: the water flows
+ * into it. NULL shape stops the outflow. Not part of the saved state (set it again after
+ * load_state, as the obstacles). HBK_ERR_INVALID_ARGUMENT also for another source;
+ * HBK_ERR_OUT_OF_MEMORY. */
+HBK_EXPORT hbk_result_t hbk_fluid_set_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                              const int32_t dims[3], const float *distance);
+/* Particles the outflow removed in the last step. 0 for NULL. */
+HBK_EXPORT int32_t hbk_fluid_outflow_removed(const hbk_fluid_t *h);
 /* Replaces the obstacle list (count 0..64; NULL with 0 clears), still where they are, and
  * drops a move not stepped yet. */
 HBK_EXPORT hbk_result_t hbk_fluid_set_obstacles(hbk_fluid_t *h, const hbk_fluid_obstacle_t *obs,

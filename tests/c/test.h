@@ -238,7 +238,12 @@ float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, d
     X(fluid, inflow_obstacles)          \
     X(fluid, inflow_capacity)           \
     X(fluid, inflow_cancel)             \
-    X(fluid, inflow_deterministic)
+    X(fluid, inflow_deterministic)      \
+    X(fluid, outflow_drains_its_inside) \
+    X(fluid, outflow_frame_by_frame)    \
+    X(fluid, outflow_refused)           \
+    X(fluid, outflow_tap_and_drain)     \
+    X(fluid, outflow_cancel)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

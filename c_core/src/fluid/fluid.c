@@ -46,6 +46,7 @@ void hbk_fluid_destroy(hbk_fluid_t *h)
     free(h->pos); free(h->vel); free(h->pos0); free(h->vel0);
     free(h->in_vel); free(h->in_surface);
     hbk_fluid_inflow_free(h);
+    hbk_fluid_outflow_free(h);
     hbk_fluid_fields_free(h);
     vols_free(&h->v);
     vols_free(&h->scratch);
@@ -400,12 +401,13 @@ hbk_result_t hbk_fluid_update_fields(hbk_fluid_t *h)
     return HBK_OK;
 }
 
-/* The particles as the step found them (`count` of them: those an inflow added go). */
+/* The particles as the step found them (`count` of them: those an inflow added go, those an
+ * outflow took come back). */
 static void restore_particles(hbk_fluid_t *h, int sim, int32_t count)
 {
     if (!sim) return;
     h->count = count;
-    h->inflow_added = h->inflow_capped = 0;
+    h->inflow_added = h->inflow_capped = h->outflow_removed = 0;
     memcpy(h->pos, h->pos0, 3 * (size_t)h->count * sizeof(float));
     memcpy(h->vel, h->vel0, 3 * (size_t)h->count * sizeof(float));
 }
@@ -423,7 +425,7 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
     hbk_report(progress, 0.0f);
     int32_t taken = 0;
     const int32_t count0 = h->count;
-    h->inflow_added = h->inflow_capped = 0;
+    h->inflow_added = h->inflow_capped = h->outflow_removed = 0;
     if (sim) {
         memcpy(h->pos0, h->pos, 3 * (size_t)h->count * sizeof(float));
         memcpy(h->vel0, h->vel, 3 * (size_t)h->count * sizeof(float));
@@ -451,6 +453,7 @@ hbk_result_t hbk_fluid_step(hbk_fluid_t *h, hbk_progress_t *progress)
                 restore_particles(h, sim, count0);
                 return hbk_fail(&h->msg, r, "SPH: out of memory");
             }
+            hbk_fluid_outflow_drain(h);
             left = parts == 1.0 ? 0.0 : left - step;
             ++taken;
             hbk_report(progress, 0.7f * (float)(1.0 - left / frame_dt));

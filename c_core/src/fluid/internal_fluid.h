@@ -146,6 +146,13 @@ struct hbk_fluid {
     int32_t inflow_dims[3];
     int32_t *inflow_head, *inflow_next; /* cells + 1, max_particles */
     int32_t inflow_added, inflow_capped; /* by the last step */
+    /* Not state: the outflow (outflow.c): its shape, a mesh's field (a copy), its box. */
+    int outflow_on;
+    hbk_fluid_obstacle_t outflow;
+    int32_t outflow_dims[3];
+    float *outflow_field;
+    float outflow_lo[3], outflow_hi[3];
+    int32_t outflow_removed; /* by the last step */
 };
 
 #define HBK_OMP_THREADS(h) hbk_threads((h)->p.threads)
@@ -282,6 +289,10 @@ static inline float hbk_fluid_lane_sum(const float p[8])
 void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt);
 void hbk_fluid_inflow_free(hbk_fluid_t *h);
 #define HBK_FLUID_STREAM_INFLOW 0xf1a3u
+/* outflow.c: the particles inside the outflow's shape removed (after a substep); frees it at
+ * destroy. */
+void hbk_fluid_outflow_drain(hbk_fluid_t *h);
+void hbk_fluid_outflow_free(hbk_fluid_t *h);
 
 /* sph.c: one substep on h->pos / h->vel. */
 #define HBK_FLUID_MAX_SUBSTEPS 10000 /* per frame, however fast the fluid */

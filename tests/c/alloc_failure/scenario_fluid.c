@@ -1,7 +1,7 @@
-/* Fluid, one scenario per source: the built-in SPH (obstacles with a mesh, an inflow, paint,
- * feature rules, a capture), particles set every frame, and a velocity grid. Each steps,
- * builds the surface, reads every volume and the mesh, then saves and loads into a second
- * handle that steps on. */
+/* Fluid, one scenario per source: the built-in SPH (obstacles with a mesh, an inflow, an
+ * outflow with a mesh's field, paint, feature rules, a capture), particles set every frame,
+ * and a velocity grid. Each steps, builds the surface, reads every volume and the mesh, then
+ * saves and loads into a second handle that steps on. */
 #include <float.h>
 #include <math.h>
 #include "alloc_failure.h"
@@ -125,6 +125,10 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
                                      (i / 9 - 1) * (i / 9 - 1))) * 0.1f - 0.06f;
         AF_CALL(c, hbk_fluid_set_obstacle_field(s->a, 1, dims, field), hbk_fluid_message(s->a));
         AF_CALL(c, inflow(s->a), hbk_fluid_message(s->a));
+        /* a drain in the fill's corner, the same ball's field: every step takes water */
+        const hbk_fluid_obstacle_t drain = {3, {0.1f, 0.1f, 0.1f}, {0.1f, 0.1f, 0.1f},
+                                            {1, 0, 0, 0}};
+        AF_CALL(c, hbk_fluid_set_outflow(s->a, &drain, dims, field), hbk_fluid_message(s->a));
     } else {
         inputs(c, s->a, source, 0);
         if (af_failed(c)) return;
