@@ -36,6 +36,7 @@ Handle.declare("fluid", [
     ("fill_shape", [P(Obstacle), ctypes.c_void_p, ctypes.c_void_p, ctypes.c_float]),
     ("set_inflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P(_V3),
                     ctypes.c_float]),
+    ("set_outflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]),
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("move_obstacles", [P(Obstacle), ctypes.c_int32]),
@@ -64,6 +65,7 @@ _lib.declare([
     ("hbk_fluid_substeps_taken", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_inflow_added", ctypes.c_int32, [ctypes.c_void_p, P(ctypes.c_int32)]),
     ("hbk_fluid_inflow_points", ctypes.c_int32, [ctypes.c_void_p]),
+    ("hbk_fluid_outflow_removed", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_grid_vertices", ctypes.c_size_t, [ctypes.c_void_p, P(ctypes.c_int32 * 3)]),
     ("hbk_fluid_volume_size", ctypes.c_size_t, [ctypes.c_void_p, ctypes.c_int32]),
     ("hbk_fluid_uvw_weight", ctypes.c_float, [ctypes.c_void_p]),
@@ -145,9 +147,9 @@ def _obstacles(obstacles, what, fields=True, one=False):
 
 
 def _shape(shape):
-    """One obstacle-like entry, checked as "shape", as fill_shape and set_inflow take it: the
-    record, its field's dims and its distances (both None but for a mesh), each an object a
-    void pointer argument takes (and that keeps its memory alive for the call)."""
+    """One obstacle-like entry, checked as "shape", as fill_shape, set_inflow and set_outflow
+    take it: the record, its field's dims and its distances (both None but for a mesh), each
+    an object a void pointer argument takes (and that keeps its memory alive for the call)."""
     arr, _, (checked,) = _obstacles(shape, "shape", one=True)
     if checked[0] != "mesh":
         return arr, None, None
@@ -209,6 +211,21 @@ class Fluid(Handle):
         capped = ctypes.c_int32()
         added = _lib.lib.hbk_fluid_inflow_added(self.h, ctypes.byref(capped))
         return int(added), bool(capped.value)
+
+    def set_outflow(self, shape):
+        """A drain: after every SPH substep the particles inside ``shape`` (one entry as
+        fill_shape takes it) go, the others keeping their order. None stops it. Not in the
+        saved state: set it again after load_state."""
+        if shape is None:
+            self.call("set_outflow", None, None, None)
+            return
+        arr, dims, field = _shape(shape)
+        self.call("set_outflow", ctypes.addressof(arr), dims, field)
+
+    @property
+    def outflow_removed(self):
+        """Particles the outflow took in the last step."""
+        return int(_lib.lib.hbk_fluid_outflow_removed(self.h))
 
     @property
     def particle_count(self):

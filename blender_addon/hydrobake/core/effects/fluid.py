@@ -12,6 +12,8 @@ Inputs:
                  or before a step's frame holds (a tap turned on and off, moved or reshaped)
     inflow_velocity (vx, vy, vz) m/s: the velocity the inflow's water leaves at (default 0)
                  (the inflow's lattice points are jittered by ``jitter``, as the fill's)
+    outflow      {frame: shape or None}: a drain from that frame's step on (SIMULATE): the
+                 water inside the shape goes; given as ``inflow`` is
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
                  z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
                  are at the first frame (fluid.obstacle_list)
@@ -62,6 +64,32 @@ def _digested(ob):
     return ob
 
 
+def _schedule(given, name):
+    """{frame: checked shape or None} of the inflow or outflow input."""
+    if not isinstance(given, dict):
+        raise errors.InvalidArgument(f"{name}: {type(given).__name__}: must be a dict "
+                                     "{frame: shape or None}")
+    return {int(f): None if sh is None else obstacle_list(sh, f"{name}[{f}]", one=True)[0]
+            for f, sh in given.items()}
+
+
+def _key_at(keys, frame):
+    """The latest of the sorted frames ``keys`` at or before ``frame`` (None: none yet)."""
+    i = bisect.bisect_right(keys, frame)
+    return keys[i - 1] if i else None
+
+
+def _shape_digest(shape):
+    """A digest of one shape (or None) as a resume compares it."""
+    if shape is None:
+        return arrays.digest(None)
+    return arrays.digest(
+        np.array([OBSTACLE_KINDS.index(shape[0])], np.int64),
+        np.array(list(shape[1]) + list(np.ravel(shape[2])) +
+                 (list(shape[3]) if len(shape) > 3 else []), np.float32),
+        shape[4] if len(shape) > 4 else None)
+
+
 @register
 class FluidEffect(Effect):
     name = "fluid"
@@ -101,6 +129,7 @@ class FluidEffect(Effect):
             for texture, lo, hi in inp.get("rules") or []:
                 self.fluid.set_feature_rule(texture, lo, hi)
             self._check_inflow(inp)
+            self._check_outflow(inp)
             self.path = self._path(inp.get("obstacles") or [], inp.get("obstacle_path") or {})
         except BaseException:
             self.fluid.close()
@@ -137,7 +166,7 @@ class FluidEffect(Effect):
         too (as it will be set at its frame), so that a shape it refuses (holding more
         particles than max_particles, say) stops the bake before it starts, not at that
         frame."""
-        self.inflow = self._inflow(inp.get("inflow") or {})
+        self.inflow = _schedule(inp.get("inflow") or {}, "inflow")
         self._inflow_keys, self._inflow_on = sorted(self.inflow), None
         self._capped_at = None  # the first frame the inflow stopped at max_particles
         self.inflow_velocity = tuple(args.numbers(inp.get("inflow_velocity", (0.0,) * 3),
@@ -167,19 +196,22 @@ class FluidEffect(Effect):
                 "inflow: no particle fits inside its shape at any frame, within the box (is "
                 "it thinner than particle_spacing, or outside?)")
 
-    @staticmethod
-    def _inflow(given):
-        """{frame: checked shape or None} of the inflow input."""
-        if not isinstance(given, dict):
-            raise errors.InvalidArgument(f"inflow: {type(given).__name__}: must be a dict "
-                                         "{frame: shape or None}")
-        return {int(f): None if sh is None else obstacle_list(sh, f"inflow[{f}]", one=True)[0]
-                for f, sh in given.items()}
-
-    def _inflow_at(self, frame):
-        """The frame the inflow's shape at ``frame`` was given for (None: none given yet)."""
-        i = bisect.bisect_right(self._inflow_keys, frame)
-        return self._inflow_keys[i - 1] if i else None
+    def _check_outflow(self, inp):
+        """The outflow input, each shape checked by the library before the first frame (as
+        the inflow's)."""
+        self.outflow = _schedule(inp.get("outflow") or {}, "outflow")
+        self._outflow_keys, self._outflow_on = sorted(self.outflow), None
+        if self.outflow and self.params["fluid"].source != 0:
+            raise errors.InvalidArgument("outflow: only the simulation (source SIMULATE) "
+                                         "drains an outflow")
+        for f in self._outflow_keys:
+            if self.outflow[f] is not None:
+                try:
+                    self.fluid.set_outflow(self.outflow[f])
+                except errors.InvalidArgument as exc:
+                    raise errors.InvalidArgument(
+                        f"outflow[{f}]: {str(exc).removeprefix('outflow: ')}") from None
+        self.fluid.set_outflow(None)
 
     def _obstacles_at(self, frame):
         """The obstacles where the path has them at ``frame``."""
@@ -226,14 +258,12 @@ class FluidEffect(Effect):
         else:
             out = {"particles": arrays.digest(*self.particles.get(frame, (None, None))),
                    "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
-        if self.inflow:  # the shape this frame's step pours from (a resume must match it)
-            key = self._inflow_at(frame)
-            shape = None if key is None else self.inflow[key]
-            out["inflow"] = arrays.digest(None) if shape is None else arrays.digest(
-                np.array([OBSTACLE_KINDS.index(shape[0])], np.int64),
-                np.array(list(shape[1]) + list(np.ravel(shape[2])) +
-                         (list(shape[3]) if len(shape) > 3 else []), np.float32),
-                shape[4] if len(shape) > 4 else None)
+        # the shapes this frame's step pours from and drains into (a resume must match them)
+        for name, shapes, keys in (("inflow", self.inflow, self._inflow_keys),
+                                   ("outflow", self.outflow, self._outflow_keys)):
+            if shapes:
+                key = _key_at(keys, frame)
+                out[name] = _shape_digest(None if key is None else shapes[key])
         if self.path:
             obs = self._obstacles_at(frame)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
@@ -258,11 +288,15 @@ class FluidEffect(Effect):
             self.fluid.paint_sphere(texture, centre, radius, falloff)
         if self.path:
             self.fluid.move_obstacles(self._obstacles_at(frame))
-        key = self._inflow_at(frame)
+        key = _key_at(self._inflow_keys, frame)
         if key != self._inflow_on:  # (a resumed bake: from its first frame's)
             shape = None if key is None else self.inflow[key]
             self.fluid.set_inflow(shape, self.inflow_velocity, self._inflow_jitter)
             self._inflow_on = key
+        key = _key_at(self._outflow_keys, frame)
+        if key != self._outflow_on:
+            self.fluid.set_outflow(None if key is None else self.outflow[key])
+            self._outflow_on = key
         self.fluid.step(progress)
         if self._capped_at is None and self.fluid.inflow_added[1]:
             self._capped_at = frame
