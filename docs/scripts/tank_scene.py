@@ -78,7 +78,6 @@ def render(frame, camera, tilt, size, path):
 def two_frames(frames, camera, tilt, out, name):
     """Renders ``frames`` (two) as render() does, 400 x 330 each, side by side into
     OUT/name.png (each also as name_FRAME.png)."""
-    import numpy as np
     scene = bpy.context.scene
     halves = []
     for frame in frames:
@@ -89,10 +88,18 @@ def two_frames(frames, camera, tilt, out, name):
             scene.frame_set(frame)
             scene.render.filepath = path
             bpy.ops.render.render(write_still=True)
-        img = bpy.data.images.load(path)
-        halves.append(np.array(img.pixels[:], np.float32).reshape(330, 400, 4))
-    both = bpy.data.images.new("both", 800, 330, alpha=True)
-    both.pixels[:] = np.concatenate(halves, axis=1).ravel()
-    both.filepath_raw, both.file_format = os.path.join(out, f"{name}.png"), "PNG"
-    both.save()
-    print("SAVED", both.filepath_raw)
+        halves.append(path)
+    side_by_side(halves, os.path.join(out, f"{name}.png"))
+
+
+def side_by_side(paths, path):
+    """The PNGs ``paths`` (all of one height) side by side, left to right, into ``path``."""
+    import numpy as np
+    imgs = [bpy.data.images.load(p) for p in paths]
+    pix = [np.array(i.pixels[:], np.float32).reshape(i.size[1], i.size[0], 4) for i in imgs]
+    both = np.concatenate(pix, axis=1)
+    out = bpy.data.images.new("both", both.shape[1], both.shape[0], alpha=True)
+    out.pixels[:] = both.ravel()
+    out.filepath_raw, out.file_format = path, "PNG"
+    out.save()
+    print("SAVED", path)

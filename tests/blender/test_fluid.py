@@ -85,6 +85,12 @@ def test_the_fill_object_is_filled_by_its_shape(blender, tmp_path):
         assert f"FLUID FILL {part} OK" in r.stdout, r.stdout
 
 
+def test_the_outflow_drains_the_water_entering_its_shape(blender, tmp_path):
+    r = blender.run("fluid_outflow.py", tmp_path)
+    for part in ("INPUTS", "REFUSED", "BAKED", "TAP"):
+        assert f"FLUID OUTFLOW {part} OK" in r.stdout, r.stdout
+
+
 def test_the_inflow_pours_from_its_shape_in_its_frames(blender, tmp_path):
     r = blender.run("fluid_inflow.py", tmp_path)
     for part in ("FRAMES", "FOLLOWED", "REFUSED", "BAKED", "DRY START", "CAPPED"):

@@ -215,7 +215,8 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
     (--obstacles) gives the fluid an Obstacles collection of a still, tilted rock, a cone (a
     mesh), a curve hoop that swells, and a paddle keyed to move into the water turning
     (followed frame by frame), and a keyed tap as its Inflow from frame 2 (a third of the
-    seeds with no Fill: the domain starts dry)."""
+    seeds with no Fill: the domain starts dry; half with a drain in the floor's far end as
+    its Outflow)."""
     rng = random.Random(seed * 7919 + 1)
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
                  bpy.data.lights):
@@ -291,6 +292,9 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             s.inflow_object, s.inflow_velocity, s.inflow_start = tap, (0.5, 0.0, -1.0), 2
             if random.Random(seed * 31 + 7).random() < 0.3:  # (its own draw: the rest stays)
                 s.fill_object = None  # the domain starts dry, the tap its only water
+            if random.Random(seed * 37 + 11).random() < 0.5:  # a drain in the floor's far end
+                s.outflow_object = in_blender.new_box("Drain", (0.2, 0.5, 0.06),
+                                                      (0.9, 3.25, 0.0))
         if sources:  # its own generator: the fixed seeds' scenes stay as they were
             emitter = in_blender.new_box("Emitter", (0.3, 0.3, 0.05), (0.5, 3.25, 0.4))
             ps = emitter.modifiers.new("Drops", "PARTICLE_SYSTEM").particle_system.settings

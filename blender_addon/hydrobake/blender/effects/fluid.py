@@ -62,15 +62,17 @@ def _round(obj, depsgraph):
 
 
 def _fill_shape(context, obj, spacing, role="Fill", made=None):
-    """The shape the Fill (or Inflow) object's water takes, as the core's fill_shape takes
-    it: a ball as a sphere; a mesh, curve, text or metaball family as its signed distance
-    field (made as an obstacle's is); else None, its box (a box-shaped mesh, an object
-    without faces, or an open one, which is warned of). With ``made`` (a dict kept between
-    the frames of one object) an object that does not deform has its field made once and
-    placed where it is, and each warning is given once."""
+    """The shape the Fill (or Inflow, or Outflow) object's water takes, as the core's
+    fill_shape takes it: a ball as a sphere; a mesh, curve, text or metaball family as its
+    signed distance field (made as an obstacle's is); else None, its box (a box-shaped mesh,
+    an object without faces, or an open one, which is warned of). With ``made`` (a dict kept
+    between the frames of one object) an object that does not deform has its field made once
+    and placed where it is, and each warning is given once."""
     if obj.type not in animation.SHAPED_TYPES:
         return None
     made = {} if made is None else made
+    boxed, use = (("the water drains from its bounding box", "drain into") if role == "Outflow"
+                  else ("the water fills its bounding box", "fill"))
 
     def warn(text):
         if text not in made.setdefault("warned", set()):
@@ -90,9 +92,8 @@ def _fill_shape(context, obj, spacing, role="Fill", made=None):
             warn(f"{role}: {obj.name!r} is not evaluated in view layer "
                  f"{dg.view_layer.name!r} (Show in Viewports is off, or none of its "
                  "collections is in the scene, included and enabled in viewports), so "
-                 "its shape cannot be read: the water fills its bounding box; turn on "
-                 "Show In > Viewports and include one of its collections to fill its "
-                 "shape")
+                 f"its shape cannot be read: {boxed}; turn on Show In > Viewports and "
+                 f"include one of its collections to {use} its shape")
         return None
     ball = _round(obj, dg)
     if ball is not None:
@@ -105,7 +106,7 @@ def _fill_shape(context, obj, spacing, role="Fill", made=None):
         return None
     if not shape.signed:
         warn(f"{role}: {obj.name}'s faces do not all face out (a hole, or normals "
-             "inside), so it has no inside to fill: the water fills its bounding box")
+             f"inside), so it has no inside to {use}: {boxed}")
         return None
     return shape.placed(ev.matrix_world, True)
 
@@ -273,6 +274,11 @@ class FluidBlender(BlenderEffect):
             inflow_end=bpy.props.IntProperty(
                 name="Inflow End", default=250, min=-1048574, max=1048574,
                 description="SIMULATE: the last frame the Inflow pours"),
+            outflow_object=bpy.props.PointerProperty(
+                name="Outflow", type=bpy.types.Object,
+                description="SIMULATE: a drain: the water entering this object's shape goes "
+                            "(so an Inflow can pour for good); followed when it moves, and "
+                            "drains nothing at frames it is outside the domain"),
             particle_object=bpy.props.PointerProperty(
                 name="Particles", type=bpy.types.Object, poll=_has_particles,
                 description="PARTICLES: the object whose first particle system is the fluid "
@@ -357,6 +363,9 @@ class FluidBlender(BlenderEffect):
             if settings.inflow_object is not None:
                 inputs["inflow"] = yield from cls._inflow(context, settings, fp, frames, lo, hi)
                 inputs["inflow_velocity"] = tuple(map(float, settings.inflow_velocity))
+            if settings.outflow_object is not None:
+                inputs["outflow"] = yield from cls._outflow(context, settings, fp, frames, lo,
+                                                            hi)
             if settings.obstacles:
                 # (a metaball family's members are one surface, held by its basis)
                 found = list(dict.fromkeys(map(meshes.shape_holder,
@@ -414,15 +423,11 @@ class FluidBlender(BlenderEffect):
         return params, inputs
 
     @staticmethod
-    def _inflow(context, settings, fp, frames, lo, hi):
-        """The core's inflow input, {frame: shape or None}: None before Inflow Start and after
-        Inflow End; in between the Inflow object's shape (as the Fill's: a ball, a field, or
-        its box) at the start and wherever it moves or changes shape after."""
-        obj = settings.inflow_object
-        start, end = settings.inflow_start, settings.inflow_end
-        if end < start:
-            raise ValueError(f"Inflow End = {end} is before Inflow Start = {start}: the "
-                             "Inflow would never pour")
+    def _followed_shape(context, obj, role, fp, frames, lo, hi):
+        """(the shape at the bake's first frame, {frame: shape} where it moves or changes
+        shape after) of the Inflow or Outflow object, as the Fill's (a ball, a field, or its
+        box clipped to the domain); None at frames it is outside the domain. Refused if it
+        is outside at every frame."""
         holder = meshes.shape_holder(obj)
         spacing = fp["particle_spacing"]
         made = {}
@@ -431,8 +436,8 @@ class FluidBlender(BlenderEffect):
             flo, fhi = meshes.world_bounds(holder)
             flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
             if np.any(fhi - flo < spacing):
-                return None  # out of the box at this frame: it pours nothing there
-            got = _fill_shape(context, holder, spacing, "Inflow", made)
+                return None  # out of the box at this frame: it does nothing there
+            got = _fill_shape(context, holder, spacing, role, made)
             if got is None:
                 got = ("box", tuple(map(float, (flo + fhi) / 2)),
                        tuple(map(float, (fhi - flo) / 2)))
@@ -440,9 +445,22 @@ class FluidBlender(BlenderEffect):
         first, path = yield from animation.followed(context, holder, frames, shape,
                                                     same=_same_shape)
         if first is None and all(sh is None for sh in path.values()):
-            raise ValueError(f"Inflow: {obj.name!r} must overlap the domain's box by at least "
+            raise ValueError(f"{role}: {obj.name!r} must overlap the domain's box by at least "
                              f"particle_spacing = {spacing:g} m on every axis (at some frame "
                              "of the bake)")
+        return first, path
+
+    @classmethod
+    def _inflow(cls, context, settings, fp, frames, lo, hi):
+        """The core's inflow input, {frame: shape or None}: None before Inflow Start and after
+        Inflow End; in between the Inflow object's shape (as the Fill's: a ball, a field, or
+        its box) at the start and wherever it moves or changes shape after."""
+        start, end = settings.inflow_start, settings.inflow_end
+        if end < start:
+            raise ValueError(f"Inflow End = {end} is before Inflow Start = {start}: the "
+                             "Inflow would never pour")
+        first, path = yield from cls._followed_shape(context, settings.inflow_object,
+                                                     "Inflow", fp, frames, lo, hi)
         out = {frames[0]: None} if start > frames[0] else {}
         if start <= frames[1] and end >= frames[0]:
             on = max(start, frames[0])
@@ -455,6 +473,15 @@ class FluidBlender(BlenderEffect):
             if end < frames[1]:
                 out[end + 1] = None
         return out
+
+    @classmethod
+    def _outflow(cls, context, settings, fp, frames, lo, hi):
+        """The core's outflow input, {frame: shape or None}: the Outflow object's shape at the
+        start and wherever it moves or changes shape after (None where it is outside the
+        domain)."""
+        first, path = yield from cls._followed_shape(context, settings.outflow_object,
+                                                     "Outflow", fp, frames, lo, hi)
+        return {frames[0]: first, **path}
 
     @staticmethod
     def _mantaflow(context, obj, settings, fp, frames):
@@ -904,6 +931,7 @@ class FluidBlender(BlenderEffect):
             row = sub.row(align=True)
             row.prop(settings, "inflow_start", text="Start")
             row.prop(settings, "inflow_end", text="End")
+        col.prop(settings, "outflow_object")
         for name in ("particle_object", "liquid_domain", "obstacles", "paint_collection"):
             col.prop(settings, name)
         box = col.box()

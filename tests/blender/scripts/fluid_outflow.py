@@ -1,0 +1,117 @@
+"""The Outflow object, a drain: its shape is the core's outflow input (a box clipped to the
+domain, a ball as a sphere, a ring by its field), followed where it moves; one outside the
+domain at every frame is refused by name. Baked: no water is left inside it at any frame's
+end, the water it took is the water missing, and a tap that would stop at Max Particles
+pours for good into it."""
+import bpy
+import numpy as np
+
+import in_blender
+
+in_blender.enable()
+from hydrobake.blender import jobs  # noqa: E402
+
+in_blender.empty_file("outflow.blend")
+domain, column, f = in_blender.dam_break((16, 8, 8), frames=(1, 8), substeps=2)
+# the floor's right 30 cm, from 5 cm below the domain to 5 cm into it
+drain = in_blender.new_box("Drain", (0.3, 0.5, 0.1), (0.85, 0.25, 0.0))
+f.outflow_object = drain
+
+
+def prepared():
+    """The inputs a bake would take, and the effect (closed by the caller)."""
+    job = jobs.Job(bpy.context, domain, "fluid")
+    e = job.runner.effect
+    del domain.hydrobake_fluid[jobs.BAKING]
+    return e.inputs, e
+
+
+def refused(text):
+    try:
+        prepared()[1].close()
+    except Exception as exc:  # the job refuses in its prepare
+        assert text in str(exc), str(exc)
+        return
+    raise AssertionError(f"not refused: {text}")
+
+
+# a box drain: its box within the domain, at every frame (it does not move)
+inputs, e = prepared()
+e.close()
+assert sorted(inputs["outflow"]) == [1], inputs["outflow"]
+kind, centre, half = inputs["outflow"][1]
+assert kind == "box" and np.allclose(centre, (0.85, 0.25, 0.025)) and \
+    np.allclose(half, (0.15, 0.25, 0.025)), inputs["outflow"]
+# a ball drains as a sphere; a ring (a mesh: its field) keyed to move is followed
+bpy.ops.mesh.primitive_uv_sphere_add(radius=0.05, location=(0.8, 0.25, 0.05))
+ball = bpy.context.active_object
+f.outflow_object = ball
+inputs, e = prepared()
+e.close()
+assert inputs["outflow"][1][0] == "sphere" and abs(inputs["outflow"][1][2] - 0.05) < 1e-3, \
+    inputs["outflow"]
+bpy.ops.mesh.primitive_torus_add(major_radius=0.06, minor_radius=0.025,
+                                 location=(0.8, 0.25, 0.05))
+ring = bpy.context.active_object
+f.outflow_object = ring
+ring.keyframe_insert("location", frame=1)
+ring.location.x = 0.6
+ring.keyframe_insert("location", frame=8)
+inputs, e = prepared()
+e.close()
+shapes = [inputs["outflow"][fr] for fr in sorted(inputs["outflow"])]
+assert sorted(inputs["outflow"]) == list(range(1, 9)), sorted(inputs["outflow"])
+assert all(sh[0] == "mesh" and sh[4] is shapes[0][4] for sh in shapes)  # one field, placed
+xs = [sh[1][0] for sh in shapes]
+assert abs(xs[0] - 0.8) < 1e-5 and abs(xs[-1] - 0.6) < 1e-5 and xs == sorted(xs)[::-1], xs
+print("FLUID OUTFLOW INPUTS OK")
+
+# refused by name: outside the domain at every frame
+f.outflow_object = drain
+drain.location.z = -0.5
+refused("Outflow: 'Drain' must overlap the domain's box by at least particle_spacing")
+drain.location.z = 0.0
+print("FLUID OUTFLOW REFUSED OK")
+
+
+def bake(folder):
+    """Frames 1-8 baked into ``folder``: the particles at each frame's end, what the drain
+    took in each frame, and the effect's notes."""
+    job = jobs.Job(bpy.context, domain, "fluid", folder_override=bpy.path.abspath(folder))
+    e = job.runner.effect
+    start, old = e.fluid.particle_count, e.step
+    pos, took = {}, {}
+
+    def step(frame, progress):
+        old(frame, progress)
+        pos[frame] = e.fluid.particles()[0]
+        took[frame] = e.fluid.outflow_removed
+    e.step = step
+    job.runner.run()
+    job.finalize(bpy.context)
+    return start, pos, took, e.notes()
+
+
+# the dam break's front runs into the drain: none is left inside it at a frame's end, and
+# what it took is what is missing
+start, pos, took, _ = bake("//drained")
+for fr, p in pos.items():
+    inside = (p[:, 0] > 0.7) & (p[:, 2] < 0.05)
+    assert not inside.any(), (fr, p[inside][:5])
+assert sum(took.values()) == start - len(pos[8]) and sum(took.values()) > 50, (start, took)
+assert took[1] == 0, took  # (the column starts far from it)
+print("drained", took, "of", start)
+print("FLUID OUTFLOW BAKED OK")
+
+# a tap over the drain: without it, the bake stops pouring at Max Particles; with it, it
+# pours for good
+tap = in_blender.new_box("Tap", (0.08, 0.08, 0.08), (0.85, 0.25, 0.3))
+f.inflow_object, f.inflow_velocity, f.inflow_start, f.inflow_end = tap, (0, 0, -1), 1, 8
+f.fluid.max_particles = start + 200
+f.outflow_object = None
+_, pos, _, notes = bake("//capped")
+assert len(pos[8]) == start + 200 and notes and "stopped pouring" in notes[0], notes
+f.outflow_object = drain
+_, pos, took, notes = bake("//tapped")
+assert notes == [] and len(pos[8]) < start + 200, (notes, len(pos[8]))
+print("FLUID OUTFLOW TAP OK")
