@@ -59,6 +59,12 @@ hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads);
 /* A handle of these parameters, or NULL with the reason on stderr. */
 hbk_fluid_t *fluid_make(const hbk_fluid_params_t *p);
 unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size);
+/* The default 1 m box at 16^3 (spacing 2 cm, h 4 cm), no gravity, little viscosity, one
+ * thread (the inflow and outflow tests' box). */
+hbk_fluid_params_t fluid_still_box(int32_t max_particles);
+/* hbk_fluid_step(h) with a second thread cancelling it as soon as its progress passes 0 (a
+ * substep done); *midway receives whether the step was cancelled that far in. */
+hbk_result_t fluid_step_cancelled(hbk_fluid_t *h, int *midway);
 /* Whether two handles' saved states are the same bytes. */
 int fluid_same_state(hbk_fluid_t *a, hbk_fluid_t *b);
 /* Mesh obstacles' fields: the signed distance at p (own axes) to a sphere of radius a, a box

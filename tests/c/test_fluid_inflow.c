@@ -4,21 +4,7 @@
  * none inside an obstacle, never past max_particles; a cancelled step takes its particles
  * back; the same bytes at any thread count. */
 #include "test.h"
-#include <pthread.h>
 #include <stdlib.h>
-
-/* The default 1 m box at 16^3 (spacing 2 cm, h 4 cm), no gravity, little viscosity. */
-static hbk_fluid_params_t still_box(int32_t max_particles)
-{
-    hbk_fluid_params_t p;
-    hbk_fluid_params_default(&p);
-    for (int a = 0; a < 3; ++a) p.resolution[a] = 16;
-    p.gravity[2] = 0.0f;
-    p.viscosity = 0.01f;
-    p.max_particles = max_particles;
-    p.threads = 1;
-    return p;
-}
 
 /* Positions and velocities (malloc'd, 3 floats each per particle; count in *n). */
 static float *particles(hbk_fluid_t *h, int32_t *n, float **vel)
@@ -44,7 +30,7 @@ enum { TAP_POINTS = 16 };
 
 void test_fluid_inflow_refused(void)
 {
-    hbk_fluid_params_t p = still_box(100);
+    hbk_fluid_params_t p = fluid_still_box(100);
     p.source = HBK_FLUID_PARTICLES;
     hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
@@ -55,7 +41,7 @@ void test_fluid_inflow_refused(void)
     CHECK(hbk_fluid_set_inflow(NULL, &TAP, NULL, NULL, v, 0.0f) == HBK_ERR_INVALID_ARGUMENT);
 
     /* A good tap first: every refusal after it must leave it (and the state) as it was. */
-    p = still_box(100);
+    p = fluid_still_box(100);
     h = fluid_make(&p);
     CHECK(h);
     CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, v, 0.0f));
@@ -135,7 +121,7 @@ void test_fluid_inflow_rate(void)
     const float vs[2] = {1.0f, 2.0f}, s = 0.02f, dt = 1.0f / 24.0f;
     for (int c = 0; c < 2; ++c) {
         const float v = vs[c], vel[3] = {v, 0, 0};
-        hbk_fluid_params_t p = still_box(4000);
+        hbk_fluid_params_t p = fluid_still_box(4000);
         hbk_fluid_t *h = fluid_make(&p);
         CHECK(h);
         CHECK_OK(hbk_fluid_set_inflow(h, &TAP, NULL, NULL, vel, 0.0f));
@@ -183,7 +169,7 @@ void test_fluid_inflow_rate(void)
  * brought as close as 0.4 s push each other: up to 0.015 m/s in 10 us over seeds 0..29). */
 void test_fluid_inflow_starts_in_the_shape(void)
 {
-    hbk_fluid_params_t p = still_box(4000);
+    hbk_fluid_params_t p = fluid_still_box(4000);
     p.dt = 1e-5f;
     p.substeps = 1;
     p.seed = 7;
@@ -243,7 +229,7 @@ void test_fluid_inflow_clear_of_water(void)
 {
     const hbk_fluid_obstacle_t tap = {1, {0.25f, 0.5f, 0.5f}, {0.05f, 0.1f, 0.1f}, {0}};
     const float still[3] = {0, 0, 0}, s = 0.02f;
-    hbk_fluid_params_t p = still_box(4000);
+    hbk_fluid_params_t p = fluid_still_box(4000);
     hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float lo[3] = {0.2f, 0.41f, 0.4f}, hi[3] = {0.3f, 0.5f, 0.6f};
@@ -295,7 +281,7 @@ void test_fluid_inflow_obstacles(void)
     /* x 0.195 (one layer), y and z 0.445 .. 0.545 */
     const hbk_fluid_obstacle_t tap = {1, {0.2f, 0.5f, 0.5f}, {0.015f, 0.065f, 0.065f}, {0}};
     const float still[3] = {0, 0, 0};
-    hbk_fluid_params_t p = still_box(4000);
+    hbk_fluid_params_t p = fluid_still_box(4000);
     hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     /* a box around (0.195, 0.485, 0.485): y and z 0.465, 0.485, 0.505 inside, 0.445 and
@@ -325,7 +311,7 @@ void test_fluid_inflow_obstacles(void)
  * blocked by water anyway. */
 void test_fluid_inflow_capacity(void)
 {
-    hbk_fluid_params_t p = still_box(4000);
+    hbk_fluid_params_t p = fluid_still_box(4000);
     hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
     const float vel[3] = {1, 0, 0};
@@ -380,7 +366,7 @@ void test_fluid_inflow_capacity(void)
     CHECK(hbk_fluid_particle_count(h) == 16);
     hbk_fluid_destroy(h);
     /* full, but every point under water: nothing stopped short, so not capped */
-    p = still_box(500);
+    p = fluid_still_box(500);
     h = fluid_make(&p);
     CHECK(h);
     const float wlo[3] = {0.2f, 0.4f, 0.4f}, whi[3] = {0.3f, 0.6f, 0.6f}, still[3] = {0, 0, 0};
@@ -396,25 +382,9 @@ void test_fluid_inflow_capacity(void)
 /* Cancelled mid-step (a second thread sets cancel once the first substep, which pours the
  * whole empty tap, is done): count, positions and velocities as before the step, nothing
  * reported added; the step done again then gives what an uncancelled twin gives. */
-typedef struct {
-    hbk_progress_t *pr;
-    volatile int stop;
-} watcher_t;
-
-static void *cancel_after_a_substep(void *arg)
-{
-    watcher_t *w = arg;
-    while (!w->stop)
-        if (w->pr->fraction > 0.0f) {
-            w->pr->cancel = 1;
-            break;
-        }
-    return NULL;
-}
-
 static hbk_fluid_t *tapped_pool(void)
 {
-    hbk_fluid_params_t p = still_box(4000);
+    hbk_fluid_params_t p = fluid_still_box(4000);
     p.gravity[2] = -9.81f;
     hbk_fluid_t *h = fluid_make(&p);
     const float lo[3] = {0.5f, 0.3f, 0.0f}, hi[3] = {0.7f, 0.7f, 0.1f}, vel[3] = {1, 0, -0.5f};
@@ -436,15 +406,8 @@ void test_fluid_inflow_cancel(void)
         int32_t n0, n1;
         float *v0 = NULL, *v1 = NULL, *x0 = particles(h, &n0, &v0);
         CHECK(x0);
-        hbk_progress_t pr = {0, 0.0f};
-        watcher_t w = {&pr, 0};
-        pthread_t th;
-        CHECK(pthread_create(&th, NULL, cancel_after_a_substep, &w) == 0);
-        const hbk_result_t r = hbk_fluid_step(h, &pr);
-        w.stop = 1;
-        pthread_join(th, NULL);
+        const hbk_result_t r = fluid_step_cancelled(h, &midway); /* (a substep had poured) */
         if (r == HBK_ERR_CANCELLED) {
-            midway = pr.fraction > 0.0f; /* a substep had poured */
             float *x1 = particles(h, &n1, &v1);
             CHECK(x1 && n1 == n0);
             CHECK(!memcmp(x0, x1, 3 * (size_t)n0 * sizeof(float)));
@@ -473,7 +436,7 @@ void test_fluid_inflow_cancel(void)
 static float *poured(int32_t threads, uint64_t seed, int32_t *n, unsigned char **state,
                      size_t *size)
 {
-    hbk_fluid_params_t p = still_box(4000);
+    hbk_fluid_params_t p = fluid_still_box(4000);
     p.gravity[2] = -9.81f;
     p.threads = threads;
     p.seed = seed;

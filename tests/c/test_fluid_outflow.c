@@ -4,21 +4,7 @@
  * step; a tap into a drain pours for good, never reaching max_particles; a cancelled step
  * gives the drained particles back; the same bytes at any thread count. */
 #include "test.h"
-#include <pthread.h>
 #include <stdlib.h>
-
-/* The default 1 m box at 16^3 (spacing 2 cm, h 4 cm), no gravity, little viscosity. */
-static hbk_fluid_params_t still_box(int32_t max_particles)
-{
-    hbk_fluid_params_t p;
-    hbk_fluid_params_default(&p);
-    for (int a = 0; a < 3; ++a) p.resolution[a] = 16;
-    p.gravity[2] = 0.0f;
-    p.viscosity = 0.01f;
-    p.max_particles = max_particles;
-    p.threads = 1;
-    return p;
-}
 
 /* Two rows of 8 lone particles (10 cm apart, beyond each other's reach of 4 cm: no force
  * acts, they coast) along x from 0.15 to 0.85 at z = 0.5, y = y0 and y = y1, moving at
@@ -26,7 +12,7 @@ static hbk_fluid_params_t still_box(int32_t max_particles)
 enum { ROW = 8 };
 static hbk_fluid_t *coasting(float y0, float y1)
 {
-    hbk_fluid_params_t p = still_box(100);
+    hbk_fluid_params_t p = fluid_still_box(100);
     hbk_fluid_t *h = fluid_make(&p);
     float x[2 * ROW * 3], v[2 * ROW * 3];
     for (int r = 0; r < 2; ++r)
@@ -119,7 +105,7 @@ void test_fluid_outflow_frame_by_frame(void)
 void test_fluid_outflow_refused(void)
 {
     const hbk_fluid_obstacle_t box = {1, {0.6f, 0.5f, 0.5f}, {0.1f, 0.1f, 0.1f}, {1, 0, 0, 0}};
-    hbk_fluid_params_t p = still_box(100);
+    hbk_fluid_params_t p = fluid_still_box(100);
     p.source = HBK_FLUID_PARTICLES;
     hbk_fluid_t *h = fluid_make(&p);
     CHECK(h);
@@ -176,7 +162,7 @@ static const hbk_fluid_obstacle_t FLOOR_DRAIN = {1, {0.6f, 0.5f, 0.0f}, {0.3f, 0
 
 static hbk_fluid_t *tap_and_drain(int32_t threads)
 {
-    hbk_fluid_params_t p = still_box(600);
+    hbk_fluid_params_t p = fluid_still_box(600);
     p.gravity[2] = -9.81f;
     p.threads = threads;
     hbk_fluid_t *h = fluid_make(&p);
@@ -216,25 +202,9 @@ void test_fluid_outflow_tap_and_drain(void)
 
 /* Cancelled after a substep drained some of a pool standing in the drain: the particles come
  * back to the byte and the count drained is 0; the step done again is the twin's. */
-typedef struct {
-    hbk_progress_t *pr;
-    volatile int stop;
-} watcher_t;
-
-static void *cancel_after_a_substep(void *arg)
-{
-    watcher_t *w = arg;
-    while (!w->stop)
-        if (w->pr->fraction > 0.0f) {
-            w->pr->cancel = 1;
-            break;
-        }
-    return NULL;
-}
-
 static hbk_fluid_t *pool_in_the_drain(void)
 {
-    hbk_fluid_params_t p = still_box(4000);
+    hbk_fluid_params_t p = fluid_still_box(4000);
     p.gravity[2] = -9.81f;
     hbk_fluid_t *h = fluid_make(&p);
     const float lo[3] = {0.2f, 0.3f, 0.0f}, hi[3] = {0.6f, 0.7f, 0.1f};
@@ -257,15 +227,8 @@ void test_fluid_outflow_cancel(void)
         unsigned char *st0 = NULL, *st1 = NULL;
         size_t s0 = 0, s1 = 0;
         CHECK((st0 = fluid_state_of(h, &s0)) != NULL);
-        hbk_progress_t pr = {0, 0.0f};
-        watcher_t w = {&pr, 0};
-        pthread_t th;
-        CHECK(pthread_create(&th, NULL, cancel_after_a_substep, &w) == 0);
-        const hbk_result_t r = hbk_fluid_step(h, &pr);
-        w.stop = 1;
-        pthread_join(th, NULL);
+        const hbk_result_t r = fluid_step_cancelled(h, &midway); /* (a substep had drained) */
         if (r == HBK_ERR_CANCELLED) {
-            midway = pr.fraction > 0.0f; /* a substep had drained */
             CHECK(hbk_fluid_particle_count(h) == n0);
             CHECK((st1 = fluid_state_of(h, &s1)) != NULL);
             CHECK(s1 == s0 && !memcmp(st0, st1, s0));

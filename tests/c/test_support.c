@@ -1,5 +1,6 @@
 /* Helpers the test files share. */
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
@@ -51,6 +52,48 @@ hbk_fluid_t *fluid_lone(float gz, int32_t max_particles, int32_t threads)
     hbk_message_t m;
     if (hbk_fluid_create(&h, &p, &m) != HBK_OK) return NULL;
     return h;
+}
+
+hbk_fluid_params_t fluid_still_box(int32_t max_particles)
+{
+    hbk_fluid_params_t p;
+    hbk_fluid_params_default(&p);
+    for (int a = 0; a < 3; ++a) p.resolution[a] = 16;
+    p.gravity[2] = 0.0f;
+    p.viscosity = 0.01f;
+    p.max_particles = max_particles;
+    p.threads = 1;
+    return p;
+}
+
+typedef struct {
+    hbk_progress_t *pr;
+    volatile int stop;
+} watcher_t;
+
+static void *cancel_after_a_substep(void *arg)
+{
+    watcher_t *w = arg;
+    while (!w->stop)
+        if (w->pr->fraction > 0.0f) {
+            w->pr->cancel = 1;
+            break;
+        }
+    return NULL;
+}
+
+hbk_result_t fluid_step_cancelled(hbk_fluid_t *h, int *midway)
+{
+    hbk_progress_t pr = {0, 0.0f};
+    watcher_t w = {&pr, 0};
+    pthread_t th;
+    *midway = 0;
+    if (pthread_create(&th, NULL, cancel_after_a_substep, &w) != 0) return HBK_ERR_IO;
+    const hbk_result_t r = hbk_fluid_step(h, &pr);
+    w.stop = 1;
+    pthread_join(th, NULL);
+    *midway = r == HBK_ERR_CANCELLED && pr.fraction > 0.0f;
+    return r;
 }
 
 unsigned char *fluid_state_of(hbk_fluid_t *h, size_t *size)

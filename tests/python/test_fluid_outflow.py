@@ -8,7 +8,7 @@ import pytest
 from hydrobake.core import errors, fluid
 from hydrobake.core.bake import BakeRunner
 from hydrobake.core.effects import get
-from test_fluid_binding import grid_values
+from test_fluid_inflow import assert_resumed_alike
 
 # The 1 m box at 16^3 (spacing 2 cm, reach 4 cm), no gravity, little viscosity.
 STILL = {"resolution": (16, 16, 16), "gravity": (0.0, 0.0, 0.0), "viscosity": 0.01,
@@ -197,16 +197,7 @@ def pour(folder, end, resume=False, drain=FLOOR):
 
 
 def test_a_bake_cut_while_draining_and_resumed_gives_the_same_bytes(tmp_path):
-    _, whole = pour(tmp_path / "a", 8)
-    pour(tmp_path / "b", 4)  # cut with the drain open
-    r, resumed = pour(tmp_path / "b", 8, resume=True)
-    assert r.resumed_from == 4
-    assert resumed == whole
-    for i in range(1, 9):
-        name = f"surface_{i:04d}.npz"
-        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
-        assert grid_values(tmp_path / "a" / f"fluid_{i:04d}.vdb") == \
-            grid_values(tmp_path / "b" / f"fluid_{i:04d}.vdb")
+    assert_resumed_alike(tmp_path, pour)  # (cut with the drain open)
     # another drain is another bake: refused at the first frame it drains
     pour(tmp_path / "c", 4)
     with pytest.raises(errors.StateError, match=r"^cannot resume the bake in .*: outflow at "

@@ -20,26 +20,12 @@ f.inflow_object, f.inflow_velocity = tap, (0.0, 0.0, -1.0)
 f.inflow_start, f.inflow_end = 3, 5
 
 
-def prepared():
-    """The inputs a bake would take, and the effect (closed by the caller)."""
-    job = jobs.Job(bpy.context, domain, "fluid")
-    e = job.runner.effect
-    del domain.hydrobake_fluid[jobs.BAKING]
-    return e.inputs, e
-
-
 def refused(text):
-    try:
-        prepared()[1].close()
-    except Exception as exc:  # the job refuses in its prepare
-        assert text in str(exc), str(exc)
-        return
-    raise AssertionError(f"not refused: {text}")
+    in_blender.inputs_refused(domain, "fluid", text)
 
 
 # a box tap, on for frames 3-5 of 1-8: None before and after, its box between
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 flow = inputs["inflow"]
 assert sorted(flow) == [1, 3, 6] and flow[1] is None and flow[6] is None, flow
 kind, centre, half = flow[3]
@@ -52,8 +38,7 @@ print("FLUID INFLOW FRAMES OK")
 bpy.ops.mesh.primitive_uv_sphere_add(radius=0.05, location=(0.3, 0.25, 0.4))
 ball = bpy.context.active_object
 f.inflow_object = ball
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 assert inputs["inflow"][3][0] == "sphere" and abs(inputs["inflow"][3][2] - 0.05) < 1e-3, \
     inputs["inflow"][3]
 f.inflow_object, f.inflow_start, f.inflow_end = tap, 1, 8
@@ -63,8 +48,7 @@ tap.keyframe_insert("location", frame=8)
 for fc in tap.animation_data.action.fcurves:
     for k in fc.keyframe_points:
         k.interpolation = "LINEAR"
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 xs = {fr: sh[1][0] for fr, sh in inputs["inflow"].items()}
 assert sorted(xs) == list(range(1, 9)), xs
 assert all(abs(xs[fr] - (0.3 + 0.4 * (fr - 1) / 7)) < 1e-5 for fr in xs), xs
@@ -78,8 +62,7 @@ f.inflow_object = ring
 ring.keyframe_insert("location", frame=1)
 ring.location.y = 0.3
 ring.keyframe_insert("location", frame=8)
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 shapes = [inputs["inflow"][fr] for fr in sorted(inputs["inflow"])]
 assert len(shapes) == 8 and all(sh[0] == "mesh" for sh in shapes), [sh[0] for sh in shapes]
 assert all(sh[4] is shapes[0][4] for sh in shapes)  # (one field, placed 8 times)
@@ -99,8 +82,7 @@ refused("Inflow: 'Tap' must overlap the domain's box by at least particle_spacin
 tap.keyframe_insert("location", index=2, frame=4)
 tap.location.z = 0.4
 tap.keyframe_insert("location", index=2, frame=5)
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 assert sorted(inputs["inflow"]) == [1, 3, 5, 6] and inputs["inflow"][3] is None and \
     inputs["inflow"][5][0] == "box", inputs["inflow"]
 tap.animation_data_clear()

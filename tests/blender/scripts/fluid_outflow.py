@@ -18,26 +18,12 @@ drain = in_blender.new_box("Drain", (0.3, 0.5, 0.1), (0.85, 0.25, 0.0))
 f.outflow_object = drain
 
 
-def prepared():
-    """The inputs a bake would take, and the effect (closed by the caller)."""
-    job = jobs.Job(bpy.context, domain, "fluid")
-    e = job.runner.effect
-    del domain.hydrobake_fluid[jobs.BAKING]
-    return e.inputs, e
-
-
 def refused(text):
-    try:
-        prepared()[1].close()
-    except Exception as exc:  # the job refuses in its prepare
-        assert text in str(exc), str(exc)
-        return
-    raise AssertionError(f"not refused: {text}")
+    in_blender.inputs_refused(domain, "fluid", text)
 
 
 # a box drain: its box within the domain, at every frame (it does not move)
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 assert sorted(inputs["outflow"]) == [1], inputs["outflow"]
 kind, centre, half = inputs["outflow"][1]
 assert kind == "box" and np.allclose(centre, (0.85, 0.25, 0.025)) and \
@@ -46,8 +32,7 @@ assert kind == "box" and np.allclose(centre, (0.85, 0.25, 0.025)) and \
 bpy.ops.mesh.primitive_uv_sphere_add(radius=0.05, location=(0.8, 0.25, 0.05))
 ball = bpy.context.active_object
 f.outflow_object = ball
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 assert inputs["outflow"][1][0] == "sphere" and abs(inputs["outflow"][1][2] - 0.05) < 1e-3, \
     inputs["outflow"]
 bpy.ops.mesh.primitive_torus_add(major_radius=0.06, minor_radius=0.025,
@@ -57,8 +42,7 @@ f.outflow_object = ring
 ring.keyframe_insert("location", frame=1)
 ring.location.x = 0.6
 ring.keyframe_insert("location", frame=8)
-inputs, e = prepared()
-e.close()
+inputs = in_blender.fluid_inputs(domain)
 shapes = [inputs["outflow"][fr] for fr in sorted(inputs["outflow"])]
 assert sorted(inputs["outflow"]) == list(range(1, 9)), sorted(inputs["outflow"])
 assert all(sh[0] == "mesh" and sh[4] is shapes[0][4] for sh in shapes)  # one field, placed

@@ -146,6 +146,17 @@ def fluid_inputs(domain):
     return effect_inputs(domain, "fluid")
 
 
+def inputs_refused(obj, effect, text):
+    """Asserts that a bake of ``effect`` on ``obj`` is refused as it prepares its inputs,
+    with ``text`` in the error."""
+    try:
+        effect_inputs(obj, effect)
+    except Exception as exc:  # the job refuses in its prepare
+        assert text in str(exc), str(exc)
+        return
+    raise AssertionError(f"not refused: {text}")
+
+
 def baked_glass(blend):
     """Saves the session as ``blend`` (empty_file) and bakes one frame of rain on a plane
     "Glass" with a coarse rain grid; returns the plane's rain settings."""
