@@ -146,12 +146,14 @@ struct hbk_fluid {
     int32_t inflow_dims[3];
     int32_t *inflow_head, *inflow_next; /* cells + 1, max_particles */
     int32_t inflow_added, inflow_capped; /* by the last step */
-    /* Not state: the outflow (outflow.c): its shape, a mesh's field (a copy), its box. */
+    /* Not state: the outflow (outflow.c): its shape, a mesh's field (a copy), its axes and
+     * box, and a byte per particle (inside it). */
     int outflow_on;
     hbk_fluid_obstacle_t outflow;
     int32_t outflow_dims[3];
     float *outflow_field;
-    float outflow_lo[3], outflow_hi[3];
+    float outflow_ax[9], outflow_lo[3], outflow_hi[3];
+    uint8_t *outflow_gone;
     int32_t outflow_removed; /* by the last step */
 };
 
@@ -245,6 +247,10 @@ hbk_result_t hbk_fluid_field_check(hbk_fluid_t *h, const int32_t dims[3], const 
 void hbk_fluid_shape_bounds(const hbk_fluid_obstacle_t *o, float lo[3], float hi[3]);
 int hbk_fluid_in_shape(const hbk_fluid_obstacle_t *o, const int32_t dims[3], const float *f,
                        const float x[3]);
+/* The same with the shape's axes (hbk_fluid_shape_axes) found once for many points. */
+void hbk_fluid_shape_axes(const hbk_fluid_obstacle_t *o, float ax[9]);
+int hbk_fluid_in_shape_ax(const hbk_fluid_obstacle_t *o, const float ax[9],
+                          const int32_t dims[3], const float *f, const float x[3]);
 /* HBK_OK, or the refusal of a step or fill with a mesh obstacle whose field is not set. */
 hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what);
 void hbk_fluid_fields_free(hbk_fluid_t *h);

@@ -426,11 +426,20 @@ void hbk_fluid_shape_bounds(const hbk_fluid_obstacle_t *o, float lo[3], float hi
 int hbk_fluid_in_shape(const hbk_fluid_obstacle_t *o, const int32_t dims[3], const float *f,
                        const float x[3])
 {
+    float ax[9];
+    axes_of(o, ax);
+    return hbk_fluid_in_shape_ax(o, ax, dims, f, x);
+}
+
+void hbk_fluid_shape_axes(const hbk_fluid_obstacle_t *o, float ax[9]) { axes_of(o, ax); }
+
+int hbk_fluid_in_shape_ax(const hbk_fluid_obstacle_t *o, const float ax[9],
+                          const int32_t dims[3], const float *f, const float x[3])
+{
     const float q[3] = {x[0] - o->center[0], x[1] - o->center[1], x[2] - o->center[2]};
     if (o->type == 0)
         return q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < o->extent[0] * o->extent[0];
-    float ax[9], l[3];
-    axes_of(o, ax);
+    float l[3];
     for (int k = 0; k < 3; ++k) l[k] = ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] + ax[3 * k + 2] * q[2];
     if (o->type != 3)
         return fabsf(l[0]) < o->extent[0] && fabsf(l[1]) < o->extent[1] &&
