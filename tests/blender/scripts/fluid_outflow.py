@@ -1,8 +1,9 @@
 """The Outflow object, a drain: its shape is the core's outflow input (a box clipped to the
 domain, a ball as a sphere, a ring by its field), followed where it moves; one outside the
-domain at every frame is refused by name. Baked: no water is left inside it at any frame's
-end, the water it took is the water missing, and a tap that would stop at Max Particles
-pours for good into it."""
+domain at every frame is refused by name, and one keyed into it at a frame (a plug pulled)
+drains from that frame. Baked: no water is left inside it at any frame's end, the water it
+took is the water missing, and a tap that would stop at Max Particles pours for good into
+it."""
 import bpy
 import numpy as np
 
@@ -54,6 +55,15 @@ print("FLUID OUTFLOW INPUTS OK")
 f.outflow_object = drain
 drain.location.z = -0.5
 refused("Outflow: 'Drain' must overlap the domain's box by at least particle_spacing")
+# a plug pulled at frame 4: keyed from below the domain into it, it drains from frame 4 on
+drain.keyframe_insert("location", index=2, frame=3)
+drain.location.z = 0.0
+drain.keyframe_insert("location", index=2, frame=4)
+for k in drain.animation_data.action.fcurves[0].keyframe_points:
+    k.interpolation = "CONSTANT"
+flow = in_blender.fluid_inputs(domain)["outflow"]
+assert sorted(flow) == [1, 4] and flow[1] is None and flow[4][0] == "box", flow
+drain.animation_data_clear()
 drain.location.z = 0.0
 print("FLUID OUTFLOW REFUSED OK")
 
