@@ -145,6 +145,44 @@ def test_inflow_inputs_are_checked_by_name():
                    fill=((0.6, 0.6, 0.0), (0.7, 0.7, 0.04)))
 
 
+def test_a_velocity_given_by_frame_turns_the_stream():
+    """inflow_velocity {1: +x, 4: +y} (a hose that turns at frame 4): the water poured in
+    frames 1-3 leaves along x, that of frames 4-6 along y, each at 1 m/s within 2%; what a
+    resume compares is the velocity at each frame (not one for the bake)."""
+    turn = {1: (1.0, 0.0, 0.0), 4: (0.0, 1.0, 0.0)}
+    e = tap_effect({1: TAP}, velocity=turn)
+    try:
+        for frame in range(1, 7):
+            before = e.fluid.particle_count
+            e.step(frame, None)
+            _, vel = e.fluid.particles()
+            new = vel[before:]
+            assert len(new) > 0, frame  # (fewer along y: the tap is 4 points deep that way)
+            want = np.float32(turn[1 if frame < 4 else 4])
+            assert np.all(np.abs(new - want) < 0.02), (frame, new[np.argmax(
+                np.abs(new - want).max(axis=1))])
+        assert "inflow velocity" not in e.scalar_inputs()
+        assert [e.frame_inputs(f)["inflow velocity"] for f in (1, 3, 4, 9)] == \
+            [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
+    finally:
+        e.close()
+    # before its first key, a velocity by frame holds its first value
+    e = tap_effect({1: TAP}, velocity={3: (0.0, 0.0, 1.0)})
+    try:
+        e.step(1, None)
+        assert np.all(np.abs(e.fluid.particles()[1] - np.float32([0, 0, 1])) < 0.02)
+    finally:
+        e.close()
+    for velocity, want in (
+            ({3: (1.0, 2.0)}, r"^inflow_velocity\[3\]: must have 3 numbers, got 2"),
+            ({1: (1.0, 0.0, 0.0), 3: (2000.0, 0.0, 0.0)},
+             r"^inflow_velocity\[3\] = \(2000, 0, 0\): each component must be a finite "
+             r"number in \[-1000, 1000\] m/s"),
+            ({}, r"^inflow_velocity: \{\}: must give a velocity for at least one frame")):
+        with pytest.raises(errors.InvalidArgument, match=want):
+            tap_effect({1: TAP}, velocity=velocity)
+
+
 @pytest.mark.parametrize("source", ["PARTICLES", "VELOCITY_GRID"])
 def test_an_inflow_is_refused_for_another_source(source):
     with pytest.raises(errors.InvalidArgument, match=r"^inflow: only the simulation \(source "

@@ -1,8 +1,11 @@
 """The Inflow object: a tap pours from its shape only from Inflow Start to Inflow End (the
 core's input is None outside them), a ball pours as a sphere, a keyed tap is followed frame
-by frame (its path is exactly its keys'), an Inflow outside the domain or ending before it
-starts is refused by name, and a bake pours: the particles grow only in the pouring frames,
-by the tap's flow; at Max Particles it stops, and the bake's end says so."""
+by frame (its path is exactly its keys'), with Local Velocity its velocity turns with it, an
+Inflow outside the domain or ending before it starts is refused by name, and a bake pours:
+the particles grow only in the pouring frames, by the tap's flow; at Max Particles it stops,
+and the bake's end says so."""
+import math
+
 import bpy
 import numpy as np
 
@@ -70,6 +73,25 @@ ys = [sh[1][1] for sh in shapes]
 assert abs(ys[0] - 0.25) < 1e-5 and abs(ys[-1] - 0.3) < 1e-5 and ys == sorted(ys), ys
 f.inflow_object = tap
 bpy.data.objects.remove(ring)
+# Local Velocity: the velocity turns with the tap (keyed to turn 90 degrees about y over
+# frames 1-8: down at frame 1, along -x at 8); off, it is the world's, one for the bake
+tap.keyframe_insert("rotation_euler", index=1, frame=1)
+tap.rotation_euler.y = math.pi / 2
+tap.keyframe_insert("rotation_euler", index=1, frame=8)
+for fc in tap.animation_data.action.fcurves:
+    for k in fc.keyframe_points:
+        k.interpolation = "LINEAR"
+f.inflow_local = True
+vel = in_blender.fluid_inputs(domain)["inflow_velocity"]
+assert sorted(vel) == list(range(1, 9)), vel
+assert np.allclose(vel[1], (0, 0, -1), atol=1e-6) and np.allclose(vel[8], (-1, 0, 0), atol=1e-6)
+for fr in range(1, 9):  # a unit vector turning from -z towards -x
+    a = math.pi / 2 * (fr - 1) / 7
+    assert np.allclose(vel[fr], (-math.sin(a), 0, -math.cos(a)), atol=1e-5), (fr, vel[fr])
+f.inflow_local = False
+assert in_blender.fluid_inputs(domain)["inflow_velocity"] == (0.0, 0.0, -1.0)
+tap.animation_data_clear()
+tap.rotation_euler.y = 0.0
 print("FLUID INFLOW FOLLOWED OK")
 
 # refused by name: ending before it starts, outside the domain

@@ -215,8 +215,9 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
     (--obstacles) gives the fluid an Obstacles collection of a still, tilted rock, a cone (a
     mesh), a curve hoop that swells, and a paddle keyed to move into the water turning
     (followed frame by frame), and a keyed tap as its Inflow from frame 2 (a third of the
-    seeds with no Fill: the domain starts dry; half with a drain in the floor's far end as
-    its Outflow)."""
+    seeds with no Fill: the domain starts dry; half with the tap turning and its velocity
+    turning with it, Local Velocity; half with a drain in the floor's far end as its
+    Outflow)."""
     rng = random.Random(seed * 7919 + 1)
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.cameras,
                  bpy.data.lights):
@@ -292,6 +293,11 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             s.inflow_object, s.inflow_velocity, s.inflow_start = tap, (0.5, 0.0, -1.0), 2
             if random.Random(seed * 31 + 7).random() < 0.3:  # (its own draw: the rest stays)
                 s.fill_object = None  # the domain starts dry, the tap its only water
+            if random.Random(seed * 41 + 13).random() < 0.5:  # a nozzle that turns
+                s.inflow_local = True
+                tap.keyframe_insert("rotation_euler", index=1, frame=1)
+                tap.rotation_euler.y = 0.5
+                tap.keyframe_insert("rotation_euler", index=1, frame=3)
             if random.Random(seed * 37 + 11).random() < 0.5:  # a drain in the floor's far end
                 s.outflow_object = in_blender.new_box("Drain", (0.2, 0.5, 0.06),
                                                       (0.9, 3.25, 0.0))

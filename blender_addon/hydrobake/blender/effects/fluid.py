@@ -9,6 +9,7 @@ import os
 import warnings
 
 import bpy
+import mathutils
 import numpy as np
 
 from ...core import mantaflow, solid_textures
@@ -268,6 +269,11 @@ class FluidBlender(BlenderEffect):
                 max=100.0, subtype="VELOCITY", unit="VELOCITY",
                 description="SIMULATE: the velocity the Inflow's water leaves at (world "
                             "axes); the faster, the more water a second"),
+            inflow_local=bpy.props.BoolProperty(
+                name="Local Velocity", default=False,
+                description="SIMULATE: the Inflow Velocity is in the Inflow's own axes and "
+                            "turns with it (a hose that sweeps, a nozzle that rotates); off: "
+                            "world axes"),
             inflow_start=bpy.props.IntProperty(
                 name="Inflow Start", default=1, min=-1048574, max=1048574,
                 description="SIMULATE: the first frame the Inflow pours"),
@@ -362,7 +368,8 @@ class FluidBlender(BlenderEffect):
                     inputs["fill_shape"] = shape
             if settings.inflow_object is not None:
                 inputs["inflow"] = yield from cls._inflow(context, settings, fp, frames, lo, hi)
-                inputs["inflow_velocity"] = tuple(map(float, settings.inflow_velocity))
+                inputs["inflow_velocity"] = yield from cls._inflow_velocity(context, settings,
+                                                                            frames)
             if settings.outflow_object is not None:
                 inputs["outflow"] = yield from cls._outflow(context, settings, fp, frames, lo,
                                                             hi)
@@ -473,6 +480,22 @@ class FluidBlender(BlenderEffect):
             if end < frames[1]:
                 out[end + 1] = None
         return out
+
+    @staticmethod
+    def _inflow_velocity(context, settings, frames):
+        """The core's inflow_velocity: the Inflow Velocity as set (world axes), or with Local
+        Velocity {frame: it turned by the Inflow object's world rotation} at the first frame
+        and wherever it turns after."""
+        v = tuple(map(float, settings.inflow_velocity))
+        if not settings.inflow_local:
+            return v
+        obj = settings.inflow_object
+
+        def turned(_dg):  # (its rotation alone: a scale does not change the speed)
+            q = obj.matrix_world.to_quaternion()
+            return tuple(map(float, q @ mathutils.Vector(v)))
+        first, path = yield from animation.followed(context, obj, frames, turned)
+        return {frames[0]: first, **path}
 
     @classmethod
     def _outflow(cls, context, settings, fp, frames, lo, hi):
@@ -928,6 +951,7 @@ class FluidBlender(BlenderEffect):
         if settings.inflow_object is not None:
             sub = col.column(align=True)
             sub.prop(settings, "inflow_velocity")
+            sub.prop(settings, "inflow_local")
             row = sub.row(align=True)
             row.prop(settings, "inflow_start", text="Start")
             row.prop(settings, "inflow_end", text="End")

@@ -10,8 +10,10 @@ Inputs:
     inflow       {frame: shape or None}: water poured in from that frame's step on (SIMULATE):
                  a shape as ``fill_shape`` takes it, None for none; the latest frame given at
                  or before a step's frame holds (a tap turned on and off, moved or reshaped)
-    inflow_velocity (vx, vy, vz) m/s: the velocity the inflow's water leaves at (default 0)
-                 (the inflow's lattice points are jittered by ``jitter``, as the fill's)
+    inflow_velocity (vx, vy, vz) m/s: the velocity the inflow's water leaves at (default 0),
+                 or {frame: (vx, vy, vz)}: the latest frame given at or before a step's frame
+                 holds, the first before it (a hose that turns) (the inflow's lattice points
+                 are jittered by ``jitter``, as the fill's)
     outflow      {frame: shape or None}: a drain from that frame's step on (SIMULATE): the
                  water inside the shape goes; given as ``inflow`` is
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
@@ -71,6 +73,16 @@ def _schedule(given, name):
                                      "{frame: shape or None}")
     return {int(f): None if sh is None else obstacle_list(sh, f"{name}[{f}]", one=True)[0]
             for f, sh in given.items()}
+
+
+def _velocity(given, name):
+    """A checked velocity (vx, vy, vz) m/s, each component within +-1000."""
+    v = tuple(args.numbers(given, name, 3))
+    if not all(abs(c) <= 1000.0 for c in v):
+        raise errors.InvalidArgument(
+            f"{name} = ({', '.join(f'{c:g}' for c in v)}): each component must be a finite "
+            "number in [-1000, 1000] m/s")
+    return v
 
 
 def _key_at(keys, frame):
@@ -169,12 +181,15 @@ class FluidEffect(Effect):
         self.inflow = _schedule(inp.get("inflow") or {}, "inflow")
         self._inflow_keys, self._inflow_on = sorted(self.inflow), None
         self._capped_at = None  # the first frame the inflow stopped at max_particles
-        self.inflow_velocity = tuple(args.numbers(inp.get("inflow_velocity", (0.0,) * 3),
-                                                  "inflow_velocity", 3))
-        if not all(abs(c) <= 1000.0 for c in self.inflow_velocity):
-            raise errors.InvalidArgument(
-                f"inflow_velocity = ({', '.join(f'{c:g}' for c in self.inflow_velocity)}): "
-                "each component must be a finite number in [-1000, 1000] m/s")
+        given = inp.get("inflow_velocity", (0.0,) * 3)
+        # {frame: velocity} (a constant one: one key, None, before every frame)
+        self._velocity = ({int(f): _velocity(v, f"inflow_velocity[{f}]")
+                           for f, v in given.items()} if isinstance(given, dict)
+                          else {None: _velocity(given, "inflow_velocity")})
+        if not self._velocity:
+            raise errors.InvalidArgument("inflow_velocity: {}: must give a velocity for at "
+                                         "least one frame")
+        self._velocity_keys = [None] if None in self._velocity else sorted(self._velocity)
         if self.inflow and self.params["fluid"].source != 0:
             raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
                                          "pours an inflow")
@@ -183,7 +198,7 @@ class FluidEffect(Effect):
         for f in self._inflow_keys:
             if self.inflow[f] is not None:
                 try:
-                    self.fluid.set_inflow(self.inflow[f], self.inflow_velocity,
+                    self.fluid.set_inflow(self.inflow[f], self._velocity_at(f),
                                           self._inflow_jitter)
                 except errors.InvalidArgument as exc:
                     raise errors.InvalidArgument(
@@ -195,6 +210,11 @@ class FluidEffect(Effect):
             raise errors.InvalidArgument(
                 "inflow: no particle fits inside its shape at any frame, within the box (is "
                 "it thinner than particle_spacing, or outside?)")
+
+    def _velocity_at(self, frame):
+        """The inflow's velocity at ``frame``."""
+        key = None if None in self._velocity else _key_at(self._velocity_keys, frame)
+        return self._velocity[self._velocity_keys[0] if key is None else key]
 
     def _check_outflow(self, inp):
         """The outflow input, each shape checked by the library before the first frame (as
@@ -230,7 +250,8 @@ class FluidEffect(Effect):
                   if inp.get("fill_velocity") is not None else {}),
                **({"fill shape": _digested(inp["fill_shape"])}
                   if inp.get("fill_shape") is not None else {}),
-               **({"inflow velocity": list(self.inflow_velocity)} if self.inflow else {}),
+               **({"inflow velocity": list(self._velocity[None])}
+                  if self.inflow and None in self._velocity else {}),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
@@ -264,6 +285,8 @@ class FluidEffect(Effect):
             if shapes:
                 key = _key_at(keys, frame)
                 out[name] = _shape_digest(None if key is None else shapes[key])
+        if self.inflow and None not in self._velocity:  # (a constant one: the scalars')
+            out["inflow velocity"] = list(self._velocity_at(frame))
         if self.path:
             obs = self._obstacles_at(frame)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
@@ -288,10 +311,10 @@ class FluidEffect(Effect):
             self.fluid.paint_sphere(texture, centre, radius, falloff)
         if self.path:
             self.fluid.move_obstacles(self._obstacles_at(frame))
-        key = _key_at(self._inflow_keys, frame)
+        key = (_key_at(self._inflow_keys, frame), self._velocity_at(frame))
         if key != self._inflow_on:  # (a resumed bake: from its first frame's)
-            shape = None if key is None else self.inflow[key]
-            self.fluid.set_inflow(shape, self.inflow_velocity, self._inflow_jitter)
+            shape = None if key[0] is None else self.inflow[key[0]]
+            self.fluid.set_inflow(shape, key[1], self._inflow_jitter)
             self._inflow_on = key
         key = _key_at(self._outflow_keys, frame)
         if key != self._outflow_on:
