@@ -1,9 +1,11 @@
 """Renders docs/images/fluid_hose.png: the Inflow's Local Velocity. A nozzle (a ball of 3 cm)
-at the middle of a dry tank, 25 cm up, sprays at 1.2 m/s along its own x axis, a little
-upwards, while it turns a half turn about z over frames 1-24; fluid textured at 40 cells
-along the tank, rendered in Cycles at frame 24. Left, Local Velocity off: the velocity stays
-along the world's x, and the stream lands in one place whatever the nozzle does. Right, on:
-the velocity turns with the nozzle, and the stream sweeps an arc over the floor.
+30 cm over the middle of a shallow pool sprays at 0.9 m/s along its own x axis, a little
+upwards, while it turns a quarter turn about z over frames 1-16; fluid textured at 40 cells
+a side, rendered in Cycles at frame 14, seen from above. Left, Local Velocity off: the
+velocity stays along the world's x, and the jet stays straight along it whatever the nozzle
+does. Right, on: the velocity turns with the nozzle, so the jet leaves where the nozzle now
+points (towards the back) and bends round to where the water that left earlier still flies,
+as a sweeping hose's does.
 
     BLENDER_USER_SCRIPTS=<dir holding addons/hydrobake> blender -b --factory-startup \\
         --python-exit-code 1 --python docs/scripts/fluid_hose.py -- OUTDIR
@@ -17,22 +19,23 @@ import bpy
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from tank_scene import bake, box, floor, render, side_by_side, start  # noqa: E402
 
-FRAME = 24
+TURN, FRAME = 16, 14
 out = start("hose.blend")
 scene = bpy.context.scene
 tank = box("Tank", (0.8, 0.8, 0.5), (0.4, 0.4, 0.25))
-bpy.ops.mesh.primitive_uv_sphere_add(radius=0.03, location=(0.4, 0.4, 0.25))
+pool = box("Pool", (0.8, 0.8, 0.04), (0.4, 0.4, 0.02))
+bpy.ops.mesh.primitive_uv_sphere_add(radius=0.03, location=(0.4, 0.4, 0.3))
 nozzle = bpy.context.active_object
-nozzle.hide_render = True
-for frame, turn in ((1, 0.0), (FRAME, math.pi)):
+pool.hide_render = nozzle.hide_render = True
+for frame, turn in ((1, 0.0), (TURN, math.pi / 2)):
     nozzle.rotation_euler.z = turn
     nozzle.keyframe_insert("rotation_euler", index=2, frame=frame)
 for fc in nozzle.animation_data.action.fcurves:
     for k in fc.keyframe_points:
         k.interpolation = "LINEAR"
 s = tank.hydrobake_fluid
-s.inflow_object, s.inflow_velocity = nozzle, (1.2, 0.0, 0.4)
-s.inflow_start, s.inflow_end = 1, FRAME
+s.inflow_object, s.inflow_velocity = nozzle, (0.9, 0.0, 0.3)
+s.inflow_start, s.inflow_end = 1, TURN
 s.fluid.max_particles = 200000
 solids = bpy.data.collections.new("Solids")
 scene.collection.children.link(solids)
@@ -40,10 +43,10 @@ floor(0.4, 0.4)
 halves = []
 for local in (False, True):
     s.inflow_local = local
-    bake(tank, None, solids, FRAME, (40, 40, 25))
+    bake(tank, pool, solids, FRAME, (40, 40, 25))
     path = os.path.join(out, f"fluid_hose_{'local' if local else 'world'}.png")
     if not halves:  # (the camera, sun and sky, once)
-        render(FRAME, (0.4, -0.75, 1.0), 50, (400, 330), path)
+        render(FRAME, (0.4, 0.0, 1.25), 20, (400, 330), path)
     else:
         scene.frame_set(FRAME)
         scene.render.filepath = path

@@ -286,7 +286,8 @@ class FluidEffect(Effect):
                 key = _key_at(keys, frame)
                 out[name] = _shape_digest(None if key is None else shapes[key])
         if self.inflow and None not in self._velocity:  # (a constant one: the scalars')
-            out["inflow velocity"] = list(self._velocity_at(frame))
+            out["inflow velocity"] = arrays.digest(np.array(self._velocity_at(frame),
+                                                            np.float32))
         if self.path:
             obs = self._obstacles_at(frame)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
