@@ -88,6 +88,9 @@ assert np.allclose(vel[1], (0, 0, -1), atol=1e-6) and np.allclose(vel[8], (-1, 0
 for fr in range(1, 9):  # a unit vector turning from -z towards -x
     a = math.pi / 2 * (fr - 1) / 7
     assert np.allclose(vel[fr], (-math.sin(a), 0, -math.cos(a)), atol=1e-5), (fr, vel[fr])
+# baked so (the manifest takes a velocity per frame), then freed
+assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
+assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 f.inflow_local = False
 assert in_blender.fluid_inputs(domain)["inflow_velocity"] == (0.0, 0.0, -1.0)
 tap.animation_data_clear()
