@@ -285,14 +285,9 @@ hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
 {
     HBK_FLUID_ENTER(h);
     if (!shape) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape: must not be NULL");
-    char what[96];
-    if (hbk_fluid_obstacle_problem(shape, what))
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape.%s", what);
-    size_t points = 0;
-    if (shape->type == 3) {
-        hbk_result_t r = hbk_fluid_field_check(h, dims, distance, &points);
-        if (r) return r;
-    }
+    size_t points;
+    hbk_result_t r = hbk_fluid_shape_check(h, shape, dims, distance, &points);
+    if (r) return r;
     float lo[3], hi[3];
     hbk_fluid_shape_bounds(shape, lo, hi);
     return fill(h, lo, hi, jitter, "fill_shape", shape, shape->type == 3 ? dims : NULL,

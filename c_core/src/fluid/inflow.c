@@ -50,14 +50,9 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "inflow: source = %d: only the simulation (0) pours an inflow",
                         h->p.source);
-    char what[96];
-    if (hbk_fluid_obstacle_problem(shape, what))
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape.%s", what);
-    if (shape->type == 3) {
-        size_t points;
-        hbk_result_t r = hbk_fluid_field_check(h, dims, distance, &points);
-        if (r) return r;
-    }
+    size_t points;
+    hbk_result_t r = hbk_fluid_shape_check(h, shape, dims, distance, &points);
+    if (r) return r;
     if (!velocity) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "velocity: must not be NULL");
     for (int a = 0; a < 3; ++a)
         if (!(fabsf(velocity[a]) <= 1000.0f))

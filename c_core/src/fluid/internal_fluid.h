@@ -242,6 +242,12 @@ int hbk_fluid_field_contact(const hbk_fluid_t *h, int32_t o, const float e[3], c
  * distances (finite, within +-1e6); its point count in *n. */
 hbk_result_t hbk_fluid_field_check(hbk_fluid_t *h, const int32_t dims[3], const float *distance,
                                    size_t *n);
+/* HBK_OK, or the refusal by name of a shape given as an obstacle record ("shape." before the
+ * record's problem) and, for a mesh (type 3), its field; the field's point count in *points
+ * (0 for the other types). */
+hbk_result_t hbk_fluid_shape_check(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                   const int32_t dims[3], const float *distance,
+                                   size_t *points);
 /* A shape given as an obstacle record (checked): its box in the world, and whether x lies
  * inside it (a mesh's: where its field, dims points over the box, is negative). */
 void hbk_fluid_shape_bounds(const hbk_fluid_obstacle_t *o, float lo[3], float hi[3]);

@@ -131,6 +131,17 @@ hbk_result_t hbk_fluid_field_check(hbk_fluid_t *h, const int32_t dims[3], const 
     return HBK_OK;
 }
 
+hbk_result_t hbk_fluid_shape_check(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                   const int32_t dims[3], const float *distance,
+                                   size_t *points)
+{
+    char what[96];
+    *points = 0;
+    if (hbk_fluid_obstacle_problem(shape, what))
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape.%s", what);
+    return shape->type == 3 ? hbk_fluid_field_check(h, dims, distance, points) : HBK_OK;
+}
+
 /* A checked copy of a mesh obstacle's field, in *out (its point count in *n). */
 static hbk_result_t field_copy(hbk_fluid_t *h, int32_t index, const int32_t dims[3],
                                const float *distance, float **out, size_t *n)

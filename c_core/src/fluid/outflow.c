@@ -24,14 +24,9 @@ hbk_result_t hbk_fluid_set_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *s
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "outflow: source = %d: only the simulation (0) drains an outflow",
                         h->p.source);
-    char what[96];
-    if (hbk_fluid_obstacle_problem(shape, what))
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape.%s", what);
-    size_t n = 0;
-    if (shape->type == 3) {
-        hbk_result_t r = hbk_fluid_field_check(h, dims, distance, &n);
-        if (r) return r;
-    }
+    size_t n;
+    hbk_result_t r = hbk_fluid_shape_check(h, shape, dims, distance, &n);
+    if (r) return r;
     float *field = n ? malloc(n * sizeof *field) : NULL;
     uint8_t *gone = h->outflow_gone ? h->outflow_gone
                                     : malloc((size_t)(h->p.max_particles + 1) * sizeof *gone);

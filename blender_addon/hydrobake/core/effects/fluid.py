@@ -182,28 +182,21 @@ class FluidEffect(Effect):
         self._inflow_keys, self._inflow_on = sorted(self.inflow), None
         self._capped_at = None  # the first frame the inflow stopped at max_particles
         given = inp.get("inflow_velocity", (0.0,) * 3)
-        # {frame: velocity} (a constant one: one key, None, before every frame)
+        self._velocity_by_frame = isinstance(given, dict)  # (else one for the bake)
         self._velocity = ({int(f): _velocity(v, f"inflow_velocity[{f}]")
-                           for f, v in given.items()} if isinstance(given, dict)
+                           for f, v in given.items()} if self._velocity_by_frame
                           else {None: _velocity(given, "inflow_velocity")})
         if not self._velocity:
             raise errors.InvalidArgument("inflow_velocity: {}: must give a velocity for at "
                                          "least one frame")
-        self._velocity_keys = [None] if None in self._velocity else sorted(self._velocity)
+        self._velocity_keys = sorted(self._velocity) if self._velocity_by_frame else [None]
         if self.inflow and self.params["fluid"].source != 0:
             raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
                                          "pours an inflow")
         self._inflow_jitter = float(inp.get("jitter", 0.0))
-        points = 0
-        for f in self._inflow_keys:
-            if self.inflow[f] is not None:
-                try:
-                    self.fluid.set_inflow(self.inflow[f], self._velocity_at(f),
-                                          self._inflow_jitter)
-                except errors.InvalidArgument as exc:
-                    raise errors.InvalidArgument(
-                        f"inflow[{f}]: {str(exc).removeprefix('inflow: ')}") from None
-                points += self.fluid.inflow_points
+        points = sum(self.fluid.inflow_points for _ in self._set_each(
+            "inflow", self.inflow,
+            lambda f, sh: self.fluid.set_inflow(sh, self._velocity_at(f), self._inflow_jitter)))
         self.fluid.set_inflow(None)
         if any(sh is not None for sh in self.inflow.values()) and points == 0:
             # (one frame's shape outside the box pours nothing there; every one is a mistake)
@@ -211,9 +204,23 @@ class FluidEffect(Effect):
                 "inflow: no particle fits inside its shape at any frame, within the box (is "
                 "it thinner than particle_spacing, or outside?)")
 
+    @staticmethod
+    def _set_each(name, shapes, put):
+        """Sets each frame's shape of ``shapes`` in the library in turn by put(frame, shape),
+        as that frame will (a refusal then names "name[frame]"), yielding after each."""
+        for f in sorted(shapes):
+            if shapes[f] is not None:
+                try:
+                    put(f, shapes[f])
+                except errors.InvalidArgument as exc:
+                    raise errors.InvalidArgument(
+                        f"{name}[{f}]: {str(exc).removeprefix(f'{name}: ')}") from None
+                yield f
+
     def _velocity_at(self, frame):
-        """The inflow's velocity at ``frame``."""
-        key = None if None in self._velocity else _key_at(self._velocity_keys, frame)
+        """The inflow's velocity at ``frame`` (a velocity by frame: the first before its first
+        frame)."""
+        key = _key_at(self._velocity_keys, frame) if self._velocity_by_frame else None
         return self._velocity[self._velocity_keys[0] if key is None else key]
 
     def _check_outflow(self, inp):
@@ -224,13 +231,7 @@ class FluidEffect(Effect):
         if self.outflow and self.params["fluid"].source != 0:
             raise errors.InvalidArgument("outflow: only the simulation (source SIMULATE) "
                                          "drains an outflow")
-        for f in self._outflow_keys:
-            if self.outflow[f] is not None:
-                try:
-                    self.fluid.set_outflow(self.outflow[f])
-                except errors.InvalidArgument as exc:
-                    raise errors.InvalidArgument(
-                        f"outflow[{f}]: {str(exc).removeprefix('outflow: ')}") from None
+        list(self._set_each("outflow", self.outflow, lambda _f, sh: self.fluid.set_outflow(sh)))
         self.fluid.set_outflow(None)
 
     def _obstacles_at(self, frame):
@@ -251,7 +252,7 @@ class FluidEffect(Effect):
                **({"fill shape": _digested(inp["fill_shape"])}
                   if inp.get("fill_shape") is not None else {}),
                **({"inflow velocity": list(self._velocity[None])}
-                  if self.inflow and None in self._velocity else {}),
+                  if self.inflow and not self._velocity_by_frame else {}),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
@@ -285,7 +286,7 @@ class FluidEffect(Effect):
             if shapes:
                 key = _key_at(keys, frame)
                 out[name] = _shape_digest(None if key is None else shapes[key])
-        if self.inflow and None not in self._velocity:  # (a constant one: the scalars')
+        if self.inflow and self._velocity_by_frame:  # (one for the bake: the scalars')
             out["inflow velocity"] = arrays.digest(np.array(self._velocity_at(frame),
                                                             np.float32))
         if self.path:
