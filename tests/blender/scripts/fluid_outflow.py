@@ -1,9 +1,10 @@
 """The Outflow object, a drain: its shape is the core's outflow input (a box clipped to the
 domain, a ball as a sphere, a ring by its field), followed where it moves; one outside the
 domain at every frame is refused by name, and one keyed into it at a frame (a plug pulled)
-drains from that frame. Baked: no water is left inside it at any frame's end, the water it
-took is the water missing, and a tap that would stop at Max Particles pours for good into
-it."""
+drains from that frame, and so does one with Outflow Start at that frame (End before Start is
+refused). Baked: no water is left inside it at any frame's end, the water it took is the water
+missing, it takes none outside its Start and End, and a tap that would stop at Max Particles
+pours for good into it."""
 import bpy
 import numpy as np
 
@@ -65,6 +66,16 @@ flow = in_blender.fluid_inputs(domain)["outflow"]
 assert sorted(flow) == [1, 4] and flow[1] is None and flow[4][0] == "box", flow
 drain.animation_data_clear()
 drain.location.z = 0.0
+# the same by Outflow Start and End: it drains in frames 4-6 only; End before Start is refused
+f.outflow_start, f.outflow_end = 4, 6
+flow = in_blender.fluid_inputs(domain)["outflow"]
+assert sorted(flow) == [1, 4, 7] and flow[1] is None and flow[4][0] == "box" and \
+    flow[7] is None, flow
+f.outflow_start, f.outflow_end = 6, 4
+refused("Outflow End = 4 is before Outflow Start = 6: the Outflow would never drain")
+f.outflow_start, f.outflow_end = 1, 250
+drawn = [a[1] for n, a, _k in in_blender.panel_calls(domain, "fluid") if n == "prop"]
+assert "outflow_start" in drawn and "outflow_end" in drawn, drawn
 print("FLUID OUTFLOW REFUSED OK")
 
 
@@ -95,6 +106,16 @@ for fr, p in pos.items():
 assert sum(took.values()) == start - len(pos[8]) and sum(took.values()) > 50, (start, took)
 assert took[1] == 0, took  # (the column starts far from it)
 print("drained", took, "of", start)
+# open from frame 2 to 7 (Outflow Start and End; the front reaches it in frame 7): it takes
+# water then, and none in frame 8, when the water stays in it; what it took is still what is
+# missing
+f.outflow_start, f.outflow_end = 2, 7
+start, pos, timed, _ = bake("//timed")
+assert timed[7] > 0 and timed[8] == 0, timed
+inside = {fr: int(((p[:, 0] > 0.7) & (p[:, 2] < 0.05)).sum()) for fr, p in pos.items()}
+assert inside[7] == 0 and inside[8] > 0, inside  # (open, closed)
+assert sum(timed.values()) == start - len(pos[8]), (start, timed)
+f.outflow_start, f.outflow_end = 1, 250
 print("FLUID OUTFLOW BAKED OK")
 
 # a tap over the drain: without it, the bake stops pouring at Max Particles; with it, it

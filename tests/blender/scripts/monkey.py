@@ -301,6 +301,8 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             if random.Random(seed * 37 + 11).random() < 0.5:  # a drain in the floor's far end
                 s.outflow_object = in_blender.new_box("Drain", (0.2, 0.5, 0.06),
                                                       (0.9, 3.25, 0.0))
+                if random.Random(seed * 43 + 17).random() < 0.5:  # a plug pulled at frame 2
+                    s.outflow_start = 2
         if sources:  # its own generator: the fixed seeds' scenes stay as they were
             emitter = in_blender.new_box("Emitter", (0.3, 0.3, 0.05), (0.5, 3.25, 0.4))
             ps = emitter.modifiers.new("Drops", "PARTICLE_SYSTEM").particle_system.settings

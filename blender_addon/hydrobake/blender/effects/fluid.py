@@ -283,8 +283,15 @@ class FluidBlender(BlenderEffect):
             outflow_object=bpy.props.PointerProperty(
                 name="Outflow", type=bpy.types.Object,
                 description="SIMULATE: a drain: the water entering this object's shape goes "
-                            "(so an Inflow can pour for good); followed when it moves, and "
-                            "drains nothing at frames it is outside the domain"),
+                            "(so an Inflow can pour for good), from Outflow Start to Outflow "
+                            "End; followed when it moves, and drains nothing at frames it is "
+                            "outside the domain"),
+            outflow_start=bpy.props.IntProperty(
+                name="Outflow Start", default=1, min=-1048574, max=1048574,
+                description="SIMULATE: the first frame the Outflow drains (a plug pulled)"),
+            outflow_end=bpy.props.IntProperty(
+                name="Outflow End", default=250, min=-1048574, max=1048574,
+                description="SIMULATE: the last frame the Outflow drains (a plug put back)"),
             particle_object=bpy.props.PointerProperty(
                 name="Particles", type=bpy.types.Object, poll=_has_particles,
                 description="PARTICLES: the object whose first particle system is the fluid "
@@ -367,12 +374,13 @@ class FluidBlender(BlenderEffect):
                 if shape is not None:
                     inputs["fill_shape"] = shape
             if settings.inflow_object is not None:
-                inputs["inflow"] = yield from cls._inflow(context, settings, fp, frames, lo, hi)
+                inputs["inflow"] = yield from cls._flow(context, settings, "Inflow", fp, frames,
+                                                        lo, hi)
                 inputs["inflow_velocity"] = yield from cls._inflow_velocity(context, settings,
                                                                             frames)
             if settings.outflow_object is not None:
-                inputs["outflow"] = yield from cls._outflow(context, settings, fp, frames, lo,
-                                                            hi)
+                inputs["outflow"] = yield from cls._flow(context, settings, "Outflow", fp,
+                                                         frames, lo, hi)
             if settings.obstacles:
                 # (a metaball family's members are one surface, held by its basis)
                 found = list(dict.fromkeys(map(meshes.shape_holder,
@@ -458,16 +466,18 @@ class FluidBlender(BlenderEffect):
         return first, path
 
     @classmethod
-    def _inflow(cls, context, settings, fp, frames, lo, hi):
-        """The core's inflow input, {frame: shape or None}: None before Inflow Start and after
-        Inflow End; in between the Inflow object's shape (as the Fill's: a ball, a field, or
-        its box) at the start and wherever it moves or changes shape after."""
-        start, end = settings.inflow_start, settings.inflow_end
+    def _flow(cls, context, settings, role, fp, frames, lo, hi):
+        """The core's inflow or outflow input (``role`` "Inflow" or "Outflow"), {frame: shape
+        or None}: None before its Start and after its End; in between its object's shape (as
+        the Fill's: a ball, a field, or its box) at the start and wherever it moves or changes
+        shape after (None where it is outside the domain)."""
+        key = role.lower()
+        start, end = getattr(settings, f"{key}_start"), getattr(settings, f"{key}_end")
         if end < start:
-            raise ValueError(f"Inflow End = {end} is before Inflow Start = {start}: the "
-                             "Inflow would never pour")
-        first, path = yield from cls._followed_shape(context, settings.inflow_object,
-                                                     "Inflow", fp, frames, lo, hi)
+            raise ValueError(f"{role} End = {end} is before {role} Start = {start}: the "
+                             f"{role} would never {'pour' if key == 'inflow' else 'drain'}")
+        first, path = yield from cls._followed_shape(context, getattr(settings, f"{key}_object"),
+                                                     role, fp, frames, lo, hi)
         out = {frames[0]: None} if start > frames[0] else {}
         if start <= frames[1] and end >= frames[0]:
             on = max(start, frames[0])
@@ -495,15 +505,6 @@ class FluidBlender(BlenderEffect):
             q = obj.matrix_world.to_quaternion()
             return tuple(map(float, q @ mathutils.Vector(v)))
         first, path = yield from animation.followed(context, obj, frames, turned)
-        return {frames[0]: first, **path}
-
-    @classmethod
-    def _outflow(cls, context, settings, fp, frames, lo, hi):
-        """The core's outflow input, {frame: shape or None}: the Outflow object's shape at the
-        start and wherever it moves or changes shape after (None where it is outside the
-        domain)."""
-        first, path = yield from cls._followed_shape(context, settings.outflow_object,
-                                                     "Outflow", fp, frames, lo, hi)
         return {frames[0]: first, **path}
 
     @staticmethod
@@ -956,6 +957,10 @@ class FluidBlender(BlenderEffect):
             row.prop(settings, "inflow_start", text="Start")
             row.prop(settings, "inflow_end", text="End")
         col.prop(settings, "outflow_object")
+        if settings.outflow_object is not None:
+            row = col.row(align=True)
+            row.prop(settings, "outflow_start", text="Start")
+            row.prop(settings, "outflow_end", text="End")
         for name in ("particle_object", "liquid_domain", "obstacles", "paint_collection"):
             col.prop(settings, name)
         box = col.box()
