@@ -1,9 +1,9 @@
 """The Inflow object: a tap pours from its shape only from Inflow Start to Inflow End (the
 core's input is None outside them), a ball pours as a sphere, a keyed tap is followed frame
-by frame (its path is exactly its keys'), with Local Velocity its velocity turns with it, an
-Inflow outside the domain or ending before it starts is refused by name, and a bake pours:
-the particles grow only in the pouring frames, by the tap's flow; at Max Particles it stops,
-and the bake's end says so."""
+by frame (its path is exactly its keys'), with Source its water takes on the tap's own motion,
+with Local Velocity its velocity turns with it, an Inflow outside the domain or ending before
+it starts is refused by name, and a bake pours: the particles grow only in the pouring frames,
+by the tap's flow; at Max Particles it stops, and the bake's end says so."""
 import math
 
 import bpy
@@ -55,6 +55,29 @@ inputs = in_blender.fluid_inputs(domain)
 xs = {fr: sh[1][0] for fr, sh in inputs["inflow"].items()}
 assert sorted(xs) == list(range(1, 9)), xs
 assert all(abs(xs[fr] - (0.3 + 0.4 * (fr - 1) / 7)) < 1e-5 for fr in xs), xs
+# Source: its water takes on the tap's own motion (0.4 m in 7 frames of 1/24 s along x):
+# one velocity, moving at a constant speed; half of it at 0.5; none at 0
+assert np.allclose(inputs["inflow_velocity"], (0.4 / 7 * 24, 0, -1), atol=1e-4), \
+    inputs["inflow_velocity"]
+f.inflow_source = 0.5
+vel = in_blender.fluid_inputs(domain)["inflow_velocity"]
+assert np.allclose(vel, (0.2 / 7 * 24, 0, -1), atol=1e-4), vel
+f.inflow_source = 0.0
+assert in_blender.fluid_inputs(domain)["inflow_velocity"] == (0.0, 0.0, -1.0)
+f.inflow_source = 1.0
+# eased in and out (Bezier keys): each frame's step takes the tap's motion over that step
+# (the frame before to it; the first frame the second's)
+for fc in tap.animation_data.action.fcurves:
+    for k in fc.keyframe_points:
+        k.interpolation = "BEZIER"
+inputs = in_blender.fluid_inputs(domain)
+xs = {fr: sh[1][0] for fr, sh in inputs["inflow"].items()}
+vel = inputs["inflow_velocity"]
+assert sorted(vel) == [1, 3, 4, 5, 6, 7, 8], sorted(vel)  # (frame 1 takes frame 2's)
+at = {fr: vel[max(k for k in vel if k <= fr)] for fr in range(1, 9)}
+for fr in range(2, 9):
+    assert np.allclose(at[fr], ((xs[fr] - xs[fr - 1]) * 24, 0, -1), atol=1e-4), (fr, at[fr])
+assert at[1] == at[2] and at[2][0] < at[4][0] and at[8][0] < at[4][0], at  # (eased)
 tap.animation_data_clear()
 tap.location.x = 0.3
 # a ring (a mesh: its field) keyed to move: its field made once, placed where it is

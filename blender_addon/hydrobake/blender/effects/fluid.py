@@ -274,6 +274,12 @@ class FluidBlender(BlenderEffect):
                 description="SIMULATE: the Inflow Velocity is in the Inflow's own axes and "
                             "turns with it (a hose that sweeps, a nozzle that rotates); off: "
                             "world axes"),
+            inflow_source=bpy.props.FloatProperty(
+                name="Source", default=1.0, min=0.0, max=10.0, soft_max=2.0,
+                description="SIMULATE: how much of the Inflow object's own motion its water "
+                            "takes on, added to the Inflow Velocity (as Mantaflow's Source: 1, "
+                            "a hose swung sideways throws its water sideways; 0, the Inflow "
+                            "Velocity alone)"),
             inflow_start=bpy.props.IntProperty(
                 name="Inflow Start", default=1, min=-1048574, max=1048574,
                 description="SIMULATE: the first frame the Inflow pours"),
@@ -377,7 +383,7 @@ class FluidBlender(BlenderEffect):
                 inputs["inflow"] = yield from cls._flow(context, settings, "Inflow", fp, frames,
                                                         lo, hi)
                 inputs["inflow_velocity"] = yield from cls._inflow_velocity(context, settings,
-                                                                            frames)
+                                                                            frames, fp["dt"])
             if settings.outflow_object is not None:
                 inputs["outflow"] = yield from cls._flow(context, settings, "Outflow", fp,
                                                          frames, lo, hi)
@@ -492,20 +498,30 @@ class FluidBlender(BlenderEffect):
         return out
 
     @staticmethod
-    def _inflow_velocity(context, settings, frames):
-        """The core's inflow_velocity: the Inflow Velocity as set (world axes), or with Local
-        Velocity {frame: it turned by the Inflow object's world rotation} at the first frame
-        and wherever it turns after."""
-        v = tuple(map(float, settings.inflow_velocity))
-        if not settings.inflow_local:
-            return v
-        obj = settings.inflow_object
+    def _inflow_velocity(context, settings, frames, dt):
+        """The core's inflow_velocity: the Inflow Velocity (world axes; with Local Velocity
+        turned by the Inflow object's world rotation) plus Source times the object's own
+        velocity over each frame's step (the frame before to it; the first frame takes the
+        second's). One velocity when that is the same at every frame, else {frame: velocity}
+        at the first frame and wherever it changes after."""
+        v = mathutils.Vector(settings.inflow_velocity)
+        obj, local, source = settings.inflow_object, settings.inflow_local, settings.inflow_source
 
-        def turned(_dg):  # (its rotation alone: a scale does not change the speed)
-            q = obj.matrix_world.to_quaternion()
-            return tuple(map(float, q @ mathutils.Vector(v)))
-        first, path = yield from animation.followed(context, obj, frames, turned)
-        return {frames[0]: first, **path}
+        def read(_dg):  # (its rotation alone turns it: a scale does not change the speed)
+            m = obj.matrix_world
+            return (tuple(m.to_quaternion() @ v if local else v),
+                    tuple(m.translation) if source else ())
+        first, path = yield from animation.followed(context, obj, frames, read, same=tuple.__eq__)
+        at, moved = {frames[0]: first}, {frames[0]: np.zeros(3)}
+        for f in range(frames[0] + 1, frames[1] + 1):
+            at[f] = path.get(f, at[f - 1])
+            if source:
+                moved[f] = np.subtract(at[f][1], at[f - 1][1]) * (source / dt)
+        if source and frames[1] > frames[0]:
+            moved[frames[0]] = moved[frames[0] + 1]
+        got = {f: tuple(map(float, np.add(at[f][0], moved.get(f, 0.0)))) for f in at}
+        keep = {f: got[f] for f in got if f == frames[0] or got[f] != got[f - 1]}
+        return keep[frames[0]] if len(keep) == 1 else keep
 
     @staticmethod
     def _mantaflow(context, obj, settings, fp, frames):
@@ -953,6 +969,7 @@ class FluidBlender(BlenderEffect):
             sub = col.column(align=True)
             sub.prop(settings, "inflow_velocity")
             sub.prop(settings, "inflow_local")
+            sub.prop(settings, "inflow_source")
             row = sub.row(align=True)
             row.prop(settings, "inflow_start", text="Start")
             row.prop(settings, "inflow_end", text="End")
