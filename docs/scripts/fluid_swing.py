@@ -1,11 +1,11 @@
 """Renders docs/images/fluid_swing.png: the Inflow's Source. A tap (a ball of 3 cm) 30 cm over
 a shallow pool pours down at 0.5 m/s while it is swept along the tank at 1.1 m/s over frames
-1-12; fluid textured at 40 cells along the tank, rendered in Cycles at frame 10 (or FRAME), seen from
-the front. Left, Source 0: the water leaves the tap with the Inflow Velocity alone and falls
-straight down where it left, so the tap runs ahead of its own stream and the stream trails
-behind it, leaning back. Right, Source 1 (the default): the water also takes on the tap's
-motion, so it keeps up with the tap and falls in a column right under it, as water poured
-from a moving jug does.
+1-12; fluid textured at 40 cells along the tank, rendered in Cycles at frame 10 (or FRAME),
+seen from the front. Left, Source 0: the water leaves the tap with the Inflow Velocity alone
+and falls straight down where it left, so the tap runs ahead of its own stream and the stream
+trails behind it, leaning back. Right, Source 1 (the default): the water also takes on the
+tap's motion, so it keeps up with the tap and falls in a column right under it, as water
+poured from a moving jug does.
 
     BLENDER_USER_SCRIPTS=<dir holding addons/hydrobake> blender -b --factory-startup \\
         --python-exit-code 1 --python docs/scripts/fluid_swing.py -- OUTDIR [FRAME]
