@@ -17,7 +17,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tank_scene import bake, box, floor, render, side_by_side, start  # noqa: E402
+from tank_scene import box, compared, floor, start  # noqa: E402
 
 TURN, FRAME = 16, 14
 out = start("hose.blend")
@@ -40,17 +40,7 @@ s.fluid.max_particles = 200000
 solids = bpy.data.collections.new("Solids")
 scene.collection.children.link(solids)
 floor(0.4, 0.4)
-halves = []
-for local in (False, True):
-    s.inflow_local = local
-    bake(tank, pool, solids, FRAME, (40, 40, 25))
-    path = os.path.join(out, f"fluid_hose_{'local' if local else 'world'}.png")
-    if not halves:  # (the camera, sun and sky, once)
-        render(FRAME, (0.4, 0.0, 1.25), 20, (400, 330), path)
-    else:
-        scene.frame_set(FRAME)
-        scene.render.filepath = path
-        bpy.ops.render.render(write_still=True)
-    halves.append(path)
-    assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name=tank.name) == {"FINISHED"}
-side_by_side(halves, os.path.join(out, "fluid_hose.png"))
+compared(tank, pool, solids, FRAME, (40, 40, 25),
+         [(label, lambda on=on: setattr(s, "inflow_local", on))
+          for label, on in (("world", False), ("local", True))],
+         (0.4, 0.0, 1.25), 20, out, "fluid_hose")

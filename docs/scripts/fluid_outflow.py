@@ -14,7 +14,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tank_scene import bake, box, floor, material, render, side_by_side, start  # noqa: E402
+from tank_scene import box, compared, floor, material, start  # noqa: E402
 
 FRAME = 60
 out = start("outflow.blend")
@@ -35,14 +35,7 @@ s.fluid.max_particles = 200000
 solids = bpy.data.collections.new("Solids")
 scene.collection.children.link(solids)
 floor(0.4, 0.25)
-bake(tank, None, solids, FRAME, (40, 25, 30))
-left = os.path.join(out, f"fluid_outflow_none_{FRAME}.png")
-render(FRAME, (0.4, -1.05, 0.86), 62, (400, 330), left)
-assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name=tank.name) == {"FINISHED"}
-s.outflow_object = drain
-bake(tank, None, solids, FRAME, (40, 25, 30))
-right = os.path.join(out, f"fluid_outflow_{FRAME}.png")
-scene.frame_set(FRAME)
-scene.render.filepath = right
-bpy.ops.render.render(write_still=True)
-side_by_side([left, right], os.path.join(out, "fluid_outflow.png"))
+compared(tank, None, solids, FRAME, (40, 25, 30),
+         [("none", lambda: setattr(s, "outflow_object", None)),
+          ("drain", lambda: setattr(s, "outflow_object", drain))],
+         (0.4, -1.05, 0.86), 62, out, "fluid_outflow")

@@ -16,7 +16,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tank_scene import bake, box, floor, render, side_by_side, start  # noqa: E402
+from tank_scene import box, compared, floor, start  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 SWEEP, FRAME = 12, int(args[1]) if len(args) > 1 else 10
@@ -40,17 +40,6 @@ s.fluid.max_particles = 200000
 solids = bpy.data.collections.new("Solids")
 scene.collection.children.link(solids)
 floor(0.4, 0.2)
-halves = []
-for source in (0.0, 1.0):
-    s.inflow_source = source
-    bake(tank, pool, solids, FRAME, (40, 20, 25))
-    path = os.path.join(out, f"fluid_swing_{source:g}.png")
-    if not halves:  # (the camera, sun and sky, once)
-        render(FRAME, (0.4, -0.85, 0.3), 82, (400, 330), path)
-    else:
-        scene.frame_set(FRAME)
-        scene.render.filepath = path
-        bpy.ops.render.render(write_still=True)
-    halves.append(path)
-    assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name=tank.name) == {"FINISHED"}
-side_by_side(halves, os.path.join(out, "fluid_swing.png"))
+compared(tank, pool, solids, FRAME, (40, 20, 25),
+         [(f"{v:g}", lambda v=v: setattr(s, "inflow_source", v)) for v in (0.0, 1.0)],
+         (0.4, -0.85, 0.3), 82, out, "fluid_swing")

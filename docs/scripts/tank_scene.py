@@ -103,3 +103,26 @@ def side_by_side(paths, path):
     out.filepath_raw, out.file_format = path, "PNG"
     out.save()
     print("SAVED", path)
+
+
+def compared(tank, fill, obstacles, frame, resolution, cases, camera, tilt, out, name):
+    """Bakes the domain ``tank`` (as bake()) to ``frame`` once for each (label, set) of
+    ``cases``, set() changing the setting compared first, and renders that frame each time
+    (as render(), 400 x 330) as OUT/name_LABEL.png, freeing each bake after; the renders side
+    by side, left to right, into OUT/name.png."""
+    scene = bpy.context.scene
+    halves = []
+    for label, put in cases:
+        put()
+        bake(tank, fill, obstacles, frame, resolution)
+        path = os.path.join(out, f"{name}_{label}.png")
+        if not halves:  # (the camera, sun and sky, once)
+            render(frame, camera, tilt, (400, 330), path)
+        else:
+            scene.frame_set(frame)
+            scene.render.filepath = path
+            bpy.ops.render.render(write_still=True)
+        halves.append(path)
+        assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name=tank.name) == \
+            {"FINISHED"}
+    side_by_side(halves, os.path.join(out, f"{name}.png"))
