@@ -78,18 +78,24 @@ def render(frame, camera, tilt, size, path):
 def two_frames(frames, camera, tilt, out, name):
     """Renders ``frames`` (two) as render() does, 400 x 330 each, side by side into
     OUT/name.png (each also as name_FRAME.png)."""
-    scene = bpy.context.scene
     halves = []
     for frame in frames:
-        path = os.path.join(out, f"{name}_{frame}.png")
-        if frame == frames[0]:  # (the camera, sun and sky, once)
-            render(frame, camera, tilt, (400, 330), path)
-        else:
-            scene.frame_set(frame)
-            scene.render.filepath = path
-            bpy.ops.render.render(write_still=True)
-        halves.append(path)
+        halves.append(_half(frame, camera, tilt, os.path.join(out, f"{name}_{frame}.png"),
+                            first=not halves))
     side_by_side(halves, os.path.join(out, f"{name}.png"))
+
+
+def _half(frame, camera, tilt, path, first):
+    """Renders ``frame`` to ``path``, 400 x 330, as render() does; the camera, sun and sky are
+    made by the ``first`` only. Returns ``path``."""
+    if first:
+        render(frame, camera, tilt, (400, 330), path)
+    else:
+        scene = bpy.context.scene
+        scene.frame_set(frame)
+        scene.render.filepath = path
+        bpy.ops.render.render(write_still=True)
+    return path
 
 
 def side_by_side(paths, path):
@@ -110,19 +116,12 @@ def compared(tank, fill, obstacles, frame, resolution, cases, camera, tilt, out,
     ``cases``, set() changing the setting compared first, and renders that frame each time
     (as render(), 400 x 330) as OUT/name_LABEL.png, freeing each bake after; the renders side
     by side, left to right, into OUT/name.png."""
-    scene = bpy.context.scene
     halves = []
     for label, put in cases:
         put()
         bake(tank, fill, obstacles, frame, resolution)
-        path = os.path.join(out, f"{name}_{label}.png")
-        if not halves:  # (the camera, sun and sky, once)
-            render(frame, camera, tilt, (400, 330), path)
-        else:
-            scene.frame_set(frame)
-            scene.render.filepath = path
-            bpy.ops.render.render(write_still=True)
-        halves.append(path)
+        halves.append(_half(frame, camera, tilt, os.path.join(out, f"{name}_{label}.png"),
+                            first=not halves))
         assert bpy.ops.hydrobake.free_bake(effect="fluid", object_name=tank.name) == \
             {"FINISHED"}
     side_by_side(halves, os.path.join(out, f"{name}.png"))
