@@ -506,6 +506,8 @@ class FluidBlender(BlenderEffect):
         at the first frame and wherever it changes after."""
         v = mathutils.Vector(settings.inflow_velocity)
         obj, local, source = settings.inflow_object, settings.inflow_local, settings.inflow_source
+        if not local and not source:
+            return tuple(map(float, v))
 
         def read(_dg):  # (its rotation alone turns it: a scale does not change the speed)
             m = obj.matrix_world
