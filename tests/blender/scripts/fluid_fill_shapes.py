@@ -2,8 +2,9 @@
 holds lattice cells, all inside it), a torus fills its tube and leaves the hole dry, a
 metaball family's member fills the family's one surface, a box is its box as before, and an
 open mesh (no inside) fills its box with a warning, and so does a ball not in the scene (its
-shape cannot be read; a box says nothing). The Initial Velocity is every
-particle's at the start. A thrown ball of water bakes through the operator."""
+shape cannot be read; a box says nothing). The Initial Velocity is every particle's at the
+start, with Source the Fill object's own motion over the first frame added. A thrown ball of
+water bakes through the operator."""
 import bpy
 import numpy as np
 
@@ -106,6 +107,24 @@ print("FLUID FILL UNEVALUATED OK")
 f.fill_velocity = (1.5, 0.0, 0.5)
 shape, pos, _ = filled(ball)
 assert len(pos) > 0 and np.all(velocities == np.float32((1.5, 0.0, 0.5))), velocities[:3]
+# keyed to fly (10 cm along x and 5 up over the first frame, 1/24 s): with Source its water
+# flies on with it, (2.4, 0, 1.2) m/s added (half at 0.5); at 0 only the Initial Velocity
+start = tuple(ball.location)
+for frame, move in ((1, (0.0, 0.0, 0.0)), (2, (0.1, 0.0, 0.05))):
+    ball.location = np.add(start, move)
+    ball.keyframe_insert("location", frame=frame)
+for fc in ball.animation_data.action.fcurves:
+    for k in fc.keyframe_points:
+        k.interpolation = "LINEAR"
+bpy.context.scene.frame_set(1)
+for source, want in ((1.0, (3.9, 0.0, 1.7)), (0.5, (2.7, 0.0, 1.1)), (0.0, (1.5, 0.0, 0.5))):
+    f.fill_source = source
+    shape, pos, _ = filled(ball)
+    assert np.allclose(shape[1], start, atol=1e-5), (shape[1], start)  # (its place at frame 1)
+    assert np.allclose(velocities, want, atol=1e-3), (source, velocities[:3])
+f.fill_source = 1.0
+ball.animation_data_clear()
+ball.location = start
 print("FLUID FILL THROWN OK")
 
 # baked through the operator

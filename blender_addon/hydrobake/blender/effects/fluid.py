@@ -259,6 +259,12 @@ class FluidBlender(BlenderEffect):
                 max=100.0, subtype="VELOCITY", unit="VELOCITY",
                 description="SIMULATE: the velocity the Fill's water starts with (world axes; "
                             "a ball of water thrown at a wall)"),
+            fill_source=bpy.props.FloatProperty(
+                name="Source", default=1.0, min=0.0, max=10.0, soft_max=2.0,
+                description="SIMULATE: how much of the Fill object's own motion over the first "
+                            "frame its water starts with, added to the Initial Velocity (as "
+                            "Mantaflow's Source: 1, a keyed ball of water flies on as keyed; 0, "
+                            "the Initial Velocity alone)"),
             inflow_object=bpy.props.PointerProperty(
                 name="Inflow", type=bpy.types.Object,
                 description="SIMULATE: water pours in from this object's shape (a tap, a "
@@ -374,8 +380,10 @@ class FluidBlender(BlenderEffect):
                                      "domain's box by at least particle_spacing = "
                                      f"{fp['particle_spacing']:g} m on every axis")
                 inputs["fill"] = (tuple(map(float, flo)), tuple(map(float, fhi)))
-                if any(settings.fill_velocity):
-                    inputs["fill_velocity"] = tuple(map(float, settings.fill_velocity))
+                velocity = yield from cls._fill_velocity(context, settings, fill, frames,
+                                                         fp["dt"])
+                if any(velocity):
+                    inputs["fill_velocity"] = velocity
                 shape = _fill_shape(context, fill, fp["particle_spacing"])
                 if shape is not None:
                     inputs["fill_shape"] = shape
@@ -496,6 +504,20 @@ class FluidBlender(BlenderEffect):
             if end < frames[1]:
                 out[end + 1] = None
         return out
+
+    @staticmethod
+    def _fill_velocity(context, settings, fill, frames, dt):
+        """The Fill's water's velocity at the start: the Initial Velocity plus Source times the
+        Fill object's own velocity over the first frame (its world position there, to the
+        next frame's)."""
+        v = tuple(map(float, settings.fill_velocity))
+        if not settings.fill_source or frames[1] == frames[0]:
+            return v
+        first, path = yield from animation.followed(
+            context, fill, (frames[0], frames[0] + 1),
+            lambda _dg: tuple(fill.matrix_world.translation), same=tuple.__eq__)
+        moved = np.subtract(path.get(frames[0] + 1, first), first) * (settings.fill_source / dt)
+        return tuple(map(float, np.add(v, moved)))
 
     @staticmethod
     def _inflow_velocity(context, settings, frames, dt):
@@ -965,7 +987,7 @@ class FluidBlender(BlenderEffect):
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("fill_object", "fill_velocity", "inflow_object"):
+        for name in ("fill_object", "fill_velocity", "fill_source", "inflow_object"):
             col.prop(settings, name)
         if settings.inflow_object is not None:
             sub = col.column(align=True)
