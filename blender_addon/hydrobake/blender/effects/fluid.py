@@ -505,29 +505,32 @@ class FluidBlender(BlenderEffect):
                 out[end + 1] = None
         return out
 
-    @staticmethod
-    def _fill_velocity(context, settings, fill, frames, dt):
+    @classmethod
+    def _fill_velocity(cls, context, settings, fill, frames, dt):
         """The Fill's water's velocity at the start: the Initial Velocity plus Source times the
         Fill object's own velocity over the first frame (its world position there, to the
         next frame's)."""
-        v = tuple(map(float, settings.fill_velocity))
-        if not settings.fill_source or frames[1] == frames[0]:
-            return v
-        first, path = yield from animation.followed(
-            context, fill, (frames[0], frames[0] + 1),
-            lambda _dg: tuple(fill.matrix_world.translation), same=tuple.__eq__)
-        moved = np.subtract(path.get(frames[0] + 1, first), first) * (settings.fill_source / dt)
-        return tuple(map(float, np.add(v, moved)))
+        got = yield from cls._followed_velocity(
+            context, settings.fill_velocity, fill, (frames[0], min(frames[0] + 1, frames[1])),
+            dt, False, settings.fill_source)
+        return got[frames[0]] if isinstance(got, dict) else got
 
-    @staticmethod
-    def _inflow_velocity(context, settings, frames, dt):
+    @classmethod
+    def _inflow_velocity(cls, context, settings, frames, dt):
         """The core's inflow_velocity: the Inflow Velocity (world axes; with Local Velocity
         turned by the Inflow object's world rotation) plus Source times the object's own
-        velocity over each frame's step (the frame before to it; the first frame takes the
-        second's). One velocity when that is the same at every frame, else {frame: velocity}
-        at the first frame and wherever it changes after."""
-        v = mathutils.Vector(settings.inflow_velocity)
-        obj, local, source = settings.inflow_object, settings.inflow_local, settings.inflow_source
+        velocity (see _followed_velocity)."""
+        return (yield from cls._followed_velocity(
+            context, settings.inflow_velocity, settings.inflow_object, frames, dt,
+            settings.inflow_local, settings.inflow_source))
+
+    @staticmethod
+    def _followed_velocity(context, velocity, obj, frames, dt, local, source):
+        """``velocity`` (turned by ``obj``'s world rotation if ``local``) plus ``source`` times
+        obj's own velocity over each frame's step (the frame before to it; the first frame
+        takes the second's), over ``frames``: one velocity when that is the same at every
+        frame, else {frame: velocity} at the first frame and wherever it changes after."""
+        v = mathutils.Vector(velocity)
         if not local and not source:
             return tuple(map(float, v))
 
@@ -536,14 +539,15 @@ class FluidBlender(BlenderEffect):
             return (tuple(m.to_quaternion() @ v if local else v),
                     tuple(m.translation) if source else ())
         first, path = yield from animation.followed(context, obj, frames, read, same=tuple.__eq__)
-        at, moved = {frames[0]: first}, {frames[0]: np.zeros(3)}
+        at = {frames[0]: first}
         for f in range(frames[0] + 1, frames[1] + 1):
             at[f] = path.get(f, at[f - 1])
-            if source:
-                moved[f] = np.subtract(at[f][1], at[f - 1][1]) * (source / dt)
-        if source and frames[1] > frames[0]:
-            moved[frames[0]] = moved[frames[0] + 1]
-        got = {f: tuple(map(float, np.add(at[f][0], moved.get(f, 0.0)))) for f in at}
+
+        def moved(f):  # (m/s over the step into f; the first frame's is the second's)
+            g = max(f, frames[0] + 1)
+            return (np.subtract(at[g][1], at[g - 1][1]) * (source / dt) if source and g in at
+                    else 0.0)
+        got = {f: tuple(map(float, np.add(at[f][0], moved(f)))) for f in at}
         keep = {f: got[f] for f in got if f == frames[0] or got[f] != got[f - 1]}
         return keep[frames[0]] if len(keep) == 1 else keep
 
