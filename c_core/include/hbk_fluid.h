@@ -162,8 +162,12 @@ HBK_EXPORT hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obs
                                              float jitter);
 /* An inflow (SIMULATE): water poured in from `shape` (an obstacle record and a mesh's field,
  * checked as fill_shape takes them) at `velocity` (m/s, each component in [-1000, 1000]),
- * from the next step on. At the start of every SPH substep each point of fill_box's lattice
- * inside the shape (and the box), jittered by up to `jitter` spacings (0..0.5, keyed by seed,
+ * from the next step on. Its points: a lattice of particle_spacing inside the shape (and the
+ * box, half a spacing from its walls) laid along the flow (the shape's own axes turned the
+ * least way that puts one along `velocity`; fill_box's lattice over the shape's bounds for
+ * no velocity or one along an axis of an unturned shape), so that a stream leaves in whole
+ * columns at rest density whichever way it pours. At the start of every SPH substep each
+ * point, jittered by up to `jitter` spacings (0..0.5, keyed by seed,
  * frame, substep and point), outside the obstacles and with no particle nearer than
  * particle_spacing, gains a particle moving at `velocity`, until max_particles: started as
  * far along the flow as it would be had it left when the point cleared (at most a substep's
@@ -178,6 +182,14 @@ HBK_EXPORT hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obs
 /* The lattice points the inflow pours from (0 without one, or for a shape no point of the
  * lattice lies in: it pours nothing). 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h);
+/* Particles a second the inflow pours while the water before clears it (nothing backing up
+ * to it, no max_particles): the lattice columns its points make along its velocity (the
+ * shape's cross-section across the flow in spacing squares), each pouring once the particle
+ * before has gone a spacing: every s / speed seconds (k^2 v / s for a k x k tap across an
+ * axis), or with gravity g along the flow the t of speed t + g t^2 / 2 = s. 0 without one,
+ * at zero velocity, for a jet too slow to rise a spacing against gravity, or for NULL. A
+ * bake's forecast of when max_particles stops the inflow. */
+HBK_EXPORT double hbk_fluid_inflow_rate(const hbk_fluid_t *h);
 /* Particles the inflow added in the last step; *capped receives 1 if a point ready to pour
  * found the fluid at max_particles (capped may be NULL). 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped);

@@ -239,6 +239,7 @@ float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, d
     X(fluid, fill_shape_box_and_obstacles) \
     X(fluid, inflow_refused)            \
     X(fluid, inflow_rate)               \
+    X(fluid, inflow_forecast_rate)      \
     X(fluid, inflow_starts_in_the_shape) \
     X(fluid, inflow_clear_of_water)     \
     X(fluid, inflow_obstacles)          \

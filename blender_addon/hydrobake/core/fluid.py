@@ -65,6 +65,7 @@ _lib.declare([
     ("hbk_fluid_substeps_taken", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_inflow_added", ctypes.c_int32, [ctypes.c_void_p, P(ctypes.c_int32)]),
     ("hbk_fluid_inflow_points", ctypes.c_int32, [ctypes.c_void_p]),
+    ("hbk_fluid_inflow_rate", ctypes.c_double, [ctypes.c_void_p]),
     ("hbk_fluid_outflow_removed", ctypes.c_int32, [ctypes.c_void_p]),
     ("hbk_fluid_grid_vertices", ctypes.c_size_t, [ctypes.c_void_p, P(ctypes.c_int32 * 3)]),
     ("hbk_fluid_volume_size", ctypes.c_size_t, [ctypes.c_void_p, ctypes.c_int32]),
@@ -188,8 +189,9 @@ class Fluid(Handle):
 
     def set_inflow(self, shape, velocity=(0.0, 0.0, 0.0), jitter=0.0):
         """Water poured in from ``shape`` (one entry as fill_shape takes it) at ``velocity``
-        (m/s) from the next step on: at every SPH substep, each point of fill_box's lattice
-        inside it with no particle nearer than a spacing gains one moving at ``velocity``,
+        (m/s) from the next step on: at every SPH substep, each point of a lattice inside it
+        (laid along the flow, so a tilted tap pours as much as a straight one) with no
+        particle nearer than a spacing gains one moving at ``velocity``,
         until max_particles. None stops it. Not in the saved state: set it again after
         load_state."""
         if shape is None:
@@ -203,6 +205,12 @@ class Fluid(Handle):
     def inflow_points(self):
         """Lattice points the inflow pours from (0: none, or a shape too thin or outside)."""
         return int(_lib.lib.hbk_fluid_inflow_points(self.h))
+
+    @property
+    def inflow_rate(self):
+        """Particles a second the inflow pours while the water before clears it: its speed /
+        particle_spacing x the lattice columns its points make along its velocity (0: none)."""
+        return float(_lib.lib.hbk_fluid_inflow_rate(self.h))
 
     @property
     def inflow_added(self):

@@ -9,32 +9,136 @@ void hbk_fluid_inflow_free(hbk_fluid_t *h)
     free(h->inflow_head);
     free(h->inflow_next);
     h->inflow_pts = NULL;
+    h->inflow_columns = 0;
     h->inflow_head = h->inflow_next = NULL;
     h->inflow_n = 0;
 }
 
-/* The lattice points of fill_box over the shape's bounds (clipped to the box, half a spacing
- * from its walls) that lie inside it; counts them into *n, and writes them when pts is set. */
+/* The frame the inflow's lattice is laid in (axes R[3a..3a+2]): the shape's own axes, turned
+ * the least way that lays the one nearest the velocity along it (*along). A stream then
+ * leaves in whole columns, a spacing apart at rest density, whichever way it pours: on the
+ * world's lattice a stream at an angle passes near the points beside its own and keeps them
+ * from pouring (a ball at 1 m/s along (1, 1, 1) poured 37% of what it poured along z).
+ * Returns 0 for the world's own axes (no velocity, or one along an axis of an unturned
+ * shape): fill_box's lattice, as before. */
+static int flow_frame(const hbk_fluid_obstacle_t *shape, const float u[3], double R[9],
+                      int *along)
+{
+    float ax[9];
+    hbk_fluid_shape_axes(shape, ax);
+    for (int i = 0; i < 9; ++i) R[i] = ax[i];
+    const double speed = sqrt((double)u[0] * u[0] + (double)u[1] * u[1] + (double)u[2] * u[2]);
+    *along = 2;
+    if (!(speed > 0.0)) return 0;
+    double d[3], dot[3];
+    for (int a = 0; a < 3; ++a) d[a] = u[a] / speed;
+    for (int m = 0; m < 3; ++m)
+        dot[m] = R[3 * m] * d[0] + R[3 * m + 1] * d[1] + R[3 * m + 2] * d[2];
+    int m = 0;
+    for (int a = 1; a < 3; ++a) m = fabs(dot[a]) > fabs(dot[m]) ? a : m;
+    *along = m;
+    const double c = fabs(dot[m]);
+    if (c >= 1.0 - 1e-12) return shape->type >= 2; /* along that axis already */
+    /* Rodrigues: the turn taking a = sign * axis m onto d, about k = a x d (|k| = sin) */
+    double a[3], k[3];
+    for (int i = 0; i < 3; ++i) a[i] = (dot[m] < 0.0 ? -1.0 : 1.0) * R[3 * m + i];
+    k[0] = a[1] * d[2] - a[2] * d[1];
+    k[1] = a[2] * d[0] - a[0] * d[2];
+    k[2] = a[0] * d[1] - a[1] * d[0];
+    const double f = 1.0 / (1.0 + c); /* (1 - cos) / sin^2 */
+    for (int b = 0; b < 3; ++b) {
+        double *v = R + 3 * b, kv[3], kkv[3];
+        kv[0] = k[1] * v[2] - k[2] * v[1];
+        kv[1] = k[2] * v[0] - k[0] * v[2];
+        kv[2] = k[0] * v[1] - k[1] * v[0];
+        kkv[0] = k[1] * kv[2] - k[2] * kv[1];
+        kkv[1] = k[2] * kv[0] - k[0] * kv[2];
+        kkv[2] = k[0] * kv[1] - k[1] * kv[0];
+        for (int i = 0; i < 3; ++i) v[i] += kv[i] + f * kkv[i];
+    }
+    return 1;
+}
+
+/* The inflow's points: those of its lattice (flow_frame's: fill_box's over the shape's bounds,
+ * or one as fine laid in the turned frame R over the same bounds) inside the shape and the box,
+ * half a spacing from its walls; counts them into *n, and writes them when pts is set. */
 static void lattice(const hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
-                    const int32_t *dims, const float *f, float *pts, size_t *n)
+                    const int32_t *dims, const float *f, int turned, const double R[9],
+                    float *pts, size_t *n)
 {
     const float s = h->p.particle_spacing;
     float lo[3], hi[3];
     hbk_fluid_shape_bounds(shape, lo, hi);
-    double a0[3];
+    double a0[3], c[3] = {0, 0, 0}, e[3];
     int32_t m[3];
     hbk_fluid_lattice(h, lo, hi, a0, m);
+    if (turned) { /* centred on the clipped bounds, reaching over them along R's axes */
+        for (int a = 0; a < 3; ++a) {
+            const double l = fmax(lo[a], h->p.box_min[a]), u = fmin(hi[a], h->p.box_max[a]);
+            c[a] = 0.5 * (l + u);
+            e[a] = 0.5 * (u - l);
+        }
+        for (int a = 0; a < 3; ++a) {
+            double reach = 0.0;
+            for (int b = 0; b < 3; ++b) reach += fabs(R[3 * a + b]) * e[b];
+            m[a] = e[0] >= 0.0 && e[1] >= 0.0 && e[2] >= 0.0 && 2.0 * reach >= s
+                       ? (int32_t)floor((2.0 * reach - s) / s + 1e-6) + 1 : 0;
+            a0[a] = -0.5 * (double)(m[a] - 1) * s;
+        }
+    }
+    const float wall = 0.5f * s;
     *n = 0;
     for (int32_t k = 0; k < m[2]; ++k)
         for (int32_t j = 0; j < m[1]; ++j)
             for (int32_t i = 0; i < m[0]; ++i) {
                 const int32_t ijk[3] = {i, j, k};
                 float x[3];
-                for (int a = 0; a < 3; ++a) x[a] = (float)(a0[a] + (double)ijk[a] * s);
+                if (!turned) {
+                    for (int a = 0; a < 3; ++a) x[a] = (float)(a0[a] + (double)ijk[a] * s);
+                } else {
+                    int inside = 1;
+                    for (int b = 0; b < 3; ++b) {
+                        double v = c[b];
+                        for (int a = 0; a < 3; ++a)
+                            v += (a0[a] + (double)ijk[a] * s) * R[3 * a + b];
+                        x[b] = (float)v;
+                        inside &= x[b] >= h->p.box_min[b] + wall && x[b] <= h->p.box_max[b] - wall;
+                    }
+                    if (!inside) continue;
+                }
                 if (!hbk_fluid_in_shape(shape, dims, f, x)) continue;
                 if (pts) memcpy(pts + 3 * *n, x, sizeof x);
                 ++*n;
             }
+}
+
+/* The lattice columns the points make along R's axis `along`: the points' places across it
+ * (from the first, in whole spacings), each counted once. */
+static int cmp_i64(const void *a, const void *b)
+{
+    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static int64_t columns(const float *pts, size_t n, const double R[9], int along, float s,
+                       int64_t *keys)
+{
+    if (n == 0) return 0;
+    const double *e1 = R + 3 * ((along + 1) % 3), *e2 = R + 3 * ((along + 2) % 3);
+    for (size_t i = 0; i < n; ++i) {
+        double q1 = 0.0, q2 = 0.0;
+        for (int a = 0; a < 3; ++a) {
+            const double x = (double)pts[3 * i + (size_t)a] - (double)pts[a];
+            q1 += x * e1[a];
+            q2 += x * e2[a];
+        }
+        const int64_t k1 = (int64_t)floor(q1 / s + 0.5), k2 = (int64_t)floor(q2 / s + 0.5);
+        keys[i] = k1 * (int64_t)4294967296 + (k2 + (int64_t)2147483648);
+    }
+    qsort(keys, n, sizeof *keys, cmp_i64);
+    int64_t c = 1;
+    for (size_t i = 1; i < n; ++i) c += keys[i] != keys[i - 1];
+    return c;
 }
 
 hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
@@ -64,8 +168,11 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
                         (double)jitter);
     const int32_t *d = shape->type == 3 ? dims : NULL;
     const float *f = shape->type == 3 ? distance : NULL;
+    double R[9];
+    int along;
+    const int turned = flow_frame(shape, velocity, R, &along);
     size_t n;
-    lattice(h, shape, d, f, NULL, &n);
+    lattice(h, shape, d, f, turned, R, NULL, &n);
     if (n > (size_t)h->p.max_particles)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "inflow: the shape holds %zu particles at once: must hold at most "
@@ -78,7 +185,15 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
     float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     float *pts = malloc((3 * n + 3) * sizeof *pts);
     if (!pts) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
-    lattice(h, shape, d, f, pts, &n);
+    lattice(h, shape, d, f, turned, R, pts, &n);
+    int64_t *keys = malloc((n + 1) * sizeof *keys);
+    if (!keys) {
+        free(pts);
+        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
+    }
+    const int64_t cols = (velocity[0] != 0.0f || velocity[1] != 0.0f || velocity[2] != 0.0f)
+                             ? columns(pts, n, R, along, s, keys) : 0;
+    free(keys);
     for (size_t i = 0; i < n; ++i)
         for (int a = 0; a < 3; ++a) {
             const float x = pts[3 * i + (size_t)a];
@@ -109,6 +224,7 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
     h->inflow_head = head;
     h->inflow_next = next;
     h->inflow_n = (int32_t)n;
+    h->inflow_columns = cols;
     h->inflow_cell = (float)cell;
     h->inflow_jitter = jitter;
     for (int a = 0; a < 3; ++a) {
@@ -120,6 +236,22 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
 }
 
 int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h) { return h ? h->inflow_n : 0; }
+
+/* A column pours each time the particle before has gone a spacing: s / speed without
+ * gravity; with it, the t of speed t + g t^2 / 2 = s for g gravity's part along the flow
+ * (sooner pouring down, later up; never, for a jet too slow to rise a spacing). */
+double hbk_fluid_inflow_rate(const hbk_fluid_t *h)
+{
+    if (!h || !h->inflow_n) return 0.0;
+    const float *u = h->inflow_vel, *g = h->p.gravity;
+    const double speed = sqrt((double)u[0] * u[0] + (double)u[1] * u[1] + (double)u[2] * u[2]);
+    if (!(speed > 0.0)) return 0.0;
+    const double s = h->p.particle_spacing,
+                 along = ((double)g[0] * u[0] + (double)g[1] * u[1] + (double)g[2] * u[2]) / speed,
+                 disc = speed * speed + 2.0 * along * s;
+    if (!(disc > 0.0)) return 0.0;
+    return (double)h->inflow_columns * (speed + sqrt(disc)) / (2.0 * s); /* columns / t */
+}
 
 int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped)
 {
