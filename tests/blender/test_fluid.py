@@ -97,7 +97,10 @@ def test_the_inflow_pours_from_its_shape_in_its_frames(blender, tmp_path):
         assert f"FLUID INFLOW {part} OK" in r.stdout, r.stdout
     # the operator's report of it, and the command line's
     assert "Domain fluid: the inflow stopped pouring at frame 4" in r.stdout + r.stderr
+    assert "Domain: the inflow will stop pouring at about frame" in r.stdout + r.stderr
     r = blender.run("cli.py", "bake", "--objects", "Domain", "--effects", "fluid",
                     "--output", tmp_path / "cli", "--no-save", blend=tmp_path / "inflow.blend")
     assert "hydrobake: Domain/fluid note: the inflow stopped pouring at frame 4" in r.stderr, \
         r.stderr
+    assert "hydrobake: Domain/fluid warning: Domain: the inflow will stop pouring at about " \
+        "frame" in r.stderr, r.stderr

@@ -338,6 +338,9 @@ class Job:
             params, inputs = (yield from got) if inspect.isgenerator(got) else got
         self.scene_name = scene.name
         effect = self.beffect.core_class()(params, inputs)
+        if not resume:  # (a resume's is the bake's it continues, said then)
+            for text in effect.forecast(start, end):
+                warnings.warn(f"{obj.name}: {text}", BakeWarning)
         self.recorded = paths.stored(self.folder, settings, folder_override)  # in the file
         if resume and settings.bake_folder and not folder_override:
             self.folder = settings.bake_folder  # continue where the bake actually is,

@@ -3,7 +3,8 @@ core's input is None outside them), a ball pours as a sphere, a keyed tap is fol
 by frame (its path is exactly its keys'), with Source its water takes on the tap's own motion,
 with Local Velocity its velocity turns with it, an Inflow outside the domain or ending before
 it starts is refused by name, and a bake pours: the particles grow only in the pouring frames,
-by the tap's flow; at Max Particles it stops, and the bake's end says so."""
+by the tap's flow; at Max Particles it stops, the bake foretells it before it starts, and its
+end says so."""
 import math
 
 import bpy
@@ -190,8 +191,31 @@ refused("Fill: SIMULATE needs an object whose shape the fluid fills (or an Inflo
 f.fill_object, f.inflow_object = puddle, tap
 print("FLUID INFLOW DRY START OK")
 
-# Max Particles reached: the inflow stops there, and the bake says so when it ends
+
+
+def forecast():
+    """The bake's forecast of the inflow reaching Max Particles (its warnings that say so)."""
+    job = jobs.Job(bpy.context, domain, "fluid")
+    try:
+        return [w for w in job.warnings if "will stop pouring" in w]
+    finally:
+        job.runner.effect.close()
+        del domain.hydrobake_fluid[jobs.BAKING]
+
+
+# Max Particles reached: the inflow stops there, the bake says it will before it starts (at
+# that frame, give or take one) and that it did when it ends; none is foretold with room to
+# spare, nor with an Outflow (however much it drains)
+assert forecast() == [], forecast()
 f.fluid.max_particles = counts[3] + 20
+said = forecast()
+assert len(said) == 1 and said[0].startswith("Domain: the inflow will stop pouring at about "
+                                             "frame "), said
+assert f"it reaches max_particles = {counts[3] + 20} there" in said[0], said
+foretold = int(said[0].split("about frame ")[1].split(" ")[0])
+f.outflow_object = column
+assert forecast() == [], forecast()
+f.outflow_object = None
 assert bpy.ops.hydrobake.bake(effect="fluid", object_name="Domain") == {"FINISHED"}
 job = jobs.Job(bpy.context, domain, "fluid", folder_override=bpy.path.abspath("//capped"))
 job.runner.run()
@@ -199,5 +223,6 @@ job.finalize(bpy.context)
 notes = job.runner.effect.notes()
 assert notes == [f"the inflow stopped pouring at frame 4: the fluid holds max_particles = "
                  f"{counts[3] + 20} particles; raise it for more water"], notes
+assert abs(foretold - 4) <= 1, (said, notes)
 bpy.ops.wm.save_mainfile()  # (the test bakes it again from the command line)
 print("FLUID INFLOW CAPPED OK")

@@ -84,6 +84,12 @@ class Effect:
         made from other ones (frames after it are baked again, from the scene as it is now)."""
         return {}
 
+    def forecast(self, start, end):
+        """What the artist should hear before baking frames ``start``..``end`` of what the bake
+        will run into (a fluid's inflow that will fill it to max_particles, say): [] for
+        nothing. Leaves the effect as it was."""
+        return []
+
     def notes(self):
         """What the artist should hear of the frames stepped (a fluid's inflow that stopped at
         max_particles, say), reported when the bake ends: [] for nothing. Kept past close()."""
