@@ -139,6 +139,47 @@ def test_a_tap_turned_on_at_frame_3_and_off_at_6_pours_in_frames_3_to_5_only():
         e.close()
 
 
+def test_the_forecast_names_the_frame_the_inflow_will_stop_at():
+    """A ball under gravity pouring down and sideways from frame 3 (turned off at 40, on again
+    at 45) onto a pool, with room for 3000 more particles: the forecast's frame is the bake's
+    own stop within a frame, and it leaves the effect as it was (the same particles, stepped,
+    as a twin never asked). With room for the whole bake, or an outflow, it says nothing."""
+    params = dict(STILL, gravity=(0.0, 0.0, -9.81), max_particles=5000)
+    pool = ((0.0, 0.0, 0.0), (0.4, 0.4, 0.1))
+    ball = ("sphere", (0.6, 0.5, 0.7), 0.06)
+    flow = {3: ball, 40: None, 45: ball}
+
+    def effect(**kw):
+        return tap_effect(flow, (0.6, 0.0, -0.8), params, fill=pool, **kw)
+    e, twin = effect(), effect()
+    try:
+        said = e.forecast(1, 80)
+        assert len(said) == 1 and said[0].startswith(
+            "the inflow will stop pouring at about frame "), said
+        assert "onto the 2000 the fluid starts with, it reaches max_particles = 5000" in said[0]
+        foretold = int(said[0].split("about frame ")[1].split(" ")[0])
+        stopped = None
+        for frame in range(1, 81):
+            e.step(frame, None)
+            twin.step(frame, None)
+            if frame == 10:
+                assert np.array_equal(e.fluid.particles()[0], twin.fluid.particles()[0])
+            if e.fluid.inflow_added[1]:
+                stopped = frame
+                break
+        assert stopped is not None and abs(foretold - stopped) <= 1, (said, stopped)
+    finally:
+        e.close()
+        twin.close()
+    for end, kw in ((foretold - 2, {}),
+                    (80, {"outflow": {1: ("box", (0.9, 0.5, 0.05), (0.1, 0.5, 0.05))}})):
+        e = effect(**kw)
+        try:
+            assert e.forecast(1, end) == []
+        finally:
+            e.close()
+
+
 def test_inflow_inputs_are_checked_by_name():
     fill = ((0.6, 0.6, 0.0), (0.8, 0.8, 0.1))
     for inflow, velocity, want in (
