@@ -143,7 +143,8 @@ def test_the_forecast_names_the_frame_the_inflow_will_stop_at():
     """A ball under gravity pouring down and sideways from frame 3 (turned off at 40, on again
     at 45) onto a pool, with room for 3000 more particles: the forecast's frame is the bake's
     own stop within a frame, and it leaves the effect as it was (the same particles, stepped,
-    as a twin never asked). With room for the whole bake, or an outflow, it says nothing."""
+    as a twin never asked). With room for the whole bake, or an outflow open by then, it says
+    nothing; an outflow opened after it does not change it."""
     params = dict(STILL, gravity=(0.0, 0.0, -9.81), max_particles=5000)
     pool = ((0.0, 0.0, 0.0), (0.4, 0.4, 0.1))
     ball = ("sphere", (0.6, 0.5, 0.7), 0.06)
@@ -171,13 +172,22 @@ def test_the_forecast_names_the_frame_the_inflow_will_stop_at():
     finally:
         e.close()
         twin.close()
-    for end, kw in ((foretold - 2, {}),
-                    (80, {"outflow": {1: ("box", (0.9, 0.5, 0.05), (0.1, 0.5, 0.05))}})):
+    drain = ("box", (0.9, 0.5, 0.05), (0.1, 0.5, 0.05))
+    for end, kw in ((foretold - 2, {}), (80, {"outflow": {1: drain}}),
+                    (80, {"outflow": {1: None, foretold: drain}})):
         e = effect(**kw)
         try:
-            assert e.forecast(1, end) == []
+            assert e.forecast(1, end) == [], kw
         finally:
             e.close()
+    e = effect(outflow={1: None, foretold + 3: drain})  # (opened after the stop: said)
+    try:
+        now = e.forecast(1, 80)
+        assert now[0].split("; to pour")[0] == said[0].split("; to pour")[0], (now, said)
+        assert now[0].endswith(f"to pour until the outflow opens at frame {foretold + 3}, raise "
+                               "it to about 6000, or add an outflow to drain the water sooner")
+    finally:
+        e.close()
 
 
 def test_inflow_inputs_are_checked_by_name():

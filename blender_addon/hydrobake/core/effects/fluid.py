@@ -332,18 +332,23 @@ class FluidEffect(Effect):
         self.mesh = self.fluid.surface(progress)
 
     def forecast(self, start, end):
-        """An inflow with no outflow fills the fluid: the frame it will reach max_particles at,
-        if within the bake, from the particles it starts with, its shape's filling as it is
-        turned on and the rate it pours at each frame after (its columns along the flow, each
-        pouring once the water before has gone a spacing: hbk_fluid_inflow_rate). The rate leaves out water backing up to the tap
-        (it pours less) and a jet's own pressure (a slow one pours more: 15% at 0.5 m/s)."""
-        if not self.inflow or self.outflow:
+        """An inflow fills the fluid: the frame it will reach max_particles at, if within the
+        bake and before an outflow opens, from the particles it starts with, its shape's
+        filling as it is turned on and the rate it pours at each frame after (its columns
+        along the flow, each pouring once the water before has gone a spacing:
+        hbk_fluid_inflow_rate). The rate leaves out water backing up to the tap (it pours
+        less) and a jet's own pressure (a slow one pours more: 15% at 0.5 m/s)."""
+        if not self.inflow:
             return []
         fp = self.params["fluid"]
         count, at, rates, rate = float(self.fluid.particle_count), None, {}, 0.0
-        was = None  # (whether it poured the frame before)
+        was, opened = None, None  # (whether it poured the frame before; an outflow opens)
         try:
             for frame in range(start, end + 1):
+                drain = _key_at(self._outflow_keys, frame)
+                if drain is not None and self.outflow[drain] is not None:
+                    opened = frame  # (from here on it drains: how much, only the bake tells)
+                    break
                 key = (_key_at(self._inflow_keys, frame), self._velocity_at(frame))
                 if key[0] is None or self.inflow[key[0]] is None:
                     was = None
@@ -363,11 +368,13 @@ class FluidEffect(Effect):
         if at is None:
             return []
         need = int(-(-count // 1000) * 1000)  # (up to a thousand)
+        until, drain = (("to the end", "") if opened is None else
+                        (f"until the outflow opens at frame {opened}", " sooner"))
         return [f"the inflow will stop pouring at about frame {at} of {start}-{end}: pouring "
                 f"about {rate:.0f} particles a second onto the {self.fluid.particle_count} the "
                 f"fluid starts with, it reaches max_particles = {fp.max_particles} there; to "
-                f"pour to the end, raise it to about {need}, or add an outflow to drain the "
-                "water"]
+                f"pour {until}, raise it to about {need}, or add an outflow to drain the "
+                f"water{drain}"]
 
     def notes(self):
         if self._capped_at is None:
