@@ -21,6 +21,13 @@ void hbk_fluid_inflow_free(hbk_fluid_t *h)
  * from pouring (a ball at 1 m/s along (1, 1, 1) poured 37% of what it poured along z).
  * Returns 0 for the world's own axes (no velocity, or one along an axis of an unturned
  * shape): fill_box's lattice, as before. */
+static void cross(const double x[3], const double y[3], double out[3])
+{
+    out[0] = x[1] * y[2] - x[2] * y[1];
+    out[1] = x[2] * y[0] - x[0] * y[2];
+    out[2] = x[0] * y[1] - x[1] * y[0];
+}
+
 static int flow_frame(const hbk_fluid_obstacle_t *shape, const float u[3], double R[9],
                       int *along)
 {
@@ -31,29 +38,23 @@ static int flow_frame(const hbk_fluid_obstacle_t *shape, const float u[3], doubl
     *along = 2;
     if (!(speed > 0.0)) return 0;
     double d[3], dot[3];
-    for (int a = 0; a < 3; ++a) d[a] = u[a] / speed;
-    for (int m = 0; m < 3; ++m)
-        dot[m] = R[3 * m] * d[0] + R[3 * m + 1] * d[1] + R[3 * m + 2] * d[2];
+    for (int i = 0; i < 3; ++i) d[i] = u[i] / speed;
+    for (int b = 0; b < 3; ++b)
+        dot[b] = R[3 * b] * d[0] + R[3 * b + 1] * d[1] + R[3 * b + 2] * d[2];
     int m = 0;
-    for (int a = 1; a < 3; ++a) m = fabs(dot[a]) > fabs(dot[m]) ? a : m;
+    for (int b = 1; b < 3; ++b) m = fabs(dot[b]) > fabs(dot[m]) ? b : m;
     *along = m;
     const double c = fabs(dot[m]);
     if (c >= 1.0 - 1e-12) return shape->type >= 2; /* along that axis already */
-    /* Rodrigues: the turn taking a = sign * axis m onto d, about k = a x d (|k| = sin) */
-    double a[3], k[3];
-    for (int i = 0; i < 3; ++i) a[i] = (dot[m] < 0.0 ? -1.0 : 1.0) * R[3 * m + i];
-    k[0] = a[1] * d[2] - a[2] * d[1];
-    k[1] = a[2] * d[0] - a[0] * d[2];
-    k[2] = a[0] * d[1] - a[1] * d[0];
+    /* Rodrigues: the turn taking `from` (axis m, signed) onto d, about k = from x d (|k| = sin) */
+    double from[3], k[3];
+    for (int i = 0; i < 3; ++i) from[i] = (dot[m] < 0.0 ? -1.0 : 1.0) * R[3 * m + i];
+    cross(from, d, k);
     const double f = 1.0 / (1.0 + c); /* (1 - cos) / sin^2 */
     for (int b = 0; b < 3; ++b) {
         double *v = R + 3 * b, kv[3], kkv[3];
-        kv[0] = k[1] * v[2] - k[2] * v[1];
-        kv[1] = k[2] * v[0] - k[0] * v[2];
-        kv[2] = k[0] * v[1] - k[1] * v[0];
-        kkv[0] = k[1] * kv[2] - k[2] * kv[1];
-        kkv[1] = k[2] * kv[0] - k[0] * kv[2];
-        kkv[2] = k[0] * kv[1] - k[1] * kv[0];
+        cross(k, v, kv);
+        cross(k, kv, kkv);
         for (int i = 0; i < 3; ++i) v[i] += kv[i] + f * kkv[i];
     }
     return 1;
