@@ -162,11 +162,11 @@ void test_fluid_inflow_rate(void)
     }
 }
 
-/* The forecast's rate: the lattice columns the tap's points make along its velocity,
- * speed / s a second each, and what the tap then pours. The tap is 1 x 4 x 4 points (x, y, z): across x 16 columns, across
- * y or z 4; a ball of radius r is pi r^2 / s^2 columns whichever way it pours (along an
- * axis, or a diagonal whose projected lattice is no lattice of the spacing: within 6%).
- * Nothing pours at zero velocity, without a shape, or for NULL. */
+/* The forecast's rate: the lattice columns the tap's points make along its velocity, speed /
+ * s a second each, and what the tap then pours. The tap is 1 x 4 x 4 points (x, y, z): across
+ * x 16 columns, across y or z 4; a ball of radius r is pi r^2 / s^2 columns whichever way it
+ * pours (along an axis or a diagonal, its lattice laid along the flow: within 6%). Nothing
+ * pours at zero velocity, without a shape, or for NULL. */
 void test_fluid_inflow_forecast_rate(void)
 {
     const float s = 0.02f;
@@ -196,7 +196,7 @@ void test_fluid_inflow_forecast_rate(void)
     hbk_fluid_destroy(h);
     /* and it pours that, whichever way: a ball at 1 m/s along z, x-z and the diagonal, over 8
      * frames after the first, the rate's count within the one row of its columns a frame's end
-     * can cut (on the world's lattice the diagonal poured 37% of it) */
+     * can cut (on the world's lattice the diagonal poured about 40% of it) */
     const hbk_fluid_obstacle_t small = {0, {0.5f, 0.5f, 0.5f}, {0.06f, 0, 0}, {0}};
     const float dt = 1.0f / 24.0f;
     for (int c = 0; c < 3; ++c) {

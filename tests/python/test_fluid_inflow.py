@@ -99,7 +99,7 @@ def test_a_tilted_tap_pours_as_much_as_a_straight_one():
     points: its points are laid along the flow, so each column leaves a row a spacing apart.
     Over 8 frames after the first, within the one row a frame's end can cut; its columns within
     15% of its cross-section's (the lattice rounds a small ball's edge). (On the world's lattice
-    a diagonal stream passed near the points beside its own: 37% of the water.)"""
+    a diagonal stream passed near the points beside its own: about 40% of the water.)"""
     ball = ("sphere", (0.5, 0.5, 0.5), 0.08)
     for d in ((0.0, 0.0, -1.0), (0.0, 0.6, -0.8), (-0.577350, 0.577350, -0.577350)):
         with fluid.Fluid(STILL) as f:
