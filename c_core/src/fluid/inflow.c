@@ -14,13 +14,6 @@ void hbk_fluid_inflow_free(hbk_fluid_t *h)
     h->inflow_n = 0;
 }
 
-/* The frame the inflow's lattice is laid in (axes R[3a..3a+2]): the shape's own axes, turned
- * the least way that lays the one nearest the velocity along it (*along). A stream then
- * leaves in whole columns, a spacing apart at rest density, whichever way it pours: on the
- * world's lattice a stream at an angle passes near the points beside its own and keeps them
- * from pouring (a ball at 1 m/s along (1, 1, 1) poured 42% of what it poured along z).
- * Returns 0 for the world's own axes (no velocity, or one along an axis of an unturned
- * shape): fill_box's lattice, as before. */
 static void cross(const double x[3], const double y[3], double out[3])
 {
     out[0] = x[1] * y[2] - x[2] * y[1];
@@ -28,6 +21,13 @@ static void cross(const double x[3], const double y[3], double out[3])
     out[2] = x[0] * y[1] - x[1] * y[0];
 }
 
+/* The frame the inflow's lattice is laid in (axes R[3a..3a+2]): the shape's own axes, turned
+ * the least way that lays the one nearest the velocity along it (*along). A stream then
+ * leaves in whole columns, a spacing apart at rest density, whichever way it pours: on the
+ * world's lattice a stream at an angle passes near the points beside its own and keeps them
+ * from pouring (a ball at 1 m/s along (1, 1, 1) poured 42% of what it poured along z).
+ * Returns 0 for the world's own axes (no velocity, or one along an axis of an unturned
+ * shape): fill_box's lattice, as before. */
 static int flow_frame(const hbk_fluid_obstacle_t *shape, const float u[3], double R[9],
                       int *along)
 {
@@ -72,8 +72,9 @@ static void lattice(const hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
     hbk_fluid_shape_bounds(shape, lo, hi);
     double a0[3], c[3] = {0, 0, 0}, e[3];
     int32_t m[3];
-    hbk_fluid_lattice(h, lo, hi, a0, m);
-    if (turned) { /* centred on the clipped bounds, reaching over them along R's axes */
+    if (!turned) {
+        hbk_fluid_lattice(h, lo, hi, a0, m);
+    } else { /* centred on the clipped bounds, reaching over them along R's axes */
         for (int a = 0; a < 3; ++a) {
             const double l = fmax(lo[a], h->p.box_min[a]), u = fmin(hi[a], h->p.box_max[a]);
             c[a] = 0.5 * (l + u);
@@ -192,8 +193,7 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
         free(pts);
         return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
     }
-    const int64_t cols = (velocity[0] != 0.0f || velocity[1] != 0.0f || velocity[2] != 0.0f)
-                             ? columns(pts, n, R, along, s, keys) : 0;
+    const int64_t cols = columns(pts, n, R, along, s, keys); /* (no velocity: the rate's 0) */
     free(keys);
     for (size_t i = 0; i < n; ++i)
         for (int a = 0; a < 3; ++a) {

@@ -342,7 +342,7 @@ class FluidEffect(Effect):
             return []
         fp = self.params["fluid"]
         count, at, rates, rate = float(self.fluid.particle_count), None, {}, 0.0
-        was, opened = None, None  # (whether it poured the frame before; an outflow opens)
+        on, opened = False, None  # (whether it poured the frame before; an outflow opens)
         try:
             for frame in range(start, end + 1):
                 drain = _key_at(self._outflow_keys, frame)
@@ -351,14 +351,14 @@ class FluidEffect(Effect):
                     break
                 key = (_key_at(self._inflow_keys, frame), self._velocity_at(frame))
                 if key[0] is None or self.inflow[key[0]] is None:
-                    was = None
+                    on = False
                     continue
                 if key not in rates:
                     self.fluid.set_inflow(self.inflow[key[0]], key[1])
                     rates[key] = (self.fluid.inflow_rate, self.fluid.inflow_points)
-                if was is None:  # turned on: its shape fills at once, then its stream
+                if not on:  # turned on: its shape fills at once, then its stream
                     count += rates[key][1]
-                was = key
+                on = True
                 count += rates[key][0] * fp.dt
                 if at is None and count > fp.max_particles:
                     at, rate = frame, rates[key][0]
