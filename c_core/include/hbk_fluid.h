@@ -179,6 +179,18 @@ HBK_EXPORT hbk_result_t hbk_fluid_fill_shape(hbk_fluid_t *h, const hbk_fluid_obs
 HBK_EXPORT hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
                                              const int32_t dims[3], const float *distance,
                                              const float velocity[3], float jitter);
+/* set_inflow with a speed `normal` (m/s, in [0, 1000]) added along the shape's outward normal,
+ * as Blender's fluids' Normal initial velocity: a sprinkler. With normal > 0 the points lie
+ * on the shape's surface instead of filling it: half a spacing in (where a filled shape's
+ * outer particles sit), at least particle_spacing apart, spread in the order of a half-spacing
+ * lattice over the shape's bounds; each pours at `velocity` + normal x its outward normal
+ * (a box's nearest face's, a mesh's field gradient), and those whose velocity does not leave
+ * the shape are left out (they would pour into it). normal = 0 is set_inflow. */
+HBK_EXPORT hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h,
+                                                    const hbk_fluid_obstacle_t *shape,
+                                                    const int32_t dims[3], const float *distance,
+                                                    const float velocity[3], float normal,
+                                                    float jitter);
 /* The lattice points the inflow pours from (0 without one, or for a shape no point of the
  * lattice lies in: it pours nothing). 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h);
@@ -186,7 +198,8 @@ HBK_EXPORT int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h);
  * to it, no max_particles): the lattice columns its points make along its velocity (the
  * shape's cross-section across the flow in spacing squares), each pouring once the particle
  * before has gone a spacing: every s / speed seconds (k^2 v / s for a k x k tap across an
- * axis), or with gravity g along the flow the t of speed t + g t^2 / 2 = s. 0 without one,
+ * axis), or with gravity g along the flow the t of speed t + g t^2 / 2 = s (a sprinkler's
+ * points: each a column at its own velocity). 0 without one,
  * at zero velocity, for a jet too slow to rise a spacing against gravity, or for NULL. A
  * bake's forecast of when max_particles stops the inflow. */
 HBK_EXPORT double hbk_fluid_inflow_rate(const hbk_fluid_t *h);

@@ -246,6 +246,9 @@ float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, d
     X(fluid, inflow_capacity)           \
     X(fluid, inflow_cancel)             \
     X(fluid, inflow_deterministic)      \
+    X(fluid, sprinkler_points)          \
+    X(fluid, sprinkler_pours_its_rate)  \
+    X(fluid, sprinkler_refused)         \
     X(fluid, outflow_drains_its_inside) \
     X(fluid, outflow_frame_by_frame)    \
     X(fluid, outflow_refused)           \

@@ -34,8 +34,8 @@ Handle.declare("fluid", [
     ("set_particles", [_f32, ctypes.c_void_p, ctypes.c_int32]),
     ("fill_box", [P(_V3), P(_V3), ctypes.c_float]),
     ("fill_shape", [P(Obstacle), ctypes.c_void_p, ctypes.c_void_p, ctypes.c_float]),
-    ("set_inflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P(_V3),
-                    ctypes.c_float]),
+    ("set_inflow_normal", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P(_V3),
+                           ctypes.c_float, ctypes.c_float]),
     ("set_outflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]),
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
@@ -187,19 +187,22 @@ class Fluid(Handle):
         arr, dims, field = _shape(shape)
         self.call("fill_shape", arr, dims, field, args.number(jitter, "jitter"))
 
-    def set_inflow(self, shape, velocity=(0.0, 0.0, 0.0), jitter=0.0):
+    def set_inflow(self, shape, velocity=(0.0, 0.0, 0.0), jitter=0.0, normal=0.0):
         """Water poured in from ``shape`` (one entry as fill_shape takes it) at ``velocity``
         (m/s) from the next step on: at every SPH substep, each point of a lattice inside it
         (laid along the flow, so a tilted tap pours as much as a straight one) with no
         particle nearer than a spacing gains one moving at ``velocity``,
-        until max_particles. None stops it. Not in the saved state: set it again after
-        load_state."""
+        until max_particles. With ``normal`` > 0 (m/s along the shape's outward normal, as
+        Blender's Normal initial velocity) it is a sprinkler: its points lie on the surface,
+        a spacing apart, each pouring at ``velocity`` + normal x its normal where that leaves
+        the shape. None stops it. Not in the saved state: set it again after load_state."""
         if shape is None:
-            self.call("set_inflow", None, None, None, _V3(0.0, 0.0, 0.0), 0.0)
+            self.call("set_inflow_normal", None, None, None, _V3(0.0, 0.0, 0.0), 0.0, 0.0)
             return
         arr, dims, field = _shape(shape)
-        self.call("set_inflow", ctypes.addressof(arr), dims, field,
-                  args.numbers(velocity, "velocity", 3), args.number(jitter, "jitter"))
+        self.call("set_inflow_normal", ctypes.addressof(arr), dims, field,
+                  args.numbers(velocity, "velocity", 3), args.number(normal, "normal"),
+                  args.number(jitter, "jitter"))
 
     @property
     def inflow_points(self):

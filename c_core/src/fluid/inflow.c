@@ -6,9 +6,10 @@
 void hbk_fluid_inflow_free(hbk_fluid_t *h)
 {
     free(h->inflow_pts);
+    free(h->inflow_pvel);
     free(h->inflow_head);
     free(h->inflow_next);
-    h->inflow_pts = NULL;
+    h->inflow_pts = h->inflow_pvel = NULL;
     h->inflow_columns = 0;
     h->inflow_head = h->inflow_next = NULL;
     h->inflow_n = 0;
@@ -147,6 +148,38 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
                                   const int32_t dims[3], const float *distance,
                                   const float velocity[3], float jitter)
 {
+    return hbk_fluid_set_inflow_normal(h, shape, dims, distance, velocity, 0.0f, jitter);
+}
+
+/* A sprinkler's points and velocities: those of the surface (hbk_fluid_surface_points) whose
+ * velocity, `velocity` plus `normal` along the normal, leaves the shape; the others would
+ * pour into it. */
+static hbk_result_t sprinkler(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                              const int32_t *d, const float *f, const float velocity[3],
+                              float normal, float **pts, float **pvel, size_t *n)
+{
+    float *nrm;
+    hbk_result_t r = hbk_fluid_surface_points(h, shape, d, f, pts, &nrm, n);
+    if (r) return r;
+    size_t kept = 0;
+    for (size_t i = 0; i < *n; ++i) {
+        const float *e = nrm + 3 * i;
+        float u[3];
+        for (int a = 0; a < 3; ++a) u[a] = velocity[a] + normal * e[a];
+        if (!(u[0] * e[0] + u[1] * e[1] + u[2] * e[2] > 0.0f)) continue;
+        memmove(*pts + 3 * kept, *pts + 3 * i, 3 * sizeof **pts);
+        memcpy(nrm + 3 * kept, u, sizeof u); /* (nrm now holds the velocities) */
+        ++kept;
+    }
+    *n = kept;
+    *pvel = nrm;
+    return HBK_OK;
+}
+
+hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                         const int32_t dims[3], const float *distance,
+                                         const float velocity[3], float normal, float jitter)
+{
     HBK_FLUID_ENTER(h);
     if (!shape) {
         hbk_fluid_inflow_free(h);
@@ -165,36 +198,51 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
             return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                             "velocity[%d] = %g: must be a finite number in [-1000, 1000] m/s", a,
                             (double)velocity[a]);
+    if (!(normal >= 0.0f && normal <= 1000.0f))
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "normal = %g: must be in [0, 1000] m/s", (double)normal);
     if (!(jitter >= 0.0f && jitter <= 0.5f))
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "jitter = %g: must be in [0, 0.5]",
                         (double)jitter);
     const int32_t *d = shape->type == 3 ? dims : NULL;
     const float *f = shape->type == 3 ? distance : NULL;
     double R[9];
-    int along;
-    const int turned = flow_frame(shape, velocity, R, &along);
+    int along = 2, turned = 0;
     size_t n;
-    lattice(h, shape, d, f, turned, R, NULL, &n);
-    if (n > (size_t)h->p.max_particles)
+    float *pts = NULL, *pvel = NULL;
+    if (normal > 0.0f) {
+        r = sprinkler(h, shape, d, f, velocity, normal, &pts, &pvel, &n);
+        if (r) return r;
+    } else {
+        turned = flow_frame(shape, velocity, R, &along);
+        lattice(h, shape, d, f, turned, R, NULL, &n);
+    }
+    if (n > (size_t)h->p.max_particles) {
+        free(pts);
+        free(pvel);
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "inflow: the shape holds %zu particles at once: must hold at most "
                         "max_particles = %d", n, h->p.max_particles);
+    }
     /* Cells of at least two spacings, so that the 27 around a point hold every particle
      * within two spacings of it (the nearest, if it is under s + a substep's travel away),
      * over the points' reach plus their jitter; larger for a thin turned shape whose box
      * holds many more cells than points. */
     const float s = h->p.particle_spacing, reach = 3.0f * s;
     float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-    float *pts = malloc((3 * n + 3) * sizeof *pts);
-    if (!pts) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
-    lattice(h, shape, d, f, turned, R, pts, &n);
-    int64_t *keys = malloc((n + 1) * sizeof *keys);
-    if (!keys) {
-        free(pts);
-        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
+    int64_t cols = 0; /* (a sprinkler's points pour each along its own velocity) */
+    if (!pvel) {
+        pts = malloc((3 * n + 3) * sizeof *pts);
+        if (!pts) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
+        lattice(h, shape, d, f, turned, R, pts, &n);
+        int64_t *keys = malloc((n + 1) * sizeof *keys);
+        if (!keys) {
+            free(pts);
+            return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
+        }
+        cols = columns(pts, n, R, along, s, keys); /* (no velocity: the rate's 0) */
+        free(keys);
     }
-    const int64_t cols = columns(pts, n, R, along, s, keys); /* (no velocity: the rate's 0) */
-    free(keys);
     for (size_t i = 0; i < n; ++i)
         for (int a = 0; a < 3; ++a) {
             const float x = pts[3 * i + (size_t)a];
@@ -215,13 +263,16 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
                                    : malloc((size_t)(h->p.max_particles + 1) * sizeof *next);
     if (!head || !next) {
         free(pts);
+        free(pvel);
         free(head);
         if (next != h->inflow_next) free(next);
         return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
     }
     free(h->inflow_pts);
+    free(h->inflow_pvel);
     free(h->inflow_head);
     h->inflow_pts = pts;
+    h->inflow_pvel = pvel;
     h->inflow_head = head;
     h->inflow_next = next;
     h->inflow_n = (int32_t)n;
@@ -233,6 +284,12 @@ hbk_result_t hbk_fluid_set_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
         h->inflow_lo[a] = lo[a] - reach;
         h->inflow_dims[a] = gd[a];
     }
+    float top2 = velocity[0] * velocity[0] + velocity[1] * velocity[1] + velocity[2] * velocity[2];
+    for (size_t i = 0; pvel && i < n; ++i) {
+        const float *u = pvel + 3 * i, u2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+        top2 = u2 > top2 ? u2 : top2;
+    }
+    h->inflow_top2 = top2;
     return HBK_OK;
 }
 
@@ -241,17 +298,25 @@ int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h) { return h ? h->inflow_n :
 /* A column pours each time the particle before has gone a spacing: s / speed without
  * gravity; with it, the t of speed t + g t^2 / 2 = s for g gravity's part along the flow
  * (sooner pouring down, later up; never, for a jet too slow to rise a spacing). */
+static double column_rate(const float u[3], const float g[3], double s)
+{
+    const double speed = sqrt((double)u[0] * u[0] + (double)u[1] * u[1] + (double)u[2] * u[2]);
+    if (!(speed > 0.0)) return 0.0;
+    const double along = ((double)g[0] * u[0] + (double)g[1] * u[1] + (double)g[2] * u[2]) / speed,
+                 disc = speed * speed + 2.0 * along * s;
+    return disc > 0.0 ? (speed + sqrt(disc)) / (2.0 * s) : 0.0; /* 1 / t */
+}
+
 double hbk_fluid_inflow_rate(const hbk_fluid_t *h)
 {
     if (!h || !h->inflow_n) return 0.0;
-    const float *u = h->inflow_vel, *g = h->p.gravity;
-    const double speed = sqrt((double)u[0] * u[0] + (double)u[1] * u[1] + (double)u[2] * u[2]);
-    if (!(speed > 0.0)) return 0.0;
-    const double s = h->p.particle_spacing,
-                 along = ((double)g[0] * u[0] + (double)g[1] * u[1] + (double)g[2] * u[2]) / speed,
-                 disc = speed * speed + 2.0 * along * s;
-    if (!(disc > 0.0)) return 0.0;
-    return (double)h->inflow_columns * (speed + sqrt(disc)) / (2.0 * s); /* columns / t */
+    const double s = h->p.particle_spacing;
+    if (!h->inflow_pvel) /* every column at the one velocity */
+        return (double)h->inflow_columns * column_rate(h->inflow_vel, h->p.gravity, s);
+    double rate = 0.0; /* a sprinkler: each point a column of its own */
+    for (int32_t i = 0; i < h->inflow_n; ++i)
+        rate += column_rate(h->inflow_pvel + 3 * (size_t)i, h->p.gravity, s);
+    return rate;
 }
 
 int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped)
@@ -292,13 +357,14 @@ void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt)
         h->inflow_head[c] = p;
     }
     const float s = h->p.particle_spacing, jit = h->inflow_jitter * s;
-    const float *u = h->inflow_vel;
-    const float speed = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    float most = (float)(speed * dt); /* the farthest a substep carries it (under s, so the
-                                       * nearest, if nearer than s + that, is within reach) */
-    most = most < s ? most : s;
     const int32_t before = h->count;
     for (int32_t i = 0; i < h->inflow_n; ++i) {
+        const float *u = h->inflow_pvel ? h->inflow_pvel + 3 * (size_t)i : h->inflow_vel;
+        const float speed = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        float most = (float)(speed * dt); /* the farthest a substep carries it (under s, so
+                                           * the nearest, if nearer than s + that, is within
+                                           * reach) */
+        most = most < s ? most : s;
         float x[3];
         const uint32_t ctr[4] = {(uint32_t)i, (uint32_t)substep, HBK_FLUID_STREAM_INFLOW,
                                  (uint32_t)h->frame},

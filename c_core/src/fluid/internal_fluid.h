@@ -141,8 +141,10 @@ struct hbk_fluid {
      * velocity and jitter they start with, and a grid of cells over their reach (each of
      * inflow_cell m, at least a spacing) listing the particles near them. */
     float *inflow_pts;
+    float *inflow_pvel; /* a sprinkler's: each point's velocity (3 n), else NULL */
     int32_t inflow_n;
     float inflow_vel[3], inflow_jitter, inflow_cell, inflow_lo[3];
+    float inflow_top2; /* the fastest point's speed squared (the stable step's) */
     int32_t inflow_dims[3];
     int64_t inflow_columns; /* the points' lattice columns along inflow_vel (the rate's) */
     int32_t *inflow_head, *inflow_next; /* cells + 1, max_particles */
@@ -258,6 +260,13 @@ int hbk_fluid_in_shape(const hbk_fluid_obstacle_t *o, const int32_t dims[3], con
 void hbk_fluid_shape_axes(const hbk_fluid_obstacle_t *o, float ax[9]);
 int hbk_fluid_in_shape_ax(const hbk_fluid_obstacle_t *o, const float ax[9],
                           const int32_t dims[3], const float *f, const float x[3]);
+/* The signed distance *d from x to the shape's surface (negative inside; a mesh's: its field,
+ * over the gradient's length where that is under 1) and the outward normal n there (a box's
+ * nearest face's, from inside); 0 where there is none (a ball's centre, a flat spot of a
+ * field, outside a mesh's box). */
+int hbk_fluid_shape_distance(const hbk_fluid_obstacle_t *o, const float ax[9],
+                             const int32_t dims[3], const float *f, const float x[3], float *d,
+                             float n[3]);
 /* HBK_OK, or the refusal of a step or fill with a mesh obstacle whose field is not set. */
 hbk_result_t hbk_fluid_fields_ready(hbk_fluid_t *h, const char *what);
 void hbk_fluid_fields_free(hbk_fluid_t *h);
@@ -300,6 +309,11 @@ static inline float hbk_fluid_lane_sum(const float p[8])
 /* inflow.c: the inflow's particles for substep number `substep` of the step under way, `dt`
  * s long (none without an inflow or at max_particles); frees the inflow at destroy. */
 void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt);
+/* A sprinkler's points (inflow_surface.c): on the shape's surface, half a spacing in, at least
+ * a spacing apart, and their outward normals (3 n floats each, the caller's to free). */
+hbk_result_t hbk_fluid_surface_points(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                      const int32_t dims[3], const float *f, float **pts,
+                                      float **nrm, size_t *n);
 void hbk_fluid_inflow_free(hbk_fluid_t *h);
 #define HBK_FLUID_STREAM_INFLOW 0xf1a3u
 /* outflow.c: the particles inside the outflow's shape removed (after a substep); frees it at

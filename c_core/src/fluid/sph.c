@@ -154,8 +154,7 @@ double hbk_fluid_sph_stable_dt(const hbk_fluid_t *h, int threads)
     }
     /* an inflow pours particles at its speed */
     if (h->inflow_n) {
-        const float *u = h->inflow_vel, u2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-        v2 = u2 > v2 ? u2 : v2;
+        v2 = h->inflow_top2 > v2 ? h->inflow_top2 : v2;
     }
     /* an obstacle moving into the fluid sets particles moving at its speed */
     double dt = 0.4 * H / (sqrt((double)p->stiffness) + sqrt((double)v2) + h->obs_speed);
