@@ -314,12 +314,13 @@ def test_what_a_resume_compares_names_the_tap_and_its_velocity():
 POOL = dict(STILL, gravity=(0.0, 0.0, -9.81), substeps=8)
 
 
-def pour(folder, end, resume=False, tap=TAP, velocity=(1.0, 0.0, -0.5)):
+def pour(folder, end, resume=False, tap=TAP, velocity=(1.0, 0.0, -0.5), normal=0.0):
     """Bakes frames 1..end of a jittered tap pouring into a pool from frame 3 to 5;
     returns the runner and the particles' bytes at the end."""
     e = get("fluid")({"fluid": POOL},
                      {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
-                      "inflow": {3: tap, 6: None}, "inflow_velocity": velocity})
+                      "inflow": {3: tap, 6: None}, "inflow_velocity": velocity,
+                      "inflow_normal": normal})
     try:
         r = BakeRunner(e, folder, 1, end, checkpoint_every=2, resume=resume)
         r.run()

@@ -275,6 +275,13 @@ class FluidBlender(BlenderEffect):
                 max=100.0, subtype="VELOCITY", unit="VELOCITY",
                 description="SIMULATE: the velocity the Inflow's water leaves at (world "
                             "axes); the faster, the more water a second"),
+            inflow_normal=bpy.props.FloatProperty(
+                name="Normal", default=0.0, min=0.0, max=100.0, soft_max=10.0,
+                unit="VELOCITY",
+                description="SIMULATE: speed along the Inflow's surface normal, added to the "
+                            "Inflow Velocity (as Mantaflow's Normal initial velocity); above 0 "
+                            "the water leaves from the object's surface wherever that velocity "
+                            "points out of it: a sprinkler, a fountain head"),
             inflow_local=bpy.props.BoolProperty(
                 name="Local Velocity", default=False,
                 description="SIMULATE: the Inflow Velocity is in the Inflow's own axes and "
@@ -392,6 +399,8 @@ class FluidBlender(BlenderEffect):
                                                         lo, hi)
                 inputs["inflow_velocity"] = yield from cls._inflow_velocity(context, settings,
                                                                             frames, fp["dt"])
+                if settings.inflow_normal > 0.0:
+                    inputs["inflow_normal"] = float(settings.inflow_normal)
             if settings.outflow_object is not None:
                 inputs["outflow"] = yield from cls._flow(context, settings, "Outflow", fp,
                                                          frames, lo, hi)
@@ -996,6 +1005,7 @@ class FluidBlender(BlenderEffect):
         if settings.inflow_object is not None:
             sub = col.column(align=True)
             sub.prop(settings, "inflow_velocity")
+            sub.prop(settings, "inflow_normal")
             sub.prop(settings, "inflow_local")
             sub.prop(settings, "inflow_source")
             row = sub.row(align=True)

@@ -14,6 +14,9 @@ Inputs:
                  or {frame: (vx, vy, vz)}: the latest frame given at or before a step's frame
                  holds, the first before it (a hose that turns) (the inflow's lattice points
                  are jittered by ``jitter``, as the fill's)
+    inflow_normal m/s (0..1000, default 0): speed added along the inflow shape's outward
+                 normal, as Blender's Normal initial velocity; above 0 the inflow pours from
+                 points on its surface, where that velocity leaves it (a sprinkler)
     outflow      {frame: shape or None}: a drain from that frame's step on (SIMULATE): the
                  water inside the shape goes; given as ``inflow`` is
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
@@ -194,9 +197,14 @@ class FluidEffect(Effect):
             raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
                                          "pours an inflow")
         self._inflow_jitter = float(inp.get("jitter", 0.0))
+        self._normal = args.number(inp.get("inflow_normal", 0.0), "inflow_normal")
+        if not 0.0 <= self._normal <= 1000.0:
+            raise errors.InvalidArgument(f"inflow_normal = {self._normal:g}: must be in "
+                                         "[0, 1000] m/s")
         points = sum(self.fluid.inflow_points for _ in self._set_each(
             "inflow", self.inflow,
-            lambda f, sh: self.fluid.set_inflow(sh, self._velocity_at(f), self._inflow_jitter)))
+            lambda f, sh: self.fluid.set_inflow(sh, self._velocity_at(f), self._inflow_jitter,
+                                                self._normal)))
         self.fluid.set_inflow(None)
         if any(sh is not None for sh in self.inflow.values()) and points == 0:
             # (one frame's shape outside the box pours nothing there; every one is a mistake)
@@ -253,6 +261,7 @@ class FluidEffect(Effect):
                   if inp.get("fill_shape") is not None else {}),
                **({"inflow velocity": list(self._velocity[None])}
                   if self.inflow and not self._velocity_by_frame else {}),
+               **({"inflow normal": self._normal} if self.inflow and self._normal else {}),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
@@ -316,7 +325,7 @@ class FluidEffect(Effect):
         key = (_key_at(self._inflow_keys, frame), self._velocity_at(frame))
         if key != self._inflow_on:  # (a resumed bake: from its first frame's)
             shape = None if key[0] is None else self.inflow[key[0]]
-            self.fluid.set_inflow(shape, key[1], self._inflow_jitter)
+            self.fluid.set_inflow(shape, key[1], self._inflow_jitter, self._normal)
             self._inflow_on = key
         key = _key_at(self._outflow_keys, frame)
         if key != self._outflow_on:
@@ -354,7 +363,7 @@ class FluidEffect(Effect):
                     on = False
                     continue
                 if key not in rates:
-                    self.fluid.set_inflow(self.inflow[key[0]], key[1])
+                    self.fluid.set_inflow(self.inflow[key[0]], key[1], normal=self._normal)
                     rates[key] = (self.fluid.inflow_rate, self.fluid.inflow_points)
                 if not on:  # turned on: its shape fills at once, then its stream
                     count += rates[key][1]
