@@ -60,7 +60,7 @@ hbk_result_t hbk_fluid_surface_points(hbk_fluid_t *h, const hbk_fluid_obstacle_t
         gd[a] = m[a] ? (int32_t)((hi[a] - lo[a]) / s) + 1 : 1;
         cells *= (size_t)gd[a];
     }
-    size_t cap = 1024, n = 0;
+    size_t cap = 64, n = 0;
     float *pts = malloc(3 * cap * sizeof *pts), *nrm = malloc(3 * cap * sizeof *nrm);
     int32_t *head = malloc(cells * sizeof *head), *next = malloc(cap * sizeof *next);
     hbk_result_t r = HBK_OK;

@@ -293,6 +293,8 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             s.inflow_object, s.inflow_velocity, s.inflow_start = tap, (0.5, 0.0, -1.0), 2
             if random.Random(seed * 31 + 7).random() < 0.3:  # (its own draw: the rest stays)
                 s.fill_object = None  # the domain starts dry, the tap its only water
+            if random.Random(seed * 43 + 17).random() < 0.3:  # a sprinkler (its own draw)
+                s.inflow_normal = 0.8
             if random.Random(seed * 41 + 13).random() < 0.5:  # a nozzle that turns
                 s.inflow_local = True
                 tap.keyframe_insert("rotation_euler", index=1, frame=1)

@@ -104,6 +104,15 @@ static hbk_result_t inflow(hbk_fluid_t *h)
     return hbk_fluid_set_inflow(h, &tap, NULL, NULL, vel, 0.2f);
 }
 
+/* A sprinkler (the second handle's inflow): a ball spraying along its normal and down, its
+ * points on its surface (more than the first buffer holds: it grows). */
+static hbk_result_t sprinkler(hbk_fluid_t *h)
+{
+    const hbk_fluid_obstacle_t head = {0, {0.7f, 0.6f, 0.6f}, {0.2f, 0.0f, 0.0f}, {0}};
+    const float vel[3] = {0.0f, 0.0f, -0.5f};
+    return hbk_fluid_set_inflow_normal(h, &head, NULL, NULL, vel, 1.0f, 0.0f);
+}
+
 static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
 {
     const hbk_fluid_params_t p = params(source);
@@ -163,8 +172,8 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
     AF_CALL(c, hbk_fluid_save_state(s->a, buf, size), hbk_fluid_message(s->a));
     AF_CREATE(c, hbk_fluid_create(&s->b, &p, &m), s->b, m);
     AF_CALL(c, hbk_fluid_load_state(s->b, buf, size), hbk_fluid_message(s->b));
-    if (source == HBK_FLUID_SIMULATE) /* (not in the state: set again) */
-        AF_CALL(c, inflow(s->b), hbk_fluid_message(s->b));
+    if (source == HBK_FLUID_SIMULATE) /* (not in the state: set again, as a sprinkler) */
+        AF_CALL(c, sprinkler(s->b), hbk_fluid_message(s->b));
     if (source != HBK_FLUID_SIMULATE) inputs(c, s->b, source, 4);
     if (af_failed(c)) return;
     AF_CALL(c, hbk_fluid_step(s->b, NULL), hbk_fluid_message(s->b));
