@@ -206,13 +206,15 @@ class Fluid(Handle):
 
     @property
     def inflow_points(self):
-        """Lattice points the inflow pours from (0: none, or a shape too thin or outside)."""
+        """Points the inflow pours from: its lattice's, or a sprinkler's on its surface where
+        its velocity leaves it (0: none, or a shape too thin or outside)."""
         return int(_lib.lib.hbk_fluid_inflow_points(self.h))
 
     @property
     def inflow_rate(self):
         """Particles a second the inflow pours while the water before clears it: its speed /
-        particle_spacing x the lattice columns its points make along its velocity (0: none)."""
+        particle_spacing x the lattice columns its points make along its velocity (a
+        sprinkler's: each surface point a column at its own velocity; 0: none)."""
         return float(_lib.lib.hbk_fluid_inflow_rate(self.h))
 
     @property
