@@ -557,9 +557,10 @@ void test_fluid_inflow_cancel(void)
 
 /* Determinism: a jittered tap pouring onto a pool, 3 frames: the same positions to the byte
  * (and the same state) at 1 and 2 threads and for the same seed; other positions for another
- * seed (the jitter is keyed by it; the pool's fill has none, so the difference is the tap's). */
-static float *poured(int32_t threads, uint64_t seed, int32_t *n, unsigned char **state,
-                     size_t *size)
+ * seed (the jitter is keyed by it; the pool's fill has none, so the difference is the tap's).
+ * The same for a sprinkler (`normal` > 0: its points on the ball's surface). */
+static float *poured(int32_t threads, uint64_t seed, float normal, int32_t *n,
+                     unsigned char **state, size_t *size)
 {
     hbk_fluid_params_t p = fluid_still_box(4000);
     p.gravity[2] = -9.81f;
@@ -571,7 +572,7 @@ static float *poured(int32_t threads, uint64_t seed, int32_t *n, unsigned char *
     float *out = NULL;
     *state = NULL;
     if (h && hbk_fluid_fill_box(h, lo, hi, 0.0f) == HBK_OK &&
-        hbk_fluid_set_inflow(h, &ball, NULL, NULL, vel, 0.4f) == HBK_OK) {
+        hbk_fluid_set_inflow_normal(h, &ball, NULL, NULL, vel, normal, 0.4f) == HBK_OK) {
         int ok = 1;
         for (int f = 0; f < 3 && ok; ++f) ok = hbk_fluid_step(h, NULL) == HBK_OK;
         if (ok && hbk_fluid_particle_count(h) > 15 * 15 * 5 + 100) { /* it poured */
@@ -583,13 +584,15 @@ static float *poured(int32_t threads, uint64_t seed, int32_t *n, unsigned char *
     return out;
 }
 
-void test_fluid_inflow_deterministic(void)
+static int deterministic(float normal)
 {
     int32_t n[4];
     unsigned char *st[4];
     size_t sz[4];
-    float *x[4] = {poured(1, 11, &n[0], &st[0], &sz[0]), poured(2, 11, &n[1], &st[1], &sz[1]),
-                   poured(2, 11, &n[2], &st[2], &sz[2]), poured(1, 12, &n[3], &st[3], &sz[3])};
+    float *x[4] = {poured(1, 11, normal, &n[0], &st[0], &sz[0]),
+                   poured(2, 11, normal, &n[1], &st[1], &sz[1]),
+                   poured(2, 11, normal, &n[2], &st[2], &sz[2]),
+                   poured(1, 12, normal, &n[3], &st[3], &sz[3])};
     int ok = 1;
     for (int k = 0; k < 4; ++k) ok &= x[k] && st[k];
     if (ok) {
@@ -603,5 +606,11 @@ void test_fluid_inflow_deterministic(void)
         free(x[k]);
         free(st[k]);
     }
-    CHECK(ok);
+    return ok;
+}
+
+void test_fluid_inflow_deterministic(void)
+{
+    CHECK(deterministic(0.0f));
+    CHECK(deterministic(1.0f)); /* a sprinkler */
 }
