@@ -444,33 +444,58 @@ int hbk_fluid_in_shape(const hbk_fluid_obstacle_t *o, const int32_t dims[3], con
 
 void hbk_fluid_shape_axes(const hbk_fluid_obstacle_t *o, float ax[9]) { axes_of(o, ax); }
 
-int hbk_fluid_in_shape_ax(const hbk_fluid_obstacle_t *o, const float ax[9],
-                          const int32_t dims[3], const float *f, const float x[3])
+/* x in the shape's own frame (its centre, its axes ax): *q from the centre in the world, l
+ * along the axes. */
+static void to_local(const hbk_fluid_obstacle_t *o, const float ax[9], const float x[3],
+                     float q[3], float l[3])
 {
-    const float q[3] = {x[0] - o->center[0], x[1] - o->center[1], x[2] - o->center[2]};
-    if (o->type == 0)
-        return q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < o->extent[0] * o->extent[0];
-    float l[3];
+    for (int a = 0; a < 3; ++a) q[a] = x[a] - o->center[a];
     for (int k = 0; k < 3; ++k) l[k] = ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] + ax[3 * k + 2] * q[2];
-    if (o->type != 3)
-        return fabsf(l[0]) < o->extent[0] && fabsf(l[1]) < o->extent[1] &&
-               fabsf(l[2]) < o->extent[2];
+}
+
+/* A mesh's field (dims points over its box [-e, e]) at l, trilinear, into *v, and its gradient
+ * per metre within the cell into g if set (as hbk_fluid_field_contact's); 0 outside the box. */
+static int field_at(const int32_t dims[3], const float e[3], const float *f, const float l[3],
+                    float *v, float g[3])
+{
     float t[3], scale[3];
     size_t at, off[8];
-    if (!field_cell(dims, o->extent, l, &at, off, t, scale)) return 0;
+    if (!field_cell(dims, e, l, &at, off, t, scale)) return 0;
     float c[8];
     for (int k = 0; k < 8; ++k) c[k] = f[at + off[k]];
     const float x0 = c[0] + t[0] * (c[1] - c[0]), x1 = c[2] + t[0] * (c[3] - c[2]),
                 x2 = c[4] + t[0] * (c[5] - c[4]), x3 = c[6] + t[0] * (c[7] - c[6]);
     const float y0 = x0 + t[1] * (x1 - x0), y1 = x2 + t[1] * (x3 - x2);
-    return y0 + t[2] * (y1 - y0) < 0.0f;
+    *v = y0 + t[2] * (y1 - y0);
+    if (g) {
+        const float dx0 = (c[1] - c[0]) + t[1] * ((c[3] - c[2]) - (c[1] - c[0]));
+        const float dx1 = (c[5] - c[4]) + t[1] * ((c[7] - c[6]) - (c[5] - c[4]));
+        g[0] = (dx0 + t[2] * (dx1 - dx0)) * scale[0];
+        g[1] = (x1 - x0 + t[2] * (x3 - x2 - x1 + x0)) * scale[1];
+        g[2] = (y1 - y0) * scale[2];
+    }
+    return 1;
+}
+
+int hbk_fluid_in_shape_ax(const hbk_fluid_obstacle_t *o, const float ax[9],
+                          const int32_t dims[3], const float *f, const float x[3])
+{
+    float q[3], l[3], v;
+    to_local(o, ax, x, q, l);
+    if (o->type == 0)
+        return q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < o->extent[0] * o->extent[0];
+    if (o->type != 3)
+        return fabsf(l[0]) < o->extent[0] && fabsf(l[1]) < o->extent[1] &&
+               fabsf(l[2]) < o->extent[2];
+    return field_at(dims, o->extent, f, l, &v, NULL) && v < 0.0f;
 }
 
 int hbk_fluid_shape_distance(const hbk_fluid_obstacle_t *o, const float ax[9],
                              const int32_t dims[3], const float *f, const float x[3], float *d,
                              float n[3])
 {
-    const float q[3] = {x[0] - o->center[0], x[1] - o->center[1], x[2] - o->center[2]};
+    float q[3], l[3], nl[3] = {0, 0, 0};
+    to_local(o, ax, x, q, l);
     if (o->type == 0) {
         const float r = sqrtf(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
         if (!(r > 0.0f)) return 0; /* the centre: every way is out */
@@ -478,8 +503,6 @@ int hbk_fluid_shape_distance(const hbk_fluid_obstacle_t *o, const float ax[9],
         *d = r - o->extent[0];
         return 1;
     }
-    float l[3], nl[3] = {0, 0, 0};
-    for (int k = 0; k < 3; ++k) l[k] = ax[3 * k] * q[0] + ax[3 * k + 1] * q[1] + ax[3 * k + 2] * q[2];
     if (o->type != 3) { /* inside: the nearest face's (the first of equals) */
         int m = 0;
         for (int k = 1; k < 3; ++k)
@@ -487,24 +510,12 @@ int hbk_fluid_shape_distance(const hbk_fluid_obstacle_t *o, const float ax[9],
         *d = fabsf(l[m]) - o->extent[m];
         nl[m] = l[m] < 0.0f ? -1.0f : 1.0f;
     } else {
-        float t[3], scale[3];
-        size_t at, off[8];
-        if (!field_cell(dims, o->extent, l, &at, off, t, scale)) return 0;
-        float c[8];
-        for (int k = 0; k < 8; ++k) c[k] = f[at + off[k]];
-        /* trilinear, and its gradient within the cell (as hbk_fluid_field_contact's) */
-        const float x0 = c[0] + t[0] * (c[1] - c[0]), x1 = c[2] + t[0] * (c[3] - c[2]),
-                    x2 = c[4] + t[0] * (c[5] - c[4]), x3 = c[6] + t[0] * (c[7] - c[6]);
-        const float y0 = x0 + t[1] * (x1 - x0), y1 = x2 + t[1] * (x3 - x2);
-        const float dx0 = (c[1] - c[0]) + t[1] * ((c[3] - c[2]) - (c[1] - c[0]));
-        const float dx1 = (c[5] - c[4]) + t[1] * ((c[7] - c[6]) - (c[5] - c[4]));
-        nl[0] = (dx0 + t[2] * (dx1 - dx0)) * scale[0];
-        nl[1] = (x1 - x0 + t[2] * (x3 - x2 - x1 + x0)) * scale[1];
-        nl[2] = (y1 - y0) * scale[2];
+        float v;
+        if (!field_at(dims, o->extent, f, l, &v, nl)) return 0;
         const float len = sqrtf(nl[0] * nl[0] + nl[1] * nl[1] + nl[2] * nl[2]);
         if (!(len > 1e-6f)) return 0; /* a flat spot: no way out */
         for (int a = 0; a < 3; ++a) nl[a] /= len;
-        *d = (y0 + t[2] * (y1 - y0)) / (len > 1.0f ? 1.0f : len);
+        *d = v / (len > 1.0f ? 1.0f : len);
     }
     for (int a = 0; a < 3; ++a) n[a] = ax[a] * nl[0] + ax[3 + a] * nl[1] + ax[6 + a] * nl[2];
     return 1;
