@@ -328,12 +328,7 @@ int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped)
 /* The cell of x in the inflow's grid, or -1 outside it. */
 static inline int64_t cell_of(const hbk_fluid_t *h, const float x[3], int32_t c[3])
 {
-    for (int a = 0; a < 3; ++a) {
-        const float t = (x[a] - h->inflow_lo[a]) / h->inflow_cell;
-        if (!(t >= 0.0f && t < (float)h->inflow_dims[a])) return -1;
-        c[a] = (int32_t)t;
-    }
-    return c[0] + (int64_t)h->inflow_dims[0] * (c[1] + (int64_t)h->inflow_dims[1] * c[2]);
+    return hbk_fluid_grid_cell(h->inflow_lo, h->inflow_cell, h->inflow_dims, x, c);
 }
 
 /* A point pours once the water before has left it by a spacing: at a substep's start, the

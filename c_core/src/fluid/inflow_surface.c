@@ -6,18 +6,6 @@
 #include "internal_fluid.h"
 #include <stdlib.h>
 
-/* The cell of x in a grid of cells of side `cell` from lo (dims d), or -1 outside it. */
-static int64_t cell_of(const float lo[3], float cell, const int32_t d[3], const float x[3],
-                       int32_t c[3])
-{
-    for (int a = 0; a < 3; ++a) {
-        const float t = (x[a] - lo[a]) / cell;
-        if (!(t >= 0.0f && t < (float)d[a])) return -1;
-        c[a] = (int32_t)t;
-    }
-    return c[0] + (int64_t)d[0] * (c[1] + (int64_t)d[1] * c[2]);
-}
-
 /* Whether a point kept before lies nearer than s to x (the 27 cells around x's). */
 static int crowded(const float *pts, const int32_t *head, const int32_t *next, const int32_t d[3],
                    const int32_t c[3], const float x[3], float s)
@@ -72,17 +60,17 @@ hbk_result_t hbk_fluid_surface_points(hbk_fluid_t *h, const hbk_fluid_obstacle_t
                 const int32_t ijk[3] = {i, j, k};
                 float x[3], d, nx[3], y[3];
                 for (int a = 0; a < 3; ++a) x[a] = lo[a] + (float)ijk[a] * g;
-                if (!hbk_fluid_in_shape_ax(shape, ax, dims, f, x) ||
-                    !hbk_fluid_shape_distance(shape, ax, dims, f, x, &d, nx) || d < -s)
+                /* (inside: d < 0, as hbk_fluid_in_shape_ax has it) */
+                if (!hbk_fluid_shape_distance(shape, ax, dims, f, x, &d, nx) || !(d < 0.0f) ||
+                    d < -s)
                     continue;
                 for (int a = 0; a < 3; ++a) y[a] = x[a] - (d + 0.5f * s) * nx[a];
                 int inside = 1; /* the box, half a spacing from its walls */
                 for (int a = 0; a < 3; ++a) inside &= y[a] >= lo[a] && y[a] <= hi[a];
                 int32_t c3[3];
-                const int64_t c = inside ? cell_of(lo, s, gd, y, c3) : -1;
-                if (c < 0 || !hbk_fluid_in_shape_ax(shape, ax, dims, f, y) ||
-                    !hbk_fluid_shape_distance(shape, ax, dims, f, y, &d, nx) ||
-                    crowded(pts, head, next, gd, c3, y, s))
+                const int64_t c = inside ? hbk_fluid_grid_cell(lo, s, gd, y, c3) : -1;
+                if (c < 0 || !hbk_fluid_shape_distance(shape, ax, dims, f, y, &d, nx) ||
+                    !(d < 0.0f) || crowded(pts, head, next, gd, c3, y, s))
                     continue;
                 if (n == cap) {
                     cap *= 2;

@@ -309,6 +309,18 @@ static inline float hbk_fluid_lane_sum(const float p[8])
 /* inflow.c: the inflow's particles for substep number `substep` of the step under way, `dt`
  * s long (none without an inflow or at max_particles); frees the inflow at destroy. */
 void hbk_fluid_inflow_emit(hbk_fluid_t *h, int32_t substep, double dt);
+/* The cell of x in a grid of cells of side `cell` from lo (dims d), c its coordinates; -1
+ * outside it (the inflow's grid of particles, the sprinkler's of points). */
+static inline int64_t hbk_fluid_grid_cell(const float lo[3], float cell, const int32_t d[3],
+                                          const float x[3], int32_t c[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        const float t = (x[a] - lo[a]) / cell;
+        if (!(t >= 0.0f && t < (float)d[a])) return -1;
+        c[a] = (int32_t)t;
+    }
+    return c[0] + (int64_t)d[0] * (c[1] + (int64_t)d[1] * c[2]);
+}
 /* A sprinkler's points (inflow_surface.c): on the shape's surface, half a spacing in, at least
  * a spacing apart, and their outward normals (3 n floats each, the caller's to free). */
 hbk_result_t hbk_fluid_surface_points(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
