@@ -93,7 +93,8 @@ def test_the_outflow_drains_the_water_entering_its_shape(blender, tmp_path):
 
 def test_the_inflow_pours_from_its_shape_in_its_frames(blender, tmp_path):
     r = blender.run("fluid_inflow.py", tmp_path)
-    for part in ("FRAMES", "FOLLOWED", "REFUSED", "BAKED", "DRY START", "CAPPED", "SPRINKLER"):
+    for part in ("FRAMES", "FOLLOWED", "REFUSED", "BAKED", "DRY START", "CAPPED", "SPRINKLER",
+                 "KEYED"):
         assert f"FLUID INFLOW {part} OK" in r.stdout, r.stdout
     # the operator's report of it, and the command line's
     assert "Domain fluid: the inflow stopped pouring at frame 4" in r.stdout + r.stderr

@@ -43,12 +43,13 @@ def at_frame(scene, frame, always=False):
         scene.frame_set(keep, subframe=sub)
 
 
-def followed(context, obj, frames, read, same=np.array_equal):
+def followed(context, obj, frames, read, same=np.array_equal, animated=False):
     """(read at the bake's first frame, {frame: read} for the later frames where it differs
     from the frame before, by ``same``): the path only for an object animated, constrained
-    or deformed. A generator, as per_frame; read(depsgraph) takes the scene at its frame."""
+    or deformed, or when ``animated`` (what read reads is keyed). A generator, as per_frame;
+    read(depsgraph) takes the scene at its frame."""
     first, path = read(evaluated_depsgraph(context)), {}
-    if (may_move(obj) or may_deform(obj)) and frames[1] > frames[0]:
+    if (animated or may_move(obj) or may_deform(obj)) and frames[1] > frames[0]:
         got = yield from per_frame(context.scene, frames[0] + 1, frames[1],
                                    lambda _f: read(evaluated_depsgraph(context)))
         last = first
@@ -56,6 +57,19 @@ def followed(context, obj, frames, read, same=np.array_equal):
             if not same(a, last):
                 path[f] = last = a
     return first, path
+
+
+def property_animated(settings, name):
+    """Whether the property ``name`` of ``settings`` (a property group of an ID) is keyed or
+    driven (its ID's action, an NLA strip's or a driver), so that it may change from frame
+    to frame."""
+    ad = settings.id_data.animation_data
+    if ad is None:
+        return False
+    path = settings.path_from_id(name)
+    actions = [ad.action] + [s.action for t in ad.nla_tracks for s in t.strips]
+    return (any(fc.data_path == path for a in actions if a is not None for fc in a.fcurves) or
+            any(d.data_path == path for d in ad.drivers))
 
 
 def may_move(obj):

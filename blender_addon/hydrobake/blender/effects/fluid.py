@@ -399,8 +399,10 @@ class FluidBlender(BlenderEffect):
                                                         lo, hi)
                 inputs["inflow_velocity"] = yield from cls._inflow_velocity(context, settings,
                                                                             frames, fp["dt"])
-                if settings.inflow_normal > 0.0:
-                    inputs["inflow_normal"] = float(settings.inflow_normal)
+                normal = yield from cls._inflow_normal(context, settings, frames)
+                if any(v > 0.0 for v in (normal.values() if isinstance(normal, dict)
+                                         else [normal])):
+                    inputs["inflow_normal"] = normal
             if settings.outflow_object is not None:
                 inputs["outflow"] = yield from cls._flow(context, settings, "Outflow", fp,
                                                          frames, lo, hi)
@@ -520,8 +522,8 @@ class FluidBlender(BlenderEffect):
         Fill object's own velocity over the first frame (its world position there, to the
         next frame's)."""
         got = yield from cls._followed_velocity(
-            context, settings.fill_velocity, fill, (frames[0], min(frames[0] + 1, frames[1])),
-            dt, False, settings.fill_source)
+            context, settings, "fill_velocity", fill,
+            (frames[0], min(frames[0] + 1, frames[1])), dt, False, settings.fill_source)
         return got[frames[0]] if isinstance(got, dict) else got
 
     @classmethod
@@ -530,24 +532,38 @@ class FluidBlender(BlenderEffect):
         turned by the Inflow object's world rotation) plus Source times the object's own
         velocity (see _followed_velocity)."""
         return (yield from cls._followed_velocity(
-            context, settings.inflow_velocity, settings.inflow_object, frames, dt,
+            context, settings, "inflow_velocity", settings.inflow_object, frames, dt,
             settings.inflow_local, settings.inflow_source))
 
     @staticmethod
-    def _followed_velocity(context, velocity, obj, frames, dt, local, source):
-        """``velocity`` (turned by ``obj``'s world rotation if ``local``) plus ``source`` times
-        obj's own velocity over each frame's step (the frame before to it; the first frame
-        takes the second's), over ``frames``: one velocity when that is the same at every
-        frame, else {frame: velocity} at the first frame and wherever it changes after."""
-        v = mathutils.Vector(velocity)
-        if not local and not source:
-            return tuple(map(float, v))
+    def _inflow_normal(context, settings, frames):
+        """The core's inflow_normal: the Normal, or {frame: Normal} at the first frame and
+        wherever it changes after, where it is keyed or driven (a sprinkler turned up)."""
+        if not animation.property_animated(settings, "inflow_normal"):
+            return float(settings.inflow_normal)
+        first, path = yield from animation.followed(
+            context, settings.id_data, frames, lambda _dg: float(settings.inflow_normal),
+            same=float.__eq__, animated=True)
+        return {frames[0]: first, **path} if path else first
+
+    @staticmethod
+    def _followed_velocity(context, settings, name, obj, frames, dt, local, source):
+        """The velocity property ``name`` of ``settings`` (turned by ``obj``'s world rotation
+        if ``local``) plus ``source`` times obj's own velocity over each frame's step (the
+        frame before to it; the first frame takes the second's), over ``frames``: one
+        velocity when that is the same at every frame, else {frame: velocity} at the first
+        frame and wherever it changes after. A keyed or driven property is read at each
+        frame (a tap turned up)."""
+        keyed = animation.property_animated(settings, name)
+        if not local and not source and not keyed:
+            return tuple(map(float, getattr(settings, name)))
 
         def read(_dg):  # (its rotation alone turns it: a scale does not change the speed)
-            m = obj.matrix_world
+            m, v = obj.matrix_world, mathutils.Vector(getattr(settings, name))
             return (tuple(m.to_quaternion() @ v if local else v),
                     tuple(m.translation) if source else ())
-        first, path = yield from animation.followed(context, obj, frames, read, same=tuple.__eq__)
+        first, path = yield from animation.followed(context, obj, frames, read, same=tuple.__eq__,
+                                                    animated=keyed)
         at = {frames[0]: first}
         for f in range(frames[0] + 1, frames[1] + 1):
             at[f] = path.get(f, at[f - 1])

@@ -16,7 +16,8 @@ Inputs:
                  are jittered by ``jitter``, as the fill's)
     inflow_normal m/s (0..1000, default 0): speed added along the inflow shape's outward
                  normal, as Blender's Normal initial velocity; above 0 the inflow pours from
-                 points on its surface, where that velocity leaves it (a sprinkler)
+                 points on its surface, where that velocity leaves it (a sprinkler); or
+                 {frame: m/s}, held as inflow_velocity's (a sprinkler turned up)
     outflow      {frame: shape or None}: a drain from that frame's step on (SIMULATE): the
                  water inside the shape goes; given as ``inflow`` is
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
@@ -86,6 +87,33 @@ def _velocity(given, name):
             f"{name} = ({', '.join(f'{c:g}' for c in v)}): each component must be a finite "
             "number in [-1000, 1000] m/s")
     return v
+
+
+def _speed(given, name):
+    """A checked speed in m/s, within [0, 1000]."""
+    v = args.number(given, name)
+    if not 0.0 <= v <= 1000.0:
+        raise errors.InvalidArgument(f"{name} = {v:g}: must be in [0, 1000] m/s")
+    return v
+
+
+class _ByFrame:
+    """An input given for the whole bake or as {frame: value}: the latest frame given at or
+    before a frame holds, the first before it. ``values`` is {None: value} or {frame: value},
+    each checked by check(value, name)."""
+
+    def __init__(self, given, name, check, what):
+        self.by_frame = isinstance(given, dict)
+        self.values = ({int(f): check(v, f"{name}[{f}]") for f, v in given.items()}
+                       if self.by_frame else {None: check(given, name)})
+        if not self.values:
+            raise errors.InvalidArgument(f"{name}: {{}}: must give {what} for at least one "
+                                         "frame")
+        self.keys = sorted(self.values) if self.by_frame else [None]
+
+    def at(self, frame):
+        key = _key_at(self.keys, frame) if self.by_frame else None
+        return self.values[self.keys[0] if key is None else key]
 
 
 def _key_at(keys, frame):
@@ -184,27 +212,20 @@ class FluidEffect(Effect):
         self.inflow = _schedule(inp.get("inflow") or {}, "inflow")
         self._inflow_keys, self._inflow_on = sorted(self.inflow), None
         self._capped_at = None  # the first frame the inflow stopped at max_particles
-        given = inp.get("inflow_velocity", (0.0,) * 3)
-        self._velocity_by_frame = isinstance(given, dict)  # (else one for the bake)
-        self._velocity = ({int(f): _velocity(v, f"inflow_velocity[{f}]")
-                           for f, v in given.items()} if self._velocity_by_frame
-                          else {None: _velocity(given, "inflow_velocity")})
-        if not self._velocity:
-            raise errors.InvalidArgument("inflow_velocity: {}: must give a velocity for at "
-                                         "least one frame")
-        self._velocity_keys = sorted(self._velocity) if self._velocity_by_frame else [None]
+        self._velocity = _ByFrame(inp.get("inflow_velocity", (0.0,) * 3), "inflow_velocity",
+                                  _velocity, "a velocity")
         if self.inflow and self.params["fluid"].source != 0:
             raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
                                          "pours an inflow")
         self._inflow_jitter = float(inp.get("jitter", 0.0))
-        self._normal = args.number(inp.get("inflow_normal", 0.0), "inflow_normal")
-        if not 0.0 <= self._normal <= 1000.0:
-            raise errors.InvalidArgument(f"inflow_normal = {self._normal:g}: must be in "
-                                         "[0, 1000] m/s")
+        self._normal = _ByFrame(inp.get("inflow_normal", 0.0), "inflow_normal", _speed,
+                                "a speed")
+        # each shape with the velocity and normal of its frame, and each change of those with
+        # the shape it meets (a velocity turned into the shape: a sprinkler with no point left)
         points = sum(self.fluid.inflow_points for _ in self._set_each(
-            "inflow", self.inflow,
-            lambda f, sh: self.fluid.set_inflow(sh, self._velocity_at(f), self._inflow_jitter,
-                                                self._normal)))
+            "inflow", self._inflow_changes(),
+            lambda f, sh: self.fluid.set_inflow(sh, self._velocity.at(f), self._inflow_jitter,
+                                                self._normal.at(f))))
         self.fluid.set_inflow(None)
         if any(sh is not None for sh in self.inflow.values()) and points == 0:
             # (one frame's shape outside the box pours nothing there; every one is a mistake)
@@ -225,11 +246,18 @@ class FluidEffect(Effect):
                         f"{name}[{f}]: {str(exc).removeprefix(f'{name}: ')}") from None
                 yield f
 
-    def _velocity_at(self, frame):
-        """The inflow's velocity at ``frame`` (a velocity by frame: the first before its first
-        frame)."""
-        key = _key_at(self._velocity_keys, frame) if self._velocity_by_frame else None
-        return self._velocity[self._velocity_keys[0] if key is None else key]
+    def _flow_at(self, frame):
+        """(velocity, normal) the inflow pours with at ``frame``."""
+        return self._velocity.at(frame), self._normal.at(frame)
+
+    def _inflow_changes(self):
+        """{frame: shape} at each frame the inflow's shape, velocity or normal changes."""
+        out = {}
+        for f in sorted((set(self.inflow) | set(self._velocity.keys) | set(self._normal.keys))
+                        - {None}):
+            key = _key_at(self._inflow_keys, f)
+            out[f] = None if key is None else self.inflow[key]
+        return out
 
     def _check_outflow(self, inp):
         """The outflow input, each shape checked by the library before the first frame (as
@@ -259,9 +287,11 @@ class FluidEffect(Effect):
                   if inp.get("fill_velocity") is not None else {}),
                **({"fill shape": _digested(inp["fill_shape"])}
                   if inp.get("fill_shape") is not None else {}),
-               **({"inflow velocity": list(self._velocity[None])}
-                  if self.inflow and not self._velocity_by_frame else {}),
-               **({"inflow normal": self._normal} if self.inflow and self._normal else {}),
+               **({"inflow velocity": list(self._velocity.values[None])}
+                  if self.inflow and not self._velocity.by_frame else {}),
+               **({"inflow normal": self._normal.values[None]}
+                  if self.inflow and not self._normal.by_frame and self._normal.values[None]
+                  else {}),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
@@ -295,9 +325,11 @@ class FluidEffect(Effect):
             if shapes:
                 key = _key_at(keys, frame)
                 out[name] = _shape_digest(None if key is None else shapes[key])
-        if self.inflow and self._velocity_by_frame:  # (one for the bake: the scalars')
-            out["inflow velocity"] = arrays.digest(np.array(self._velocity_at(frame),
+        if self.inflow and self._velocity.by_frame:  # (one for the bake: the scalars')
+            out["inflow velocity"] = arrays.digest(np.array(self._velocity.at(frame),
                                                             np.float32))
+        if self.inflow and self._normal.by_frame:
+            out["inflow normal"] = arrays.digest(np.array([self._normal.at(frame)], np.float32))
         if self.path:
             obs = self._obstacles_at(frame)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
@@ -322,10 +354,10 @@ class FluidEffect(Effect):
             self.fluid.paint_sphere(texture, centre, radius, falloff)
         if self.path:
             self.fluid.move_obstacles(self._obstacles_at(frame))
-        key = (_key_at(self._inflow_keys, frame), self._velocity_at(frame))
+        key = (_key_at(self._inflow_keys, frame),) + self._flow_at(frame)
         if key != self._inflow_on:  # (a resumed bake: from its first frame's)
             shape = None if key[0] is None else self.inflow[key[0]]
-            self.fluid.set_inflow(shape, key[1], self._inflow_jitter, self._normal)
+            self.fluid.set_inflow(shape, key[1], self._inflow_jitter, key[2])
             self._inflow_on = key
         key = _key_at(self._outflow_keys, frame)
         if key != self._outflow_on:
@@ -358,12 +390,12 @@ class FluidEffect(Effect):
                 if drain is not None and self.outflow[drain] is not None:
                     opened = frame  # (from here on it drains: how much, only the bake tells)
                     break
-                key = (_key_at(self._inflow_keys, frame), self._velocity_at(frame))
+                key = (_key_at(self._inflow_keys, frame),) + self._flow_at(frame)
                 if key[0] is None or self.inflow[key[0]] is None:
                     on = False
                     continue
                 if key not in rates:
-                    self.fluid.set_inflow(self.inflow[key[0]], key[1], normal=self._normal)
+                    self.fluid.set_inflow(self.inflow[key[0]], key[1], normal=key[2])
                     rates[key] = (self.fluid.inflow_rate, self.fluid.inflow_points)
                 if not on:  # turned on: its shape fills at once, then its stream
                     count += rates[key][1]
