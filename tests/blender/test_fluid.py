@@ -85,6 +85,12 @@ def test_the_fill_object_is_filled_by_its_shape(blender, tmp_path):
         assert f"FLUID FILL {part} OK" in r.stdout, r.stdout
 
 
+def test_a_planar_inflow_pours_from_the_sheet_around_its_faces(blender, tmp_path):
+    r = blender.run("fluid_planar.py", tmp_path)
+    for part in ("SHEET", "NORMAL", "BENT", "OUTFLOW", "BAKED"):
+        assert f"FLUID PLANAR {part} OK" in r.stdout, r.stdout
+
+
 def test_the_outflow_drains_the_water_entering_its_shape(blender, tmp_path):
     r = blender.run("fluid_outflow.py", tmp_path)
     for part in ("INPUTS", "REFUSED", "BAKED", "TAP"):

@@ -18,6 +18,8 @@ class MeshShape:
     def __init__(self, centre, half_sizes, field, signed):
         self.centre, self.half_sizes, self.field = centre, half_sizes, field
         self.signed = signed
+        self.sheet = None  # (sheet_shape) the shell's half-thickness, m
+        self.flat = None  # (sheet_shape) a flat sheet's face normal in its scaled own axes
 
     def placed(self, matrix, first):
         """("mesh", centre, half-sizes, rotation, field) in the world for the object's world
@@ -71,9 +73,9 @@ class MeshSample:
         self.co, self.polys, self.closed = co, polys, closed
 
 
-def mesh_sample(ev):
-    """The MeshSample of an evaluated object, or None where a box serves: a box-shaped mesh
-    (every vertex on a corner of its box) or one without faces."""
+def mesh_sample(ev, boxes=True):
+    """The MeshSample of an evaluated object, or None where a box serves: one without faces,
+    or (``boxes``) a box-shaped mesh (every vertex on a corner of its box)."""
     mesh = ev.to_mesh()
     try:
         co = np.empty(len(mesh.vertices) * 3, np.float64)
@@ -88,7 +90,8 @@ def mesh_sample(ev):
         mesh.polygons.foreach_get("loop_total", totals)
     finally:
         ev.to_mesh_clear()
-    if not polys or len(co) < 4 or is_box(co, co.min(axis=0), co.max(axis=0)):
+    if not polys or len(co) < 3 or (boxes and (len(co) < 4 or
+                                              is_box(co, co.min(axis=0), co.max(axis=0)))):
         return None
     return MeshSample(co, polys, _closed(co, loops, starts, totals))
 
@@ -160,3 +163,50 @@ def mesh_shape(ev, spacing, side=SIDE):
     if sample is None:
         return None
     return shape_in(sample, axes[1], field_boxes([(sample, axes[1])], spacing, side)[0])
+
+
+def _flat_normal(co, polys):
+    """The unit normal, in ``co``'s axes, of faces that all lie in one plane and mostly face
+    one way (their areas' vector sum), else None."""
+    centred = co - co.mean(axis=0)
+    size = float(np.max(co.max(axis=0) - co.min(axis=0)))
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    if len(sv) < 3 or sv[2] > 1e-5 * max(size, 1e-9) * np.sqrt(len(co)):
+        return None
+    area = np.zeros(3)
+    for p in polys:  # (a fan of each face: its area vector)
+        for a, b in zip(p[1:-1], p[2:]):
+            area += np.cross(co[a] - co[p[0]], co[b] - co[p[0]])
+    n = vt[2]
+    total = sum(np.linalg.norm(np.cross(co[a] - co[p[0]], co[b] - co[p[0]]))
+                for p in polys for a, b in zip(p[1:-1], p[2:]))
+    if total <= 0.0 or abs(float(area @ n)) < 0.5 * total:
+        return None  # faces facing both ways: no one side to pour from
+    return n if area @ n > 0.0 else -n
+
+
+def sheet_shape(ev, spacing, side=SIDE):
+    """An open mesh (one whose faces close no volume: a plane, a grid, a bent sheet) as the
+    shape an Inflow pours from or an Outflow drains into, as Mantaflow's planar flows: the
+    shell within t of its faces, t just over half a particle spacing (one lattice layer, or
+    two) or the field's step if that is coarser (so that the trilinear field leaves no gap
+    between its points). A MeshShape with ``sheet`` = t and, for faces in one plane that face one way,
+    ``flat`` their normal in the scaled own axes; None for a mesh that closes a volume or
+    has no faces, or a world matrix that shears or flattens it."""
+    axes = own_axes(ev.matrix_world)
+    if axes is None:
+        return None
+    sample = mesh_sample(ev, boxes=False)
+    if sample is None or sample.closed:
+        return None
+    flat = _flat_normal(sample.co * axes[1], sample.polys)
+    # (a flat sheet's field is a few points thick: as fine as MAX_DIM allows costs little)
+    box = field_boxes([(sample, axes[1])], spacing, MAX_DIM if flat is not None else side)[0]
+    shape = shape_in(sample, axes[1], box)  # (unsigned: open)
+    step = float(np.max((box[1] - box[0]) / (box[2] - 1)))
+    # Just over half a spacing: a lattice layer always lies inside (two where the layers
+    # straddle the faces, as when the lattice is centred on them), never none.
+    t = max(0.55 * spacing, step)
+    shape.field = (shape.field - np.float32(t)).astype(np.float32)
+    shape.signed, shape.sheet, shape.flat = True, t, flat
+    return shape

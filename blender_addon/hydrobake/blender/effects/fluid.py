@@ -65,10 +65,12 @@ def _round(obj, depsgraph):
 def _fill_shape(context, obj, spacing, role="Fill", made=None):
     """The shape the Fill (or Inflow, or Outflow) object's water takes, as the core's
     fill_shape takes it: a ball as a sphere; a mesh, curve, text or metaball family as its
-    signed distance field (made as an obstacle's is); else None, its box (a box-shaped mesh,
-    an object without faces, or an open one, which is warned of). With ``made`` (a dict kept
-    between the frames of one object) an object that does not deform has its field made once
-    and placed where it is, and each warning is given once."""
+    signed distance field (made as an obstacle's is); an Inflow's or Outflow's open mesh (a
+    plane) as the sheet around its faces (mesh_fields.sheet_shape: ``made["shape"]`` holds
+    it, with its thickness and a flat one's normal); else None, its box (a box-shaped mesh,
+    an object without faces, or a Fill's open one, which is warned of). With ``made`` (a
+    dict kept between the frames of one object) an object that does not deform has its
+    field made once and placed where it is, and each warning is given once."""
     if obj.type not in animation.SHAPED_TYPES:
         return None
     made = {} if made is None else made
@@ -102,6 +104,9 @@ def _fill_shape(context, obj, spacing, role="Fill", made=None):
     ev = evaluated_object(obj, dg, role)
     if "shape" not in made or animation.may_deform(obj):
         made["shape"] = mesh_fields.mesh_shape(ev, spacing)
+        if role != "Fill" and (made["shape"] is None or not made["shape"].signed):
+            # an open mesh (a plane): the sheet it pours from or drains into
+            made["shape"] = mesh_fields.sheet_shape(ev, spacing) or made["shape"]
     shape = made["shape"]
     if shape is None:
         return None
@@ -395,14 +400,27 @@ class FluidBlender(BlenderEffect):
                 if shape is not None:
                     inputs["fill_shape"] = shape
             if settings.inflow_object is not None:
+                made = {}
                 inputs["inflow"] = yield from cls._flow(context, settings, "Inflow", fp, frames,
-                                                        lo, hi)
-                inputs["inflow_velocity"] = yield from cls._inflow_velocity(context, settings,
-                                                                            frames, fp["dt"])
+                                                        lo, hi, made)
+                sheet = made.get("shape")
+                sheet = sheet if sheet is not None and sheet.sheet else None
+                # a flat sheet's Normal is one velocity, along its faces' normal (as
+                # Mantaflow's planar flow): poured from its lattice, one side only
+                flat = (sheet.flat if sheet is not None and
+                        not animation.may_deform(settings.inflow_object) else None)
+                inputs["inflow_velocity"] = yield from cls._inflow_velocity(
+                    context, settings, frames, fp["dt"], flat)
                 normal = yield from cls._inflow_normal(context, settings, frames)
-                if any(v > 0.0 for v in (normal.values() if isinstance(normal, dict)
-                                         else [normal])):
+                if flat is None and any(v > 0.0 for v in (
+                        normal.values() if isinstance(normal, dict) else [normal])):
                     inputs["inflow_normal"] = normal
+                    if sheet is not None:
+                        warnings.warn(
+                            f"Inflow: {settings.inflow_object.name}'s faces are open and do "
+                            "not lie in one plane facing one way, so its Normal sprays from "
+                            "both sides of them; flatten it for one side, or close it for a "
+                            "sprinkler", BakeWarning)
             if settings.outflow_object is not None:
                 inputs["outflow"] = yield from cls._flow(context, settings, "Outflow", fp,
                                                          frames, lo, hi)
@@ -463,21 +481,22 @@ class FluidBlender(BlenderEffect):
         return params, inputs
 
     @staticmethod
-    def _followed_shape(context, obj, role, fp, frames, lo, hi):
+    def _followed_shape(context, obj, role, fp, frames, lo, hi, made):
         """(the shape at the bake's first frame, {frame: shape} where it moves or changes
-        shape after) of the Inflow or Outflow object, as the Fill's (a ball, a field, or its
-        box clipped to the domain); None at frames it is outside the domain. Refused if it
-        is outside at every frame."""
+        shape after) of the Inflow or Outflow object, as the Fill's (a ball, a field, a
+        sheet, or its box clipped to the domain); None at frames it is outside the domain.
+        Refused if it is outside at every frame. ``made`` is _fill_shape's."""
         holder = meshes.shape_holder(obj)
         spacing = fp["particle_spacing"]
-        made = {}
 
         def shape(_dg):
+            got = _fill_shape(context, holder, spacing, role, made)
             flo, fhi = meshes.world_bounds(holder)
+            if got is not None and getattr(made.get("shape"), "sheet", None):
+                flo, fhi = flo - made["shape"].sheet, fhi + made["shape"].sheet  # (a plane)
             flo, fhi = np.maximum(flo, lo), np.minimum(fhi, hi)
             if np.any(fhi - flo < spacing):
                 return None  # out of the box at this frame: it does nothing there
-            got = _fill_shape(context, holder, spacing, role, made)
             if got is None:
                 got = ("box", tuple(map(float, (flo + fhi) / 2)),
                        tuple(map(float, (fhi - flo) / 2)))
@@ -491,7 +510,7 @@ class FluidBlender(BlenderEffect):
         return first, path
 
     @classmethod
-    def _flow(cls, context, settings, role, fp, frames, lo, hi):
+    def _flow(cls, context, settings, role, fp, frames, lo, hi, made=None):
         """The core's inflow or outflow input (``role`` "Inflow" or "Outflow"), {frame: shape
         or None}: None before its Start and after its End; in between its object's shape (as
         the Fill's: a ball, a field, or its box) at the start and wherever it moves or changes
@@ -502,7 +521,8 @@ class FluidBlender(BlenderEffect):
             raise ValueError(f"{role} End = {end} is before {role} Start = {start}: the "
                              f"{role} would never {'pour' if key == 'inflow' else 'drain'}")
         first, path = yield from cls._followed_shape(context, getattr(settings, f"{key}_object"),
-                                                     role, fp, frames, lo, hi)
+                                                     role, fp, frames, lo, hi,
+                                                     {} if made is None else made)
         out = {frames[0]: None} if start > frames[0] else {}
         if start <= frames[1] and end >= frames[0]:
             on = max(start, frames[0])
@@ -527,13 +547,14 @@ class FluidBlender(BlenderEffect):
         return got[frames[0]] if isinstance(got, dict) else got
 
     @classmethod
-    def _inflow_velocity(cls, context, settings, frames, dt):
+    def _inflow_velocity(cls, context, settings, frames, dt, flat=None):
         """The core's inflow_velocity: the Inflow Velocity (world axes; with Local Velocity
         turned by the Inflow object's world rotation) plus Source times the object's own
-        velocity (see _followed_velocity)."""
+        velocity (see _followed_velocity); for a flat sheet plus Normal times its faces'
+        normal (``flat``, in its scaled own axes) turned into the world."""
         return (yield from cls._followed_velocity(
             context, settings, "inflow_velocity", settings.inflow_object, frames, dt,
-            settings.inflow_local, settings.inflow_source))
+            settings.inflow_local, settings.inflow_source, flat))
 
     @staticmethod
     def _inflow_normal(context, settings, frames):
@@ -547,21 +568,29 @@ class FluidBlender(BlenderEffect):
         return {frames[0]: first, **path} if path else first
 
     @staticmethod
-    def _followed_velocity(context, settings, name, obj, frames, dt, local, source):
+    def _followed_velocity(context, settings, name, obj, frames, dt, local, source,
+                           along=None):
         """The velocity property ``name`` of ``settings`` (turned by ``obj``'s world rotation
         if ``local``) plus ``source`` times obj's own velocity over each frame's step (the
-        frame before to it; the first frame takes the second's), over ``frames``: one
-        velocity when that is the same at every frame, else {frame: velocity} at the first
-        frame and wherever it changes after. A keyed or driven property is read at each
-        frame (a tap turned up)."""
-        keyed = animation.property_animated(settings, name)
-        if not local and not source and not keyed:
+        frame before to it; the first frame takes the second's), plus the Inflow's Normal
+        times ``along`` (a direction in obj's scaled own axes) turned into the world, over
+        ``frames``: one velocity when that is the same at every frame, else {frame:
+        velocity} at the first frame and wherever it changes after. A keyed or driven
+        property is read at each frame (a tap turned up)."""
+        keyed = animation.property_animated(settings, name) or (
+            along is not None and animation.property_animated(settings, "inflow_normal"))
+        if not local and not source and not keyed and (along is None or
+                                                         not settings.inflow_normal):
             return tuple(map(float, getattr(settings, name)))
 
         def read(_dg):  # (its rotation alone turns it: a scale does not change the speed)
             m, v = obj.matrix_world, mathutils.Vector(getattr(settings, name))
-            return (tuple(m.to_quaternion() @ v if local else v),
-                    tuple(m.translation) if source else ())
+            v = m.to_quaternion() @ v if local else v
+            if along is not None and settings.inflow_normal:
+                axes = meshes.own_axes(m)
+                turn = axes[0] if axes is not None else np.array(m.to_quaternion().to_matrix())
+                v = v + mathutils.Vector(turn @ along) * settings.inflow_normal
+            return (tuple(v), tuple(m.translation) if source else ())
         first, path = yield from animation.followed(context, obj, frames, read, same=tuple.__eq__,
                                                     animated=keyed)
         at = {frames[0]: first}
