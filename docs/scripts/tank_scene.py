@@ -50,14 +50,15 @@ def bake(tank, fill, obstacles, frames, resolution):
     assert bpy.ops.hydrobake.bake(effect="fluid", object_name=tank.name) == {"FINISHED"}
 
 
-def render(frame, camera, tilt, size, path):
+def render(frame, camera, tilt, size, path, turn=0.0):
     """Renders ``frame`` to ``path`` from a camera at ``camera`` tilted ``tilt`` degrees from
-    looking down, ``size`` (width, height) pixels."""
+    looking down and turned ``turn`` degrees about z from looking along +y, ``size`` (width,
+    height) pixels."""
     scene = bpy.context.scene
     scene.frame_set(frame)
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     scene.collection.objects.link(cam)
-    cam.location, cam.rotation_euler = camera, (math.radians(tilt), 0.0, 0.0)
+    cam.location, cam.rotation_euler = camera, (math.radians(tilt), 0.0, math.radians(turn))
     scene.camera = cam
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     scene.collection.objects.link(sun)
@@ -75,21 +76,21 @@ def render(frame, camera, tilt, size, path):
     print("RENDERED", scene.render.filepath)
 
 
-def two_frames(frames, camera, tilt, out, name):
+def two_frames(frames, camera, tilt, out, name, turn=0.0):
     """Renders ``frames`` (two) as render() does, 400 x 330 each, side by side into
     OUT/name.png (each also as name_FRAME.png)."""
     halves = []
     for frame in frames:
         halves.append(_half(frame, camera, tilt, os.path.join(out, f"{name}_{frame}.png"),
-                            first=not halves))
+                            first=not halves, turn=turn))
     side_by_side(halves, os.path.join(out, f"{name}.png"))
 
 
-def _half(frame, camera, tilt, path, first):
+def _half(frame, camera, tilt, path, first, turn=0.0):
     """Renders ``frame`` to ``path``, 400 x 330, as render() does; the camera, sun and sky are
     made by the ``first`` only. Returns ``path``."""
     if first:
-        render(frame, camera, tilt, (400, 330), path)
+        render(frame, camera, tilt, (400, 330), path, turn)
     else:
         scene = bpy.context.scene
         scene.frame_set(frame)
