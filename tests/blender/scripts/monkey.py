@@ -290,7 +290,18 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
             for frame, x in ((1, 0.4), (3, 0.6)):
                 tap.location.x = x
                 tap.keyframe_insert("location", index=0, frame=frame)
+            if random.Random(seed * 47 + 19).random() < 0.3:  # a planar tap (its own draw)
+                bpy.ops.mesh.primitive_plane_add(size=0.1, location=(0.4, 3.25, 0.4))
+                tap = bpy.context.active_object
+                tap.name = "Sheet"
+                for frame, x in ((1, 0.4), (3, 0.6)):
+                    tap.location.x = x
+                    tap.keyframe_insert("location", index=0, frame=frame)
             s.inflow_object, s.inflow_velocity, s.inflow_start = tap, (0.5, 0.0, -1.0), 2
+            if random.Random(seed * 53 + 23).random() < 0.3:  # a tap turned up (keyed)
+                s.keyframe_insert("inflow_velocity", frame=1)
+                s.inflow_velocity = (0.0, 0.0, -2.0)
+                s.keyframe_insert("inflow_velocity", frame=3)
             if random.Random(seed * 31 + 7).random() < 0.3:  # (its own draw: the rest stays)
                 s.fill_object = None  # the domain starts dry, the tap its only water
             if random.Random(seed * 43 + 17).random() < 0.3:  # a sprinkler (its own draw)

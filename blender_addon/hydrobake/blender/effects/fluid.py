@@ -273,8 +273,9 @@ class FluidBlender(BlenderEffect):
             inflow_object=bpy.props.PointerProperty(
                 name="Inflow", type=bpy.types.Object,
                 description="SIMULATE: water pours in from this object's shape (a tap, a "
-                            "hose), as fast as the water before leaves it, from Inflow Start "
-                            "to Inflow End; followed when it moves. Stops at Max Particles"),
+                            "hose; an open mesh such as a Plane: the sheet around its faces), "
+                            "as fast as the water before leaves it, from Inflow Start to "
+                            "Inflow End; followed when it moves. Stops at Max Particles"),
             inflow_velocity=bpy.props.FloatVectorProperty(
                 name="Inflow Velocity", size=3, default=(0.0, 0.0, -1.0), min=-100.0,
                 max=100.0, subtype="VELOCITY", unit="VELOCITY",
@@ -306,8 +307,9 @@ class FluidBlender(BlenderEffect):
                 description="SIMULATE: the last frame the Inflow pours"),
             outflow_object=bpy.props.PointerProperty(
                 name="Outflow", type=bpy.types.Object,
-                description="SIMULATE: a drain: the water entering this object's shape goes "
-                            "(so an Inflow can pour for good), from Outflow Start to Outflow "
+                description="SIMULATE: a drain: the water entering this object's shape (an "
+                            "open mesh's: the sheet around its faces) goes (so an Inflow can "
+                            "pour for good), from Outflow Start to Outflow "
                             "End; followed when it moves, and drains nothing at frames it is "
                             "outside the domain"),
             outflow_start=bpy.props.IntProperty(
