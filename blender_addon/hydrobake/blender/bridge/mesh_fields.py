@@ -190,9 +190,9 @@ def sheet_shape(ev, spacing, side=SIDE):
     shape an Inflow pours from or an Outflow drains into, as Mantaflow's planar flows: the
     shell within t of its faces, t just over half a particle spacing (one lattice layer, or
     two) or the field's step if that is coarser (so that the trilinear field leaves no gap
-    between its points). A MeshShape with ``sheet`` = t and, for faces in one plane that face one way,
-    ``flat`` their normal in the scaled own axes; None for a mesh that closes a volume or
-    has no faces, or a world matrix that shears or flattens it."""
+    between its points). A MeshShape with ``sheet`` = t and, for faces in one plane that
+    face one way, ``flat`` their normal in the scaled own axes; None for a mesh that closes
+    a volume or has no faces, or a world matrix that shears or flattens it."""
     axes = own_axes(ev.matrix_world)
     if axes is None:
         return None

@@ -413,9 +413,10 @@ class FluidBlender(BlenderEffect):
                         not animation.may_deform(settings.inflow_object) else None)
                 inputs["inflow_velocity"] = yield from cls._inflow_velocity(
                     context, settings, frames, fp["dt"], flat)
-                normal = yield from cls._inflow_normal(context, settings, frames)
-                if flat is None and any(v > 0.0 for v in (
-                        normal.values() if isinstance(normal, dict) else [normal])):
+                normal = 0.0 if flat is not None else (
+                    yield from cls._inflow_normal(context, settings, frames))
+                if any(v > 0.0 for v in (normal.values() if isinstance(normal, dict)
+                                         else [normal])):
                     inputs["inflow_normal"] = normal
                     if sheet is not None:
                         warnings.warn(
