@@ -191,6 +191,16 @@ HBK_EXPORT hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h,
                                                     const int32_t dims[3], const float *distance,
                                                     const float velocity[3], float normal,
                                                     float jitter);
+/* A further inflow beside those set (two taps, a fountain's jets): `shape` pours at `velocity`
+ * plus `normal` along its surface normal, exactly as set_inflow_normal would pour it alone,
+ * with the jitter of the last set_inflow (0 after set_inflow(NULL)). The points of all pour
+ * each at their own velocity; the rate is the sum of theirs. set_inflow replaces them all.
+ * HBK_ERR_INVALID_ARGUMENT as set_inflow_normal (a NULL shape too, and the shapes holding
+ * more points together than max_particles), the inflows left as they were;
+ * HBK_ERR_OUT_OF_MEMORY. */
+HBK_EXPORT hbk_result_t hbk_fluid_add_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                             const int32_t dims[3], const float *distance,
+                                             const float velocity[3], float normal);
 /* The lattice points the inflow pours from (0 without one, or for a shape no point of the
  * lattice lies in: it pours nothing). 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h);
@@ -199,7 +209,7 @@ HBK_EXPORT int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h);
  * shape's cross-section across the flow in spacing squares), each pouring once the particle
  * before has gone a spacing: every s / speed seconds (k^2 v / s for a k x k tap across an
  * axis), or with gravity g along the flow the t of speed t + g t^2 / 2 = s (a sprinkler's
- * points: each a column at its own velocity). 0 without one,
+ * points: each a column at its own velocity; inflows added: the sum). 0 without one,
  * at zero velocity, for a jet too slow to rise a spacing against gravity, or for NULL. A
  * bake's forecast of when max_particles stops the inflow. */
 HBK_EXPORT double hbk_fluid_inflow_rate(const hbk_fluid_t *h);

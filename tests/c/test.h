@@ -249,6 +249,8 @@ float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, d
     X(fluid, sprinkler_points)          \
     X(fluid, sprinkler_pours_its_rate)  \
     X(fluid, sprinkler_refused)         \
+    X(fluid, inflows_added)             \
+    X(fluid, inflows_replaced_and_refused) \
     X(fluid, outflow_drains_its_inside) \
     X(fluid, outflow_frame_by_frame)    \
     X(fluid, outflow_refused)           \

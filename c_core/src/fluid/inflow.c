@@ -10,7 +10,8 @@ void hbk_fluid_inflow_free(hbk_fluid_t *h)
     free(h->inflow_head);
     free(h->inflow_next);
     h->inflow_pts = h->inflow_pvel = NULL;
-    h->inflow_columns = 0;
+    h->inflow_rate = 0.0;
+    h->inflow_jitter = 0.0f;
     h->inflow_head = h->inflow_next = NULL;
     h->inflow_n = 0;
 }
@@ -176,19 +177,26 @@ static hbk_result_t sprinkler(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
     return HBK_OK;
 }
 
-hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
-                                         const int32_t dims[3], const float *distance,
-                                         const float velocity[3], float normal, float jitter)
+/* A column pours each time the particle before has gone a spacing: s / speed without
+ * gravity; with it, the t of speed t + g t^2 / 2 = s for g gravity's part along the flow
+ * (sooner pouring down, later up; never, for a jet too slow to rise a spacing). */
+static double column_rate(const float u[3], const float g[3], double s)
 {
-    HBK_FLUID_ENTER(h);
-    if (!shape) {
-        hbk_fluid_inflow_free(h);
-        return HBK_OK;
-    }
-    if (h->p.source != HBK_FLUID_SIMULATE)
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                        "inflow: source = %d: only the simulation (0) pours an inflow",
-                        h->p.source);
+    const double speed = sqrt((double)u[0] * u[0] + (double)u[1] * u[1] + (double)u[2] * u[2]);
+    if (!(speed > 0.0)) return 0.0;
+    const double along = ((double)g[0] * u[0] + (double)g[1] * u[1] + (double)g[2] * u[2]) / speed,
+                 disc = speed * speed + 2.0 * along * s;
+    return disc > 0.0 ? (speed + sqrt(disc)) / (2.0 * s) : 0.0; /* 1 / t */
+}
+
+/* One inflow's points, checked as set_inflow_normal says: its lattice's (pouring at
+ * `velocity`, *pvel NULL) or a sprinkler's (each at its own, in *pvel); *rate its particles a
+ * second (hbk_fluid_inflow_rate's). The caller frees *pts and *pvel. */
+static hbk_result_t one_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                               const int32_t dims[3], const float *distance,
+                               const float velocity[3], float normal, float **pts, float **pvel,
+                               size_t *n, double *rate)
+{
     size_t points;
     hbk_result_t r = hbk_fluid_shape_check(h, shape, dims, distance, &points);
     if (r) return r;
@@ -201,22 +209,43 @@ hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacl
     if (!(normal >= 0.0f && normal <= 1000.0f))
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "normal = %g: must be in [0, 1000] m/s", (double)normal);
-    if (!(jitter >= 0.0f && jitter <= 0.5f))
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "jitter = %g: must be in [0, 0.5]",
-                        (double)jitter);
     const int32_t *d = shape->type == 3 ? dims : NULL;
     const float *f = shape->type == 3 ? distance : NULL;
-    double R[9];
-    int along = 2, turned = 0;
-    size_t n;
-    float *pts = NULL, *pvel = NULL;
-    if (normal > 0.0f) {
-        r = sprinkler(h, shape, d, f, velocity, normal, &pts, &pvel, &n);
-        if (r) return r;
-    } else {
-        turned = flow_frame(shape, velocity, R, &along);
-        lattice(h, shape, d, f, turned, R, NULL, &n);
+    const double s = h->p.particle_spacing;
+    *pts = *pvel = NULL;
+    *rate = 0.0;
+    if (normal > 0.0f) { /* a sprinkler's points pour each along its own velocity */
+        r = sprinkler(h, shape, d, f, velocity, normal, pts, pvel, n);
+        for (size_t i = 0; !r && i < *n; ++i)
+            *rate += column_rate(*pvel + 3 * i, h->p.gravity, s);
+        return r;
     }
+    double R[9];
+    int along = 2;
+    const int turned = flow_frame(shape, velocity, R, &along);
+    lattice(h, shape, d, f, turned, R, NULL, n);
+    if (*n > (size_t)h->p.max_particles) return HBK_OK; /* (refused by the caller) */
+    *pts = malloc((3 * *n + 3) * sizeof **pts);
+    int64_t *keys = malloc((*n + 1) * sizeof *keys);
+    if (!*pts || !keys) {
+        free(*pts);
+        free(keys);
+        *pts = NULL;
+        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
+    }
+    lattice(h, shape, d, f, turned, R, *pts, n);
+    /* every column at the one velocity (no velocity: the rate's 0) */
+    *rate = (double)columns(*pts, *n, R, along, (float)s, keys) *
+            column_rate(velocity, h->p.gravity, s);
+    free(keys);
+    return HBK_OK;
+}
+
+/* Makes `pts` (n points pouring at `vel`, or each at its own in `pvel`) the inflow, with the
+ * grid listing the particles near them; takes pts and pvel (freed on failure). */
+static hbk_result_t install(hbk_fluid_t *h, float *pts, float *pvel, size_t n,
+                            const float vel[3], float jitter, double rate)
+{
     if (n > (size_t)h->p.max_particles) {
         free(pts);
         free(pvel);
@@ -230,19 +259,6 @@ hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacl
      * holds many more cells than points. */
     const float s = h->p.particle_spacing, reach = 3.0f * s;
     float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-    int64_t cols = 0; /* (a sprinkler's points pour each along its own velocity) */
-    if (!pvel) {
-        pts = malloc((3 * n + 3) * sizeof *pts);
-        if (!pts) return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
-        lattice(h, shape, d, f, turned, R, pts, &n);
-        int64_t *keys = malloc((n + 1) * sizeof *keys);
-        if (!keys) {
-            free(pts);
-            return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
-        }
-        cols = columns(pts, n, R, along, s, keys); /* (no velocity: the rate's 0) */
-        free(keys);
-    }
     for (size_t i = 0; i < n; ++i)
         for (int a = 0; a < 3; ++a) {
             const float x = pts[3 * i + (size_t)a];
@@ -276,15 +292,15 @@ hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacl
     h->inflow_head = head;
     h->inflow_next = next;
     h->inflow_n = (int32_t)n;
-    h->inflow_columns = cols;
+    h->inflow_rate = rate;
     h->inflow_cell = (float)cell;
     h->inflow_jitter = jitter;
     for (int a = 0; a < 3; ++a) {
-        h->inflow_vel[a] = velocity[a];
+        h->inflow_vel[a] = vel[a];
         h->inflow_lo[a] = lo[a] - reach;
         h->inflow_dims[a] = gd[a];
     }
-    float top2 = velocity[0] * velocity[0] + velocity[1] * velocity[1] + velocity[2] * velocity[2];
+    float top2 = vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2];
     for (size_t i = 0; pvel && i < n; ++i) {
         const float *u = pvel + 3 * i, u2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
         top2 = u2 > top2 ? u2 : top2;
@@ -293,30 +309,91 @@ hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacl
     return HBK_OK;
 }
 
-int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h) { return h ? h->inflow_n : 0; }
-
-/* A column pours each time the particle before has gone a spacing: s / speed without
- * gravity; with it, the t of speed t + g t^2 / 2 = s for g gravity's part along the flow
- * (sooner pouring down, later up; never, for a jet too slow to rise a spacing). */
-static double column_rate(const float u[3], const float g[3], double s)
+/* The source check set_inflow and add_inflow share. */
+static hbk_result_t simulating(hbk_fluid_t *h)
 {
-    const double speed = sqrt((double)u[0] * u[0] + (double)u[1] * u[1] + (double)u[2] * u[2]);
-    if (!(speed > 0.0)) return 0.0;
-    const double along = ((double)g[0] * u[0] + (double)g[1] * u[1] + (double)g[2] * u[2]) / speed,
-                 disc = speed * speed + 2.0 * along * s;
-    return disc > 0.0 ? (speed + sqrt(disc)) / (2.0 * s) : 0.0; /* 1 / t */
+    if (h->p.source != HBK_FLUID_SIMULATE)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "inflow: source = %d: only the simulation (0) pours an inflow",
+                        h->p.source);
+    return HBK_OK;
 }
+
+hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                         const int32_t dims[3], const float *distance,
+                                         const float velocity[3], float normal, float jitter)
+{
+    HBK_FLUID_ENTER(h);
+    if (!shape) {
+        hbk_fluid_inflow_free(h);
+        return HBK_OK;
+    }
+    hbk_result_t r = simulating(h);
+    if (r) return r;
+    float *pts, *pvel;
+    size_t n;
+    double rate;
+    r = one_inflow(h, shape, dims, distance, velocity, normal, &pts, &pvel, &n, &rate);
+    if (r) return r;
+    if (!(jitter >= 0.0f && jitter <= 0.5f)) {
+        free(pts);
+        free(pvel);
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "jitter = %g: must be in [0, 0.5]",
+                        (double)jitter);
+    }
+    return install(h, pts, pvel, n, velocity, jitter, rate);
+}
+
+hbk_result_t hbk_fluid_add_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                  const int32_t dims[3], const float *distance,
+                                  const float velocity[3], float normal)
+{
+    HBK_FLUID_ENTER(h);
+    if (!shape) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape: must not be NULL");
+    hbk_result_t r = simulating(h);
+    if (r) return r;
+    float *pts, *pvel;
+    size_t n;
+    double rate;
+    r = one_inflow(h, shape, dims, distance, velocity, normal, &pts, &pvel, &n, &rate);
+    if (r) return r;
+    const size_t had = (size_t)h->inflow_n;
+    if (had == 0) return install(h, pts, pvel, n, velocity, h->inflow_jitter, rate);
+    if (had + n > (size_t)h->p.max_particles) {
+        free(pts);
+        free(pvel);
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "inflow: the shapes hold %zu particles at once: must hold at most "
+                        "max_particles = %d", had + n, h->p.max_particles);
+    }
+    /* Both sets of points, each with its velocity (a lattice's all at its one). */
+    const size_t all = had + n;
+    float *apts = malloc((3 * all + 3) * sizeof *apts), *avel = malloc((3 * all + 3) * sizeof *avel);
+    if (!apts || !avel) {
+        free(pts);
+        free(pvel);
+        free(apts);
+        free(avel);
+        return hbk_fail(&h->msg, HBK_ERR_OUT_OF_MEMORY, "inflow: out of memory");
+    }
+    memcpy(apts, h->inflow_pts, 3 * had * sizeof *apts);
+    memcpy(apts + 3 * had, pts, 3 * n * sizeof *apts);
+    for (size_t i = 0; i < all; ++i) {
+        const float *u = i < had ? (h->inflow_pvel ? h->inflow_pvel + 3 * i : h->inflow_vel)
+                                 : (pvel ? pvel + 3 * (i - had) : velocity);
+        memcpy(avel + 3 * i, u, 3 * sizeof *u);
+    }
+    free(pts);
+    free(pvel);
+    const float none[3] = {0.0f, 0.0f, 0.0f};
+    return install(h, apts, avel, all, none, h->inflow_jitter, h->inflow_rate + rate);
+}
+
+int32_t hbk_fluid_inflow_points(const hbk_fluid_t *h) { return h ? h->inflow_n : 0; }
 
 double hbk_fluid_inflow_rate(const hbk_fluid_t *h)
 {
-    if (!h || !h->inflow_n) return 0.0;
-    const double s = h->p.particle_spacing;
-    if (!h->inflow_pvel) /* every column at the one velocity */
-        return (double)h->inflow_columns * column_rate(h->inflow_vel, h->p.gravity, s);
-    double rate = 0.0; /* a sprinkler: each point a column of its own */
-    for (int32_t i = 0; i < h->inflow_n; ++i)
-        rate += column_rate(h->inflow_pvel + 3 * (size_t)i, h->p.gravity, s);
-    return rate;
+    return h && h->inflow_n ? h->inflow_rate : 0.0;
 }
 
 int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped)

@@ -146,7 +146,7 @@ struct hbk_fluid {
     float inflow_vel[3], inflow_jitter, inflow_cell, inflow_lo[3];
     float inflow_top2; /* the fastest point's speed squared (the stable step's) */
     int32_t inflow_dims[3];
-    int64_t inflow_columns; /* the points' lattice columns along inflow_vel (the rate's) */
+    double inflow_rate; /* particles a second (hbk_fluid_inflow_rate) */
     int32_t *inflow_head, *inflow_next; /* cells + 1, max_particles */
     int32_t inflow_added, inflow_capped; /* by the last step */
     /* Not state: the outflow (outflow.c): its shape, a mesh's field (a copy), its axes and

@@ -105,12 +105,15 @@ static hbk_result_t inflow(hbk_fluid_t *h)
 }
 
 /* A sprinkler (the second handle's inflow): a ball spraying along its normal and down, its
- * points on its surface (more than the first buffer holds: it grows). */
+ * points on its surface (more than the first buffer holds: it grows), and a tap added beside
+ * it (the two inflows' points merged). */
 static hbk_result_t sprinkler(hbk_fluid_t *h)
 {
     const hbk_fluid_obstacle_t head = {0, {0.7f, 0.6f, 0.6f}, {0.2f, 0.0f, 0.0f}, {0}};
+    const hbk_fluid_obstacle_t tap = {1, {0.2f, 0.7f, 0.8f}, {0.03f, 0.03f, 0.03f}, {0}};
     const float vel[3] = {0.0f, 0.0f, -0.5f};
-    return hbk_fluid_set_inflow_normal(h, &head, NULL, NULL, vel, 1.0f, 0.0f);
+    hbk_result_t r = hbk_fluid_set_inflow_normal(h, &head, NULL, NULL, vel, 1.0f, 0.0f);
+    return r ? r : hbk_fluid_add_inflow(h, &tap, NULL, NULL, vel, 0.0f);
 }
 
 static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
