@@ -199,7 +199,9 @@ def test_inflow_inputs_are_checked_by_name():
              r"\[-1000, 1000\] m/s"),
             ({1: TAP}, (float("nan"), 0.0, 0.0), r"^inflow_velocity = \(nan, 0, 0\): each "),
             ({1: TAP}, "fast", r"^inflow_velocity"),
-            ([TAP], (1.0, 0.0, 0.0), r"^inflow: list: must be a dict \{frame: shape or None\}"),
+            (TAP, (1.0, 0.0, 0.0), r"^inflow: tuple: must be a dict \{frame: shape or None\}"),
+            ([TAP], (1.0, 0.0, 0.0),  # (a list is of taps, each {frame: shape})
+             r"^inflow\[0\]: tuple: must be a dict \{frame: shape or None\}"),
             ({3: ("sphere", (0.5, 0.5), 0.1)}, (1.0, 0.0, 0.0),
              r"^inflow\[3\]\.centre: must have 3 numbers")):
         with pytest.raises(errors.InvalidArgument, match=want):

@@ -36,6 +36,7 @@ Handle.declare("fluid", [
     ("fill_shape", [P(Obstacle), ctypes.c_void_p, ctypes.c_void_p, ctypes.c_float]),
     ("set_inflow_normal", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P(_V3),
                            ctypes.c_float, ctypes.c_float]),
+    ("add_inflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P(_V3), ctypes.c_float]),
     ("set_outflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]),
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
@@ -203,6 +204,15 @@ class Fluid(Handle):
         self.call("set_inflow_normal", ctypes.addressof(arr), dims, field,
                   args.numbers(velocity, "velocity", 3), args.number(normal, "normal"),
                   args.number(jitter, "jitter"))
+
+    def add_inflow(self, shape, velocity=(0.0, 0.0, 0.0), normal=0.0):
+        """A further inflow beside those set (two taps, a fountain's jets): ``shape`` pours
+        at ``velocity`` (plus ``normal`` along its surface normal) exactly as set_inflow would
+        pour it alone, with set_inflow's jitter (0 after set_inflow(None)); the points and the
+        rates add up. set_inflow replaces them all."""
+        arr, dims, field = _shape(shape)
+        self.call("add_inflow", ctypes.addressof(arr), dims, field,
+                  args.numbers(velocity, "velocity", 3), args.number(normal, "normal"))
 
     @property
     def inflow_points(self):

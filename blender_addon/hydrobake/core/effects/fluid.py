@@ -9,7 +9,9 @@ Inputs:
     fill_velocity (vx, vy, vz) m/s: the velocity the filled particles start with (default 0)
     inflow       {frame: shape or None}: water poured in from that frame's step on (SIMULATE):
                  a shape as ``fill_shape`` takes it, None for none; the latest frame given at
-                 or before a step's frame holds (a tap turned on and off, moved or reshaped)
+                 or before a step's frame holds (a tap turned on and off, moved or reshaped);
+                 or a list of such, one per tap (several inflows: then inflow_velocity and
+                 inflow_normal may be lists too, one entry per tap, else one for all)
     inflow_velocity (vx, vy, vz) m/s: the velocity the inflow's water leaves at (default 0),
                  or {frame: (vx, vy, vz)}: the latest frame given at or before a step's frame
                  holds, the first before it (a hose that turns) (the inflow's lattice points
@@ -61,6 +63,7 @@ from .. import args, arrays, errors, solid_textures
 from ..fluid import Fluid, OBSTACLE_KINDS, obstacle_list
 from . import register
 from .base import Effect, plain
+from .fluid_inflows import Inflows, key_at, schedule, shape_digest
 
 
 def _digested(ob):
@@ -68,69 +71,6 @@ def _digested(ob):
     if ob[0] == "mesh":
         return list(ob[:4]) + [arrays.digest(ob[4])]
     return ob
-
-
-def _schedule(given, name):
-    """{frame: checked shape or None} of the inflow or outflow input."""
-    if not isinstance(given, dict):
-        raise errors.InvalidArgument(f"{name}: {type(given).__name__}: must be a dict "
-                                     "{frame: shape or None}")
-    return {int(f): None if sh is None else obstacle_list(sh, f"{name}[{f}]", one=True)[0]
-            for f, sh in given.items()}
-
-
-def _velocity(given, name):
-    """A checked velocity (vx, vy, vz) m/s, each component within +-1000."""
-    v = tuple(args.numbers(given, name, 3))
-    if not all(abs(c) <= 1000.0 for c in v):
-        raise errors.InvalidArgument(
-            f"{name} = ({', '.join(f'{c:g}' for c in v)}): each component must be a finite "
-            "number in [-1000, 1000] m/s")
-    return v
-
-
-def _speed(given, name):
-    """A checked speed in m/s, within [0, 1000]."""
-    v = args.number(given, name)
-    if not 0.0 <= v <= 1000.0:
-        raise errors.InvalidArgument(f"{name} = {v:g}: must be in [0, 1000] m/s")
-    return v
-
-
-class _ByFrame:
-    """An input given for the whole bake or as {frame: value}: the latest frame given at or
-    before a frame holds, the first before it. ``values`` is {None: value} or {frame: value},
-    each checked by check(value, name)."""
-
-    def __init__(self, given, name, check, what):
-        self.by_frame = isinstance(given, dict)
-        self.values = ({int(f): check(v, f"{name}[{f}]") for f, v in given.items()}
-                       if self.by_frame else {None: check(given, name)})
-        if not self.values:
-            raise errors.InvalidArgument(f"{name}: {{}}: must give {what} for at least one "
-                                         "frame")
-        self.keys = sorted(self.values) if self.by_frame else [None]
-
-    def at(self, frame):
-        key = _key_at(self.keys, frame) if self.by_frame else None
-        return self.values[self.keys[0] if key is None else key]
-
-
-def _key_at(keys, frame):
-    """The latest of the sorted frames ``keys`` at or before ``frame`` (None: none yet)."""
-    i = bisect.bisect_right(keys, frame)
-    return keys[i - 1] if i else None
-
-
-def _shape_digest(shape):
-    """A digest of one shape (or None) as a resume compares it."""
-    if shape is None:
-        return arrays.digest(None)
-    return arrays.digest(
-        np.array([OBSTACLE_KINDS.index(shape[0])], np.int64),
-        np.array(list(shape[1]) + list(np.ravel(shape[2])) +
-                 (list(shape[3]) if len(shape) > 3 else []), np.float32),
-        shape[4] if len(shape) > 4 else None)
 
 
 @register
@@ -205,33 +145,10 @@ class FluidEffect(Effect):
         return out
 
     def _check_inflow(self, inp):
-        """The inflow inputs, checked whole before the first frame: each shape by the library
-        too (as it will be set at its frame), so that a shape it refuses (holding more
-        particles than max_particles, say) stops the bake before it starts, not at that
-        frame."""
-        self.inflow = _schedule(inp.get("inflow") or {}, "inflow")
-        self._inflow_keys, self._inflow_on = sorted(self.inflow), None
+        """The inflow inputs (fluid_inflows.Inflows), checked whole before the first frame."""
+        self.inflows = Inflows(inp, self.fluid, self.params["fluid"].source == 0,
+                               float(inp.get("jitter", 0.0)))
         self._capped_at = None  # the first frame the inflow stopped at max_particles
-        self._velocity = _ByFrame(inp.get("inflow_velocity", (0.0,) * 3), "inflow_velocity",
-                                  _velocity, "a velocity")
-        if self.inflow and self.params["fluid"].source != 0:
-            raise errors.InvalidArgument("inflow: only the simulation (source SIMULATE) "
-                                         "pours an inflow")
-        self._inflow_jitter = float(inp.get("jitter", 0.0))
-        self._normal = _ByFrame(inp.get("inflow_normal", 0.0), "inflow_normal", _speed,
-                                "a speed")
-        # each shape with the velocity and normal of its frame, and each change of those with
-        # the shape it meets (a velocity turned into the shape: a sprinkler with no point left)
-        points = sum(self.fluid.inflow_points for _ in self._set_each(
-            "inflow", self._inflow_changes(),
-            lambda f, sh: self.fluid.set_inflow(sh, self._velocity.at(f), self._inflow_jitter,
-                                                self._normal.at(f))))
-        self.fluid.set_inflow(None)
-        if any(sh is not None for sh in self.inflow.values()) and points == 0:
-            # (one frame's shape outside the box pours nothing there; every one is a mistake)
-            raise errors.InvalidArgument(
-                "inflow: no particle fits inside its shape at any frame, within the box (is "
-                "it thinner than particle_spacing, or outside?)")
 
     @staticmethod
     def _set_each(name, shapes, put):
@@ -246,23 +163,10 @@ class FluidEffect(Effect):
                         f"{name}[{f}]: {str(exc).removeprefix(f'{name}: ')}") from None
                 yield f
 
-    def _flow_at(self, frame):
-        """(velocity, normal) the inflow pours with at ``frame``."""
-        return self._velocity.at(frame), self._normal.at(frame)
-
-    def _inflow_changes(self):
-        """{frame: shape} at each frame the inflow's shape, velocity or normal changes."""
-        out = {}
-        for f in sorted((set(self.inflow) | set(self._velocity.keys) | set(self._normal.keys))
-                        - {None}):
-            key = _key_at(self._inflow_keys, f)
-            out[f] = None if key is None else self.inflow[key]
-        return out
-
     def _check_outflow(self, inp):
         """The outflow input, each shape checked by the library before the first frame (as
         the inflow's)."""
-        self.outflow = _schedule(inp.get("outflow") or {}, "outflow")
+        self.outflow = schedule(inp.get("outflow") or {}, "outflow")
         self._outflow_keys, self._outflow_on = sorted(self.outflow), None
         if self.outflow and self.params["fluid"].source != 0:
             raise errors.InvalidArgument("outflow: only the simulation (source SIMULATE) "
@@ -287,11 +191,7 @@ class FluidEffect(Effect):
                   if inp.get("fill_velocity") is not None else {}),
                **({"fill shape": _digested(inp["fill_shape"])}
                   if inp.get("fill_shape") is not None else {}),
-               **({"inflow velocity": list(self._velocity.values[None])}
-                  if self.inflow and not self._velocity.by_frame else {}),
-               **({"inflow normal": self._normal.values[None]}
-                  if self.inflow and not self._normal.by_frame and self._normal.values[None]
-                  else {}),
+               **self.inflows.scalar_inputs(),
                "obstacles": [_digested(ob) for ob in inp.get("obstacles") or []]}
         if inp.get("rules"):
             out["rules"] = [[int(t), [float(v) for v in lo], [float(v) for v in hi]]
@@ -320,16 +220,10 @@ class FluidEffect(Effect):
             out = {"particles": arrays.digest(*self.particles.get(frame, (None, None))),
                    "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
         # the shapes this frame's step pours from and drains into (a resume must match them)
-        for name, shapes, keys in (("inflow", self.inflow, self._inflow_keys),
-                                   ("outflow", self.outflow, self._outflow_keys)):
-            if shapes:
-                key = _key_at(keys, frame)
-                out[name] = _shape_digest(None if key is None else shapes[key])
-        if self.inflow and self._velocity.by_frame:  # (one for the bake: the scalars')
-            out["inflow velocity"] = arrays.digest(np.array(self._velocity.at(frame),
-                                                            np.float32))
-        if self.inflow and self._normal.by_frame:
-            out["inflow normal"] = arrays.digest(np.array([self._normal.at(frame)], np.float32))
+        out.update(self.inflows.frame_inputs(frame))
+        if self.outflow:
+            key = key_at(self._outflow_keys, frame)
+            out["outflow"] = shape_digest(None if key is None else self.outflow[key])
         if self.path:
             obs = self._obstacles_at(frame)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
@@ -354,12 +248,8 @@ class FluidEffect(Effect):
             self.fluid.paint_sphere(texture, centre, radius, falloff)
         if self.path:
             self.fluid.move_obstacles(self._obstacles_at(frame))
-        key = (_key_at(self._inflow_keys, frame),) + self._flow_at(frame)
-        if key != self._inflow_on:  # (a resumed bake: from its first frame's)
-            shape = None if key[0] is None else self.inflow[key[0]]
-            self.fluid.set_inflow(shape, key[1], self._inflow_jitter, key[2])
-            self._inflow_on = key
-        key = _key_at(self._outflow_keys, frame)
+        self.inflows.apply(frame)
+        key = key_at(self._outflow_keys, frame)
         if key != self._outflow_on:
             self.fluid.set_outflow(None if key is None else self.outflow[key])
             self._outflow_on = key
@@ -379,33 +269,28 @@ class FluidEffect(Effect):
         along the flow, each pouring once the water before has gone a spacing:
         hbk_fluid_inflow_rate). The rate leaves out water backing up to the tap (it pours
         less) and a jet's own pressure (a slow one pours more: 15% at 0.5 m/s)."""
-        if not self.inflow:
+        if not self.inflows.any:
             return []
         fp = self.params["fluid"]
-        count, at, rates, rate = float(self.fluid.particle_count), None, {}, 0.0
-        on, opened = False, None  # (whether it poured the frame before; an outflow opens)
+        count, at, rate = float(self.fluid.particle_count), None, 0.0
+        on, opened = set(), None  # (the taps that poured the frame before; an outflow opens)
         try:
             for frame in range(start, end + 1):
-                drain = _key_at(self._outflow_keys, frame)
+                drain = key_at(self._outflow_keys, frame)
                 if drain is not None and self.outflow[drain] is not None:
                     opened = frame  # (from here on it drains: how much, only the bake tells)
                     break
-                key = (_key_at(self._inflow_keys, frame),) + self._flow_at(frame)
-                if key[0] is None or self.inflow[key[0]] is None:
-                    on = False
-                    continue
-                if key not in rates:
-                    self.fluid.set_inflow(self.inflow[key[0]], key[1], normal=key[2])
-                    rates[key] = (self.fluid.inflow_rate, self.fluid.inflow_points)
-                if not on:  # turned on: its shape fills at once, then its stream
-                    count += rates[key][1]
-                on = True
-                count += rates[key][0] * fp.dt
+                pouring = self.inflows.alone(frame)
+                for tap, (_rate, points) in pouring:
+                    if tap not in on:  # turned on: its shape fills at once, then its stream
+                        count += points
+                on = {tap for tap, _ in pouring}
+                now = sum(r for _, (r, _points) in pouring)
+                count += now * fp.dt
                 if at is None and count > fp.max_particles:
-                    at, rate = frame, rates[key][0]
+                    at, rate = frame, now
         finally:
-            self.fluid.set_inflow(None)  # (step sets its own)
-            self._inflow_on = None
+            self.inflows.forget()  # (step sets its own)
         if at is None:
             return []
         need = int(-(-count // 1000) * 1000)  # (up to a thousand)
