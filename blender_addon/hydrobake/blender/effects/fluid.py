@@ -135,6 +135,18 @@ def _warn_unsigned(obj):
                   f"{fix} for a solid", BakeWarning)
 
 
+def _inflow_objects(settings):
+    """The objects that pour: the Inflow, then those of the Inflows collection, each shape
+    once (a metaball family's members are one surface: the first of them)."""
+    found = [settings.inflow_object] if settings.inflow_object is not None else []
+    if settings.inflow_collection is not None:
+        found += list(settings.inflow_collection.all_objects)
+    first = {}
+    for o in found:
+        first.setdefault(meshes.shape_holder(o), o)
+    return list(first.values())
+
+
 class HYDROBAKE_PG_fluid_rule(bpy.types.PropertyGroup):
     """Feature paint (paper §3.1): where a feature lies in [low, high], use the texture."""
     texture: bpy.props.IntProperty(name="Texture", default=1, min=0, max=7,
@@ -276,6 +288,12 @@ class FluidBlender(BlenderEffect):
                             "hose; an open mesh such as a Plane: the sheet around its faces), "
                             "as fast as the water before leaves it, from Inflow Start to "
                             "Inflow End; followed when it moves. Stops at Max Particles"),
+            inflow_collection=bpy.props.PointerProperty(
+                name="Inflows", type=bpy.types.Collection,
+                description="SIMULATE: more taps: every object in this collection pours as "
+                            "the Inflow does, from its own shape, with the settings below "
+                            "(Local Velocity turns each with its own axes; Source adds each "
+                            "one's own motion)"),
             inflow_velocity=bpy.props.FloatVectorProperty(
                 name="Inflow Velocity", size=3, default=(0.0, 0.0, -1.0), min=-100.0,
                 max=100.0, subtype="VELOCITY", unit="VELOCITY",
@@ -381,7 +399,7 @@ class FluidBlender(BlenderEffect):
                           f"{2.0 * cell:.3g} m, or a finer resolution", BakeWarning)
         inputs = {}
         if fp["source"] == 0:
-            if settings.fill_object is None and settings.inflow_object is None:
+            if settings.fill_object is None and not _inflow_objects(settings):
                 raise ValueError("Fill: SIMULATE needs an object whose shape the fluid fills "
                                  "(or an Inflow to pour it from)")
             if settings.fill_object is not None:
@@ -401,29 +419,10 @@ class FluidBlender(BlenderEffect):
                 shape = _fill_shape(context, fill, fp["particle_spacing"])
                 if shape is not None:
                     inputs["fill_shape"] = shape
-            if settings.inflow_object is not None:
-                made = {}
-                inputs["inflow"] = yield from cls._flow(context, settings, "Inflow", fp, frames,
-                                                        lo, hi, made)
-                sheet = made.get("shape")
-                sheet = sheet if sheet is not None and sheet.sheet else None
-                # a flat sheet's Normal is one velocity, along its faces' normal (as
-                # Mantaflow's planar flow): poured from its lattice, one side only
-                flat = (sheet.flat if sheet is not None and
-                        not animation.may_deform(settings.inflow_object) else None)
-                inputs["inflow_velocity"] = yield from cls._inflow_velocity(
-                    context, settings, frames, fp["dt"], flat)
-                normal = 0.0 if flat is not None else (
-                    yield from cls._inflow_normal(context, settings, frames))
-                if any(v > 0.0 for v in (normal.values() if isinstance(normal, dict)
-                                         else [normal])):
-                    inputs["inflow_normal"] = normal
-                    if sheet is not None:
-                        warnings.warn(
-                            f"Inflow: {settings.inflow_object.name}'s faces are open and do "
-                            "not lie in one plane facing one way, so its Normal sprays from "
-                            "both sides of them; flatten it for one side, or close it for a "
-                            "sprinkler", BakeWarning)
+            taps = _inflow_objects(settings)
+            if taps:
+                inputs.update((yield from cls._inflows(context, settings, taps, fp, frames,
+                                                       lo, hi)))
             if settings.outflow_object is not None:
                 inputs["outflow"] = yield from cls._flow(context, settings, "Outflow", fp,
                                                          frames, lo, hi)
@@ -483,6 +482,46 @@ class FluidBlender(BlenderEffect):
         inputs["rules"] = rules
         return params, inputs
 
+    @classmethod
+    def _inflows(cls, context, settings, taps, fp, frames, lo, hi):
+        """The core's inflow, inflow_velocity and inflow_normal of the objects ``taps`` (the
+        Inflow and those of the Inflows collection): as they are for one, lists of one per
+        tap for several. Each pours from its own shape (_flow) at the Inflow Velocity (turned
+        by its own axes with Local Velocity, with Source its own motion added); a flat sheet's
+        Normal goes into its velocity, along its faces' normal."""
+        shapes, velocities, normals = [], [], []
+        normal = None  # (the Normal, read once for all the taps that spray it)
+        for obj in taps:
+            made = {}
+            shapes.append((yield from cls._flow(context, settings, "Inflow", fp, frames, lo, hi,
+                                                made, obj)))
+            sheet = made.get("shape")
+            sheet = sheet if sheet is not None and sheet.sheet else None
+            # a flat sheet's Normal is one velocity, along its faces' normal (as Mantaflow's
+            # planar flow): poured from its lattice, one side only
+            flat = sheet.flat if sheet is not None and not animation.may_deform(obj) else None
+            velocities.append((yield from cls._inflow_velocity(context, settings, frames,
+                                                               fp["dt"], flat, obj)))
+            if flat is not None:
+                normals.append(0.0)
+                continue
+            if normal is None:
+                normal = yield from cls._inflow_normal(context, settings, frames)
+            normals.append(normal)
+            if sheet is not None and any(v > 0.0 for v in (
+                    normal.values() if isinstance(normal, dict) else [normal])):
+                warnings.warn(f"Inflow: {obj.name}'s faces are open and do not lie in one "
+                              "plane facing one way, so its Normal sprays from both sides of "
+                              "them; flatten it for one side, or close it for a sprinkler",
+                              BakeWarning)
+        sprays = any(v > 0.0 for n in normals
+                     for v in (n.values() if isinstance(n, dict) else [n]))
+        if len(taps) == 1:
+            return {"inflow": shapes[0], "inflow_velocity": velocities[0],
+                    **({"inflow_normal": normals[0]} if sprays else {})}
+        return {"inflow": shapes, "inflow_velocity": velocities,
+                **({"inflow_normal": normals} if sprays else {})}
+
     @staticmethod
     def _followed_shape(context, obj, role, fp, frames, lo, hi, made):
         """(the shape at the bake's first frame, {frame: shape} where it moves or changes
@@ -513,7 +552,7 @@ class FluidBlender(BlenderEffect):
         return first, path
 
     @classmethod
-    def _flow(cls, context, settings, role, fp, frames, lo, hi, made=None):
+    def _flow(cls, context, settings, role, fp, frames, lo, hi, made=None, obj=None):
         """The core's inflow or outflow input (``role`` "Inflow" or "Outflow"), {frame: shape
         or None}: None before its Start and after its End; in between its object's shape (as
         the Fill's: a ball, a field, or its box) at the start and wherever it moves or changes
@@ -523,8 +562,8 @@ class FluidBlender(BlenderEffect):
         if end < start:
             raise ValueError(f"{role} End = {end} is before {role} Start = {start}: the "
                              f"{role} would never {'pour' if key == 'inflow' else 'drain'}")
-        first, path = yield from cls._followed_shape(context, getattr(settings, f"{key}_object"),
-                                                     role, fp, frames, lo, hi,
+        obj = getattr(settings, f"{key}_object") if obj is None else obj
+        first, path = yield from cls._followed_shape(context, obj, role, fp, frames, lo, hi,
                                                      {} if made is None else made)
         out = {frames[0]: None} if start > frames[0] else {}
         if start <= frames[1] and end >= frames[0]:
@@ -550,13 +589,13 @@ class FluidBlender(BlenderEffect):
         return got[frames[0]] if isinstance(got, dict) else got
 
     @classmethod
-    def _inflow_velocity(cls, context, settings, frames, dt, flat=None):
+    def _inflow_velocity(cls, context, settings, frames, dt, flat=None, obj=None):
         """The core's inflow_velocity: the Inflow Velocity (world axes; with Local Velocity
         turned by the Inflow object's world rotation) plus Source times the object's own
         velocity (see _followed_velocity); for a flat sheet plus Normal times its faces'
         normal (``flat``, in its scaled own axes) turned into the world."""
         return (yield from cls._followed_velocity(
-            context, settings, "inflow_velocity", settings.inflow_object, frames, dt,
+            context, settings, "inflow_velocity", obj or settings.inflow_object, frames, dt,
             settings.inflow_local, settings.inflow_source, flat))
 
     @staticmethod
@@ -1048,9 +1087,10 @@ class FluidBlender(BlenderEffect):
     @classmethod
     def draw_settings(cls, layout, settings):
         col = layout.column()
-        for name in ("fill_object", "fill_velocity", "fill_source", "inflow_object"):
+        for name in ("fill_object", "fill_velocity", "fill_source", "inflow_object",
+                     "inflow_collection"):
             col.prop(settings, name)
-        if settings.inflow_object is not None:
+        if settings.inflow_object is not None or settings.inflow_collection is not None:
             sub = col.column(align=True)
             sub.prop(settings, "inflow_velocity")
             sub.prop(settings, "inflow_normal")
