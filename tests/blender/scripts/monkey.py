@@ -298,6 +298,13 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
                     tap.location.x = x
                     tap.keyframe_insert("location", index=0, frame=frame)
             s.inflow_object, s.inflow_velocity, s.inflow_start = tap, (0.5, 0.0, -1.0), 2
+            if random.Random(seed * 59 + 29).random() < 0.3:  # more taps (its own draw)
+                more = bpy.data.collections.new("Taps")
+                bpy.context.scene.collection.children.link(more)
+                more.objects.link(in_blender.new_box("Tap2", (0.05, 0.05, 0.05),
+                                                     (0.7, 3.35, 0.35)))
+                more.objects.link(tap)  # (also the Inflow: it pours once)
+                s.inflow_collection = more
             if random.Random(seed * 53 + 23).random() < 0.3:  # a tap turned up (keyed)
                 s.keyframe_insert("inflow_velocity", frame=1)
                 s.inflow_velocity = (0.0, 0.0, -2.0)
