@@ -139,6 +139,18 @@ def test_a_tap_turned_on_at_frame_3_and_off_at_6_pours_in_frames_3_to_5_only():
         e.close()
 
 
+def forecast_and_stop(e, last, step=True):
+    """(the frame the forecast of frames 1..last names, the frame a bake of them then stops
+    pouring at: None if it does not, or not ``step``)."""
+    (text,) = e.forecast(1, last)
+    said = int(text.split("about frame ")[1].split()[0])
+    for frame in range(1, last + 1 if step else 1):
+        e.step(frame, None)
+        if e.fluid.inflow_added[1]:
+            return said, frame
+    return said, None
+
+
 def test_the_forecast_names_the_frame_the_inflow_will_stop_at():
     """A ball under gravity pouring down and sideways from frame 3 (turned off at 40, on again
     at 45) onto a pool, with room for 3000 more particles: the forecast's frame is the bake's

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from hydrobake.core import errors, fluid
-from hydrobake.core.effects import get
-from test_fluid_inflow import POOL, STILL, TAP, assert_resumed_alike
 from hydrobake.core.bake import BakeRunner
+from hydrobake.core.effects import get
+from test_fluid_inflow import POOL, STILL, TAP, assert_resumed_alike, forecast_and_stop
 
 TAP_B = ("box", (0.7, 0.3, 0.6), (0.045, 0.045, 0.015))
 VEL_A, VEL_B = (1.0, 0.0, 0.0), (0.0, 0.5, -1.0)
@@ -95,14 +95,9 @@ def test_the_forecast_sums_the_taps():
     for name, inflow in (("one", [{1: TAP}]), ("two", [{1: TAP}, {4: TAP_B}])):
         e = taps(inflow, [VEL_A, VEL_B][:len(inflow)], fluid_params=dict(POOL, max_particles=900))
         try:
-            (text,) = e.forecast(1, 60)
-            said[name] = int(text.split("about frame ")[1].split()[0])
+            said[name], stopped = forecast_and_stop(e, 60, step=name == "two")
             if name == "two":
-                for frame in range(1, 61):
-                    e.step(frame, None)
-                    if e.fluid.inflow_added[1]:
-                        break
-                assert abs(frame - said[name]) <= 2, (frame, said, text)
+                assert stopped is not None and abs(stopped - said[name]) <= 2, (stopped, said)
         finally:
             e.close()
     assert said["two"] < said["one"], said

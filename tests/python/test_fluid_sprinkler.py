@@ -6,7 +6,7 @@ import pytest
 
 from hydrobake.core import errors, fluid
 from hydrobake.core.effects import get
-from test_fluid_inflow import POOL, STILL, assert_resumed_alike, pour
+from test_fluid_inflow import POOL, STILL, assert_resumed_alike, forecast_and_stop, pour
 
 BALL = ("sphere", (0.5, 0.5, 0.5), 0.1)
 S, DT = 0.02, 1 / 24
@@ -108,13 +108,8 @@ def test_the_forecast_counts_the_sprinkler():
     params = {"fluid": dict(POOL, max_particles=6000)}
     e = get("fluid")(params, inputs)
     try:
-        (text,) = e.forecast(1, 40)
-        said = int(text.split("about frame ")[1].split()[0])
-        for frame in range(1, 41):
-            e.step(frame, None)
-            if e.fluid.inflow_added[1]:
-                break
-        assert abs(frame - said) <= 2, (frame, said, text)
+        said, stopped = forecast_and_stop(e, 40)
+        assert stopped is not None and abs(stopped - said) <= 2, (stopped, said)
     finally:
         e.close()
 
@@ -205,14 +200,9 @@ def test_the_forecast_follows_a_normal_by_frame():
     for name, normal in (("at once", 1.0), ("from 6", {1: 0.0, 6: 1.0})):
         e = get("fluid")(params, dict(inputs, inflow_normal=normal))
         try:
-            (text,) = e.forecast(1, 40)
-            said[name] = int(text.split("about frame ")[1].split()[0])
+            said[name], stopped = forecast_and_stop(e, 40, step=name == "from 6")
             if name == "from 6":
-                for frame in range(1, 41):
-                    e.step(frame, None)
-                    if e.fluid.inflow_added[1]:
-                        break
-                assert abs(frame - said[name]) <= 2, (frame, said, text)
+                assert stopped is not None and abs(stopped - said[name]) <= 2, (stopped, said)
         finally:
             e.close()
     assert said["from 6"] >= said["at once"] + 3, said
