@@ -224,6 +224,12 @@ HBK_EXPORT int32_t hbk_fluid_inflow_added(const hbk_fluid_t *h, int32_t *capped)
  * HBK_ERR_OUT_OF_MEMORY. */
 HBK_EXPORT hbk_result_t hbk_fluid_set_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
                                               const int32_t dims[3], const float *distance);
+/* A further drain beside those set (a pool's two drains): after every SPH substep the
+ * particles inside `shape` go too, as set_outflow takes it (the field is copied). set_outflow
+ * replaces them all. HBK_ERR_INVALID_ARGUMENT as set_outflow (a NULL shape too), the drains
+ * left as they were; HBK_ERR_OUT_OF_MEMORY. */
+HBK_EXPORT hbk_result_t hbk_fluid_add_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                              const int32_t dims[3], const float *distance);
 /* Particles the outflow removed in the last step. 0 for NULL. */
 HBK_EXPORT int32_t hbk_fluid_outflow_removed(const hbk_fluid_t *h);
 /* Replaces the obstacle list (count 0..64; NULL with 0 clears), still where they are, and

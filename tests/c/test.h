@@ -255,7 +255,9 @@ float *fluid_sdf_field(int shape, const float e[3], int n, double a, double b, d
     X(fluid, outflow_frame_by_frame)    \
     X(fluid, outflow_refused)           \
     X(fluid, outflow_tap_and_drain)     \
-    X(fluid, outflow_cancel)
+    X(fluid, outflow_cancel)            \
+    X(fluid, outflows_added)            \
+    X(fluid, outflows_replaced_and_refused)
 
 #define HBK_DECLARE(g, n) void test_##g##_##n(void);
 HBK_TEST_LIST(HBK_DECLARE)

@@ -33,6 +33,15 @@ typedef struct hbk_fluid_vols {
                          * clean, known by the sixteen-lane row) */
 } hbk_fluid_vols_t;
 
+/* One drain of the outflow (outflow.c): its shape, a mesh's field (a copy), its axes and
+ * box. */
+typedef struct hbk_fluid_drain {
+    hbk_fluid_obstacle_t shape;
+    int32_t dims[3];
+    float *field;
+    float ax[9], lo[3], hi[3];
+} hbk_fluid_drain_t;
+
 struct hbk_fluid {
     hbk_fluid_params_t p;
     hbk_message_t msg;
@@ -149,13 +158,9 @@ struct hbk_fluid {
     double inflow_rate; /* particles a second (hbk_fluid_inflow_rate) */
     int32_t *inflow_head, *inflow_next; /* cells + 1, max_particles */
     int32_t inflow_added, inflow_capped; /* by the last step */
-    /* Not state: the outflow (outflow.c): its shape, a mesh's field (a copy), its axes and
-     * box, and a byte per particle (inside it). */
-    int outflow_on;
-    hbk_fluid_obstacle_t outflow;
-    int32_t outflow_dims[3];
-    float *outflow_field;
-    float outflow_ax[9], outflow_lo[3], outflow_hi[3];
+    /* Not state: the outflow (outflow.c): its drains, and a byte per particle (inside one). */
+    hbk_fluid_drain_t *drains;
+    int32_t drain_n;
     uint8_t *outflow_gone;
     int32_t outflow_removed; /* by the last step */
 };

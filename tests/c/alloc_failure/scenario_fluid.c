@@ -141,6 +141,9 @@ static void run_source(af_ctx_t *c, fluid_state_t *s, int32_t source)
         const hbk_fluid_obstacle_t drain = {3, {0.1f, 0.1f, 0.1f}, {0.1f, 0.1f, 0.1f},
                                             {1, 0, 0, 0}};
         AF_CALL(c, hbk_fluid_set_outflow(s->a, &drain, dims, field), hbk_fluid_message(s->a));
+        /* and a second drain beside it (the drains' list grows) */
+        const hbk_fluid_obstacle_t sump = {1, {0.3f, 0.05f, 0.05f}, {0.05f, 0.05f, 0.05f}, {0}};
+        AF_CALL(c, hbk_fluid_add_outflow(s->a, &sump, NULL, NULL), hbk_fluid_message(s->a));
     } else {
         inputs(c, s->a, source, 0);
         if (af_failed(c)) return;
