@@ -147,7 +147,8 @@ def test_a_drain_opened_at_frame_3_and_closed_at_6_drains_in_frames_3_to_5_only(
 def test_outflow_inputs_are_checked_by_name():
     fill = ((0.6, 0.6, 0.0), (0.8, 0.8, 0.1))
     for outflow, want in (
-            ([DRAIN], r"^outflow: list: must be a dict \{frame: shape or None\}"),
+            (DRAIN, r"^outflow: tuple: must be a dict \{frame: shape or None\}"),
+            ([DRAIN], r"^outflow\[0\]: tuple: must be a dict \{frame: shape or None\}"),
             ({3: ("sphere", (0.5, 0.5), 0.1)}, r"^outflow\[3\]\.centre: must have 3 numbers"),
             ({1: None, 4: ("mesh", (0.5, 0.5, 0.5), (0.1, 0.1, 0.1), (1, 0, 0, 0),
                            np.full((2, 2, 2), np.inf, np.float32))},

@@ -38,6 +38,7 @@ Handle.declare("fluid", [
                            ctypes.c_float, ctypes.c_float]),
     ("add_inflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P(_V3), ctypes.c_float]),
     ("set_outflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]),
+    ("add_outflow", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]),
     ("get_particles", [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int32]),
     ("set_obstacles", [P(Obstacle), ctypes.c_int32]),
     ("move_obstacles", [P(Obstacle), ctypes.c_int32]),
@@ -244,6 +245,12 @@ class Fluid(Handle):
             return
         arr, dims, field = _shape(shape)
         self.call("set_outflow", ctypes.addressof(arr), dims, field)
+
+    def add_outflow(self, shape):
+        """A further drain beside those set (a pool's two drains): the particles inside
+        ``shape`` go too, after every SPH substep. set_outflow replaces them all."""
+        arr, dims, field = _shape(shape)
+        self.call("add_outflow", ctypes.addressof(arr), dims, field)
 
     @property
     def outflow_removed(self):

@@ -21,7 +21,7 @@ Inputs:
                  points on its surface, where that velocity leaves it (a sprinkler); or
                  {frame: m/s}, held as inflow_velocity's (a sprinkler turned up)
     outflow      {frame: shape or None}: a drain from that frame's step on (SIMULATE): the
-                 water inside the shape goes; given as ``inflow`` is
+                 water inside the shape goes; given as ``inflow`` is (a list: several drains)
     obstacles    [("sphere"|"box", centre, size) | ("turned_box", centre, half_sizes, (w, x, y,
                  z)) | ("mesh", centre, half_sizes, (w, x, y, z), field)] (SIMULATE): as they
                  are at the first frame (fluid.obstacle_list)
@@ -63,7 +63,7 @@ from .. import args, arrays, errors, solid_textures
 from ..fluid import Fluid, OBSTACLE_KINDS, obstacle_list
 from . import register
 from .base import Effect, plain
-from .fluid_inflows import Inflows, key_at, schedule, shape_digest
+from .fluid_flows import Inflows, Outflows
 
 
 def _digested(ob):
@@ -150,29 +150,9 @@ class FluidEffect(Effect):
                                float(inp.get("jitter", 0.0)))
         self._capped_at = None  # the first frame the inflow stopped at max_particles
 
-    @staticmethod
-    def _set_each(name, shapes, put):
-        """Sets each frame's shape of ``shapes`` in the library in turn by put(frame, shape),
-        as that frame will (a refusal then names "name[frame]"), yielding after each."""
-        for f in sorted(shapes):
-            if shapes[f] is not None:
-                try:
-                    put(f, shapes[f])
-                except errors.InvalidArgument as exc:
-                    raise errors.InvalidArgument(
-                        f"{name}[{f}]: {str(exc).removeprefix(f'{name}: ')}") from None
-                yield f
-
     def _check_outflow(self, inp):
-        """The outflow input, each shape checked by the library before the first frame (as
-        the inflow's)."""
-        self.outflow = schedule(inp.get("outflow") or {}, "outflow")
-        self._outflow_keys, self._outflow_on = sorted(self.outflow), None
-        if self.outflow and self.params["fluid"].source != 0:
-            raise errors.InvalidArgument("outflow: only the simulation (source SIMULATE) "
-                                         "drains an outflow")
-        list(self._set_each("outflow", self.outflow, lambda _f, sh: self.fluid.set_outflow(sh)))
-        self.fluid.set_outflow(None)
+        """The outflow input (fluid_flows.Outflows), checked before the first frame."""
+        self.outflows = Outflows(inp, self.fluid, self.params["fluid"].source == 0)
 
     def _obstacles_at(self, frame):
         """The obstacles where the path has them at ``frame``."""
@@ -221,9 +201,7 @@ class FluidEffect(Effect):
                    "velocity": arrays.digest(*self.velocity.get(frame, (None, None)))}
         # the shapes this frame's step pours from and drains into (a resume must match them)
         out.update(self.inflows.frame_inputs(frame))
-        if self.outflow:
-            key = key_at(self._outflow_keys, frame)
-            out["outflow"] = shape_digest(None if key is None else self.outflow[key])
+        out.update(self.outflows.frame_inputs(frame))
         if self.path:
             obs = self._obstacles_at(frame)
             turned = any(ob[0] in ("turned_box", "mesh") for ob in obs)  # (else as before)
@@ -249,10 +227,7 @@ class FluidEffect(Effect):
         if self.path:
             self.fluid.move_obstacles(self._obstacles_at(frame))
         self.inflows.apply(frame)
-        key = key_at(self._outflow_keys, frame)
-        if key != self._outflow_on:
-            self.fluid.set_outflow(None if key is None else self.outflow[key])
-            self._outflow_on = key
+        self.outflows.apply(frame)
         self.fluid.step(progress)
         if self._capped_at is None and self.fluid.inflow_added[1]:
             self._capped_at = frame
@@ -276,8 +251,7 @@ class FluidEffect(Effect):
         on, opened = set(), None  # (the taps that poured the frame before; an outflow opens)
         try:
             for frame in range(start, end + 1):
-                drain = key_at(self._outflow_keys, frame)
-                if drain is not None and self.outflow[drain] is not None:
+                if self.outflows.opened(frame):
                     opened = frame  # (from here on it drains: how much, only the bake tells)
                     break
                 pouring = self.inflows.alone(frame)

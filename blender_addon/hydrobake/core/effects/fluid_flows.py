@@ -1,7 +1,8 @@
-"""The fluid effect's inflows and their schedules: each tap's shape by frame, its velocity and
-Normal (for the bake or by frame), checked before the first frame, set in the library as each
-frame's step needs them (hbk_fluid_set_inflow, then hbk_fluid_add_inflow for the others), and
-what a resume compares of them."""
+"""The fluid effect's inflows and outflows and their schedules: each tap's shape by frame, its
+velocity and Normal (for the bake or by frame), each drain's shape by frame, checked before
+the first frame, set in the library as each frame's step needs them (set_inflow, then
+add_inflow for the other taps; set_outflow and add_outflow alike), and what a resume compares
+of them."""
 import bisect
 
 import numpy as np
@@ -234,3 +235,68 @@ class Inflows:
                     np.array([(k,) + tuple(v) for k, v, _ in on], np.float32).reshape(-1, 4)),
                 "inflow normal": arrays.digest(
                     np.array([(k, n) for k, _, n in on], np.float32).reshape(-1, 2))}
+
+
+class Outflows:
+    """The outflow input (``outflow`` one {frame: shape} or a list of them, one per drain),
+    each shape checked by the library before the first frame (as the inflows')."""
+
+    def __init__(self, inp, fluid, simulating):
+        given = inp.get("outflow") or {}
+        self.many = isinstance(given, list)
+        self.names = ([f"outflow[{k}]" for k in range(len(given))] if self.many
+                      else ["outflow"])
+        self.drains = [schedule(sh, name)
+                       for sh, name in zip(given if self.many else [given], self.names)]
+        self.keys = [sorted(d) for d in self.drains]
+        self.any = any(self.drains)
+        self.fluid, self._on = fluid, None
+        if self.any and not simulating:
+            raise errors.InvalidArgument("outflow: only the simulation (source SIMULATE) "
+                                         "drains an outflow")
+        for drain, name in zip(self.drains, self.names):
+            for f in sorted(drain):
+                if drain[f] is None:
+                    continue
+                try:
+                    self.fluid.set_outflow(drain[f])
+                except errors.InvalidArgument as exc:
+                    raise errors.InvalidArgument(
+                        f"{name}[{f}]: {str(exc).removeprefix(f'{name}: ')}") from None
+        self.fluid.set_outflow(None)
+
+    def _open(self, frame):
+        """The shapes of the drains open at ``frame``."""
+        out = []
+        for drain, keys in zip(self.drains, self.keys):
+            key = key_at(keys, frame)
+            if key is not None and drain[key] is not None:
+                out.append(drain[key])
+        return out
+
+    def opened(self, frame):
+        """Whether a drain is open at ``frame``."""
+        return bool(self._open(frame))
+
+    def apply(self, frame):
+        """Sets the library's drains as ``frame``'s step drains, where they changed."""
+        key = tuple(key_at(keys, frame) for keys in self.keys)
+        if key != self._on:
+            shapes = self._open(frame)
+            self.fluid.set_outflow(shapes[0] if shapes else None)
+            for shape in shapes[1:]:
+                self.fluid.add_outflow(shape)
+            self._on = key
+
+    def frame_inputs(self, frame):
+        """The shapes ``frame``'s step drains into (a resume must match them)."""
+        if not self.any:
+            return {}
+        shapes = []
+        for drain, keys in zip(self.drains, self.keys):
+            key = key_at(keys, frame)
+            shapes.append(None if key is None else drain[key])
+        if not self.many:
+            return {"outflow": shape_digest(shapes[0])}
+        digests = "".join(shape_digest(sh) for sh in shapes)
+        return {"outflow": arrays.digest(np.frombuffer(digests.encode(), np.uint8))}
