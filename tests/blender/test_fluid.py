@@ -85,10 +85,12 @@ def test_the_fill_object_is_filled_by_its_shape(blender, tmp_path):
         assert f"FLUID FILL {part} OK" in r.stdout, r.stdout
 
 
-def test_every_object_of_the_inflows_collection_pours(blender, tmp_path):
+def test_every_object_of_the_inflows_and_outflows_collections_pours_or_drains(blender,
+                                                                              tmp_path):
     r = blender.run("fluid_inflows.py", tmp_path)
     for part in ("INPUTS", "ONCE", "BAKED"):
         assert f"FLUID INFLOWS {part} OK" in r.stdout, r.stdout
+    assert "FLUID OUTFLOWS BAKED OK" in r.stdout, r.stdout
 
 
 def test_a_planar_inflow_pours_from_the_sheet_around_its_faces(blender, tmp_path):

@@ -75,3 +75,47 @@ under = [np.sum(np.all(np.abs(pos[:, :2] - c[:2]) < 0.06, axis=1)) for c in cent
 assert len(pos) > 0 and all(n > 0.3 * len(pos) for n in under), (len(pos), under)
 print("inflows: poured", len(pos), "particles,", under, "under each tap")
 print("FLUID INFLOWS BAKED OK")
+
+# several drains: every object of the Outflows collection drains its own shape; after the
+# bake no water is inside either, though the taps pour onto both
+drains = bpy.data.collections.new("Drains")
+bpy.context.scene.collection.children.link(drains)
+boxes = [in_blender.new_box(n, (0.2, 0.2, 0.06), (x, y, 0.03))
+         for n, x, y in (("DrainL", 0.25, 0.15), ("DrainR", 0.65, 0.35))]
+for o in boxes:
+    drains.objects.link(o)
+f.outflow_collection = drains
+outs = in_blender.fluid_inputs(domain)["outflow"]
+assert isinstance(outs, list) and len(outs) == 2, outs
+f.outflow_object = boxes[0]  # (the Outflow and in the collection: once)
+assert len(in_blender.fluid_inputs(domain)["outflow"]) == 2
+
+
+def bake_inside(folder):
+    """(particles drained by frame, those inside each drain's box at the end) of a bake."""
+    job = jobs.Job(bpy.context, domain, "fluid", folder_override=bpy.path.abspath(folder))
+    e = job.runner.effect
+    removed, last, old = [], {}, e.step
+
+    def step(frame, progress):
+        old(frame, progress)
+        removed.append(e.fluid.outflow_removed)
+        last["pos"] = e.fluid.particles()[0]
+    e.step = step
+    job.runner.run()
+    job.finalize(bpy.context)
+    pos = last["pos"]
+    return removed, [int(np.sum(np.all(np.abs(pos - np.array(o.location)) <
+                                       np.array([0.1, 0.1, 0.03]), axis=1))) for o in boxes]
+
+
+removed, inside = bake_inside("//drains")
+assert sum(removed) > 0 and inside == [0, 0], (removed, inside)
+# (the left drain alone leaves water in the right one's box: both drained above)
+drains.objects.unlink(boxes[1])
+_, alone = bake_inside("//drain")
+assert alone[0] == 0 and alone[1] > 0, alone
+drains.objects.link(boxes[1])
+print("outflows: drained", removed, "particles by frame; none left inside either (the left "
+      "alone leaves", alone[1], "in the right one's box)")
+print("FLUID OUTFLOWS BAKED OK")

@@ -323,6 +323,12 @@ def build_scene(seed, effects, tmp, sources=False, obstacles=False):
                                                       (0.9, 3.25, 0.0))
                 if random.Random(seed * 43 + 17).random() < 0.5:  # a plug pulled at frame 2
                     s.outflow_start = 2
+            if random.Random(seed * 61 + 31).random() < 0.3:  # more drains (its own draw)
+                sumps = bpy.data.collections.new("Sumps")
+                bpy.context.scene.collection.children.link(sumps)
+                sumps.objects.link(in_blender.new_box("Sump", (0.15, 0.15, 0.05),
+                                                      (0.5, 3.4, 0.0)))
+                s.outflow_collection = sumps
         if sources:  # its own generator: the fixed seeds' scenes stay as they were
             emitter = in_blender.new_box("Emitter", (0.3, 0.3, 0.05), (0.5, 3.25, 0.4))
             ps = emitter.modifiers.new("Drops", "PARTICLE_SYSTEM").particle_system.settings

@@ -135,12 +135,14 @@ def _warn_unsigned(obj):
                   f"{fix} for a solid", BakeWarning)
 
 
-def _inflow_objects(settings):
-    """The objects that pour: the Inflow, then those of the Inflows collection, each shape
-    once (a metaball family's members are one surface: the first of them)."""
-    found = [settings.inflow_object] if settings.inflow_object is not None else []
-    if settings.inflow_collection is not None:
-        found += list(settings.inflow_collection.all_objects)
+def _flow_objects(settings, key):
+    """The objects that pour (``key`` "inflow") or drain ("outflow"): the Inflow (Outflow),
+    then those of the Inflows (Outflows) collection, each shape once (a metaball family's
+    members are one surface: the first of them)."""
+    one, many = getattr(settings, f"{key}_object"), getattr(settings, f"{key}_collection")
+    found = [one] if one is not None else []
+    if many is not None:
+        found += list(many.all_objects)
     first = {}
     for o in found:
         first.setdefault(meshes.shape_holder(o), o)
@@ -330,6 +332,11 @@ class FluidBlender(BlenderEffect):
                             "pour for good), from Outflow Start to Outflow "
                             "End; followed when it moves, and drains nothing at frames it is "
                             "outside the domain"),
+            outflow_collection=bpy.props.PointerProperty(
+                name="Outflows", type=bpy.types.Collection,
+                description="SIMULATE: more drains: every object in this collection drains "
+                            "as the Outflow does, its own shape, from Outflow Start to Outflow "
+                            "End"),
             outflow_start=bpy.props.IntProperty(
                 name="Outflow Start", default=1, min=-1048574, max=1048574,
                 description="SIMULATE: the first frame the Outflow drains (a plug pulled)"),
@@ -399,7 +406,7 @@ class FluidBlender(BlenderEffect):
                           f"{2.0 * cell:.3g} m, or a finer resolution", BakeWarning)
         inputs = {}
         if fp["source"] == 0:
-            if settings.fill_object is None and not _inflow_objects(settings):
+            if settings.fill_object is None and not _flow_objects(settings, "inflow"):
                 raise ValueError("Fill: SIMULATE needs an object whose shape the fluid fills "
                                  "(or an Inflow to pour it from)")
             if settings.fill_object is not None:
@@ -419,13 +426,17 @@ class FluidBlender(BlenderEffect):
                 shape = _fill_shape(context, fill, fp["particle_spacing"])
                 if shape is not None:
                     inputs["fill_shape"] = shape
-            taps = _inflow_objects(settings)
+            taps = _flow_objects(settings, "inflow")
             if taps:
                 inputs.update((yield from cls._inflows(context, settings, taps, fp, frames,
                                                        lo, hi)))
-            if settings.outflow_object is not None:
-                inputs["outflow"] = yield from cls._flow(context, settings, "Outflow", fp,
-                                                         frames, lo, hi)
+            drains = _flow_objects(settings, "outflow")
+            if drains:
+                got = []
+                for obj in drains:
+                    got.append((yield from cls._flow(context, settings, "Outflow", fp, frames,
+                                                     lo, hi, None, obj)))
+                inputs["outflow"] = got[0] if len(got) == 1 else got
             if settings.obstacles:
                 # (a metaball family's members are one surface, held by its basis)
                 found = list(dict.fromkeys(map(meshes.shape_holder,
@@ -1100,7 +1111,8 @@ class FluidBlender(BlenderEffect):
             row.prop(settings, "inflow_start", text="Start")
             row.prop(settings, "inflow_end", text="End")
         col.prop(settings, "outflow_object")
-        if settings.outflow_object is not None:
+        col.prop(settings, "outflow_collection")
+        if settings.outflow_object is not None or settings.outflow_collection is not None:
             row = col.row(align=True)
             row.prop(settings, "outflow_start", text="Start")
             row.prop(settings, "outflow_end", text="End")
