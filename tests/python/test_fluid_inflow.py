@@ -328,13 +328,10 @@ def test_what_a_resume_compares_names_the_tap_and_its_velocity():
 POOL = dict(STILL, gravity=(0.0, 0.0, -9.81), substeps=8)
 
 
-def pour(folder, end, resume=False, tap=TAP, velocity=(1.0, 0.0, -0.5), normal=0.0):
-    """Bakes frames 1..end of a jittered tap pouring into a pool from frame 3 to 5;
-    returns the runner and the particles' bytes at the end."""
-    e = get("fluid")({"fluid": POOL},
-                     {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
-                      "inflow": {3: tap, 6: None}, "inflow_velocity": velocity,
-                      "inflow_normal": normal})
+def baked(inputs, folder, end, resume=False, params=POOL):
+    """Bakes frames 1..end of a fluid of ``params`` with ``inputs`` into ``folder`` (a
+    checkpoint every two frames); returns the runner and the particles' bytes at the end."""
+    e = get("fluid")({"fluid": params}, inputs)
     try:
         r = BakeRunner(e, folder, 1, end, checkpoint_every=2, resume=resume)
         r.run()
@@ -342,6 +339,14 @@ def pour(folder, end, resume=False, tap=TAP, velocity=(1.0, 0.0, -0.5), normal=0
         return r, pos.tobytes() + vel.tobytes()
     finally:
         e.close()
+
+
+def pour(folder, end, resume=False, tap=TAP, velocity=(1.0, 0.0, -0.5), normal=0.0):
+    """Bakes frames 1..end of a jittered tap pouring into a pool from frame 3 to 5;
+    returns the runner and the particles' bytes at the end."""
+    return baked({"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
+                  "inflow": {3: tap, 6: None}, "inflow_velocity": velocity,
+                  "inflow_normal": normal}, folder, end, resume)
 
 
 def assert_resumed_alike(tmp_path, pour):

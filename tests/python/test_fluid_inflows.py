@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from hydrobake.core import errors, fluid
-from hydrobake.core.bake import BakeRunner
 from hydrobake.core.effects import get
-from test_fluid_inflow import POOL, STILL, TAP, assert_resumed_alike, forecast_and_stop
+from test_fluid_inflow import (POOL, STILL, TAP, assert_resumed_alike, baked,
+                               forecast_and_stop)
 
 TAP_B = ("box", (0.7, 0.3, 0.6), (0.045, 0.045, 0.015))
 VEL_A, VEL_B = (1.0, 0.0, 0.0), (0.0, 0.5, -1.0)
@@ -104,16 +104,8 @@ def test_the_forecast_sums_the_taps():
 
 
 def test_a_bake_cut_while_two_taps_pour_resumes_to_the_same_bytes(tmp_path):
-    def two(folder, end, resume=False):
-        e = get("fluid")({"fluid": POOL},
-                         {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
-                          "inflow": [{3: TAP, 6: None}, {2: TAP_B}],
-                          "inflow_velocity": [(1.0, 0.0, -0.5), {1: VEL_B, 4: (0.0, 0.0, -1.0)}]})
-        try:
-            r = BakeRunner(e, folder, 1, end, checkpoint_every=2, resume=resume)
-            r.run()
-            pos, vel = e.fluid.particles()
-            return r, pos.tobytes() + vel.tobytes()
-        finally:
-            e.close()
-    assert_resumed_alike(tmp_path, two)
+    inputs = {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
+              "inflow": [{3: TAP, 6: None}, {2: TAP_B}],
+              "inflow_velocity": [(1.0, 0.0, -0.5), {1: VEL_B, 4: (0.0, 0.0, -1.0)}]}
+    assert_resumed_alike(tmp_path, lambda folder, end, resume=False:
+                         baked(inputs, folder, end, resume))

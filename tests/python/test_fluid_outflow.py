@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from hydrobake.core import errors, fluid
-from hydrobake.core.bake import BakeRunner
 from hydrobake.core.effects import get
-from test_fluid_inflow import assert_resumed_alike
+from test_fluid_inflow import assert_resumed_alike, baked
 
 # The 1 m box at 16^3 (spacing 2 cm, reach 4 cm), no gravity, little viscosity.
 STILL = {"resolution": (16, 16, 16), "gravity": (0.0, 0.0, 0.0), "viscosity": 0.01,
@@ -184,17 +183,9 @@ def test_what_a_resume_compares_names_the_drain():
 def pour(folder, end, resume=False, drain=FLOOR):
     """Bakes frames 1..end of a jittered tap pouring from frame 1 into a drain opened at
     frame 3; returns the runner and the particles' bytes at the end."""
-    e = get("fluid")({"fluid": POOL},
-                     {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
-                      "inflow": {1: TAP}, "inflow_velocity": (1.0, 0.0, -0.5),
-                      "outflow": {3: drain}})
-    try:
-        r = BakeRunner(e, folder, 1, end, checkpoint_every=2, resume=resume)
-        r.run()
-        pos, vel = e.fluid.particles()
-        return r, pos.tobytes() + vel.tobytes()
-    finally:
-        e.close()
+    return baked({"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
+                  "inflow": {1: TAP}, "inflow_velocity": (1.0, 0.0, -0.5),
+                  "outflow": {3: drain}}, folder, end, resume, POOL)
 
 
 def test_a_bake_cut_while_draining_and_resumed_gives_the_same_bytes(tmp_path):

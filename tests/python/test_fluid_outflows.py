@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from hydrobake.core import errors, fluid
-from hydrobake.core.bake import BakeRunner
 from hydrobake.core.effects import get
-from test_fluid_inflow import assert_resumed_alike
+from test_fluid_inflow import assert_resumed_alike, baked
 from test_fluid_outflow import POOL, STILL, TAP, coasting
 
 LEFT = ("box", (0.3, 0.5, 0.5), (0.05, 0.5, 0.5))  # x in (0.25, 0.35)
@@ -94,18 +93,9 @@ def test_the_forecast_stops_where_the_first_drain_opens():
 
 
 def test_a_bake_cut_while_two_drains_drain_resumes_to_the_same_bytes(tmp_path):
-    def two(folder, end, resume=False):
-        e = get("fluid")({"fluid": POOL},
-                         {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
-                          "inflow": {1: TAP}, "inflow_velocity": (1.0, 0.0, -0.5),
-                          "outflow": [{3: ("box", (0.6, 0.5, 0.0), (0.1, 0.5, 0.15))},
-                                      {2: ("box", (0.35, 0.35, 0.0), (0.05, 0.05, 0.15)),
-                                       6: None}]})
-        try:
-            r = BakeRunner(e, folder, 1, end, checkpoint_every=2, resume=resume)
-            r.run()
-            pos, vel = e.fluid.particles()
-            return r, pos.tobytes() + vel.tobytes()
-        finally:
-            e.close()
-    assert_resumed_alike(tmp_path, two)
+    inputs = {"fill": ((0.3, 0.3, 0.0), (0.7, 0.7, 0.06)), "jitter": 0.2,
+              "inflow": {1: TAP}, "inflow_velocity": (1.0, 0.0, -0.5),
+              "outflow": [{3: ("box", (0.6, 0.5, 0.0), (0.1, 0.5, 0.15))},
+                          {2: ("box", (0.35, 0.35, 0.0), (0.05, 0.05, 0.15)), 6: None}]}
+    assert_resumed_alike(tmp_path, lambda folder, end, resume=False:
+                         baked(inputs, folder, end, resume))
