@@ -7,7 +7,6 @@ Cycles at frame 6 (left) and frame 16 (right).
     BLENDER_USER_SCRIPTS=<dir holding addons/hydrobake> blender -b --factory-startup \\
         --python-exit-code 1 --python docs/scripts/fluid_taps.py -- OUTDIR
 """
-import math
 import os
 import sys
 
