@@ -189,7 +189,7 @@ static double column_rate(const float u[3], const float g[3], double s)
     return disc > 0.0 ? (speed + sqrt(disc)) / (2.0 * s) : 0.0; /* 1 / t */
 }
 
-/* One inflow's points, checked as set_inflow_normal says: its lattice's (pouring at
+/* One inflow's points, checked as set_inflow_normal says (the source too): its lattice's (pouring at
  * `velocity`, *pvel NULL) or a sprinkler's (each at its own, in *pvel); *rate its particles a
  * second (hbk_fluid_inflow_rate's). The caller frees *pts and *pvel. */
 static hbk_result_t one_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
@@ -197,6 +197,10 @@ static hbk_result_t one_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape
                                const float velocity[3], float normal, float **pts, float **pvel,
                                size_t *n, double *rate)
 {
+    if (h->p.source != HBK_FLUID_SIMULATE)
+        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
+                        "inflow: source = %d: only the simulation (0) pours an inflow",
+                        h->p.source);
     size_t points;
     hbk_result_t r = hbk_fluid_shape_check(h, shape, dims, distance, &points);
     if (r) return r;
@@ -309,16 +313,6 @@ static hbk_result_t install(hbk_fluid_t *h, float *pts, float *pvel, size_t n,
     return HBK_OK;
 }
 
-/* The source check set_inflow and add_inflow share. */
-static hbk_result_t simulating(hbk_fluid_t *h)
-{
-    if (h->p.source != HBK_FLUID_SIMULATE)
-        return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
-                        "inflow: source = %d: only the simulation (0) pours an inflow",
-                        h->p.source);
-    return HBK_OK;
-}
-
 hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
                                          const int32_t dims[3], const float *distance,
                                          const float velocity[3], float normal, float jitter)
@@ -328,12 +322,11 @@ hbk_result_t hbk_fluid_set_inflow_normal(hbk_fluid_t *h, const hbk_fluid_obstacl
         hbk_fluid_inflow_free(h);
         return HBK_OK;
     }
-    hbk_result_t r = simulating(h);
-    if (r) return r;
     float *pts, *pvel;
     size_t n;
     double rate;
-    r = one_inflow(h, shape, dims, distance, velocity, normal, &pts, &pvel, &n, &rate);
+    hbk_result_t r = one_inflow(h, shape, dims, distance, velocity, normal, &pts, &pvel, &n,
+                                &rate);
     if (r) return r;
     if (!(jitter >= 0.0f && jitter <= 0.5f)) {
         free(pts);
@@ -350,12 +343,11 @@ hbk_result_t hbk_fluid_add_inflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *sh
 {
     HBK_FLUID_ENTER(h);
     if (!shape) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape: must not be NULL");
-    hbk_result_t r = simulating(h);
-    if (r) return r;
     float *pts, *pvel;
     size_t n;
     double rate;
-    r = one_inflow(h, shape, dims, distance, velocity, normal, &pts, &pvel, &n, &rate);
+    hbk_result_t r = one_inflow(h, shape, dims, distance, velocity, normal, &pts, &pvel, &n,
+                                &rate);
     if (r) return r;
     const size_t had = (size_t)h->inflow_n;
     if (had == 0) return install(h, pts, pvel, n, velocity, h->inflow_jitter, rate);

@@ -13,26 +13,22 @@ void hbk_fluid_outflow_free(hbk_fluid_t *h)
     h->drain_n = 0;
 }
 
-/* The source check set_outflow and add_outflow share. */
-static hbk_result_t simulating(hbk_fluid_t *h)
+/* The checks set_outflow and add_outflow share: the source and the shape (its field's size in
+ * *n). */
+static hbk_result_t checked(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                            const int32_t dims[3], const float *distance, size_t *n)
 {
     if (h->p.source != HBK_FLUID_SIMULATE)
         return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT,
                         "outflow: source = %d: only the simulation (0) drains an outflow",
                         h->p.source);
-    return HBK_OK;
+    return hbk_fluid_shape_check(h, shape, dims, distance, n);
 }
 
-hbk_result_t hbk_fluid_add_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
-                                   const int32_t dims[3], const float *distance)
+/* Appends a checked drain, its field (n distances) copied. */
+static hbk_result_t add_drain(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                              const int32_t dims[3], const float *distance, size_t n)
 {
-    HBK_FLUID_ENTER(h);
-    if (!shape) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape: must not be NULL");
-    hbk_result_t r = simulating(h);
-    if (r) return r;
-    size_t n;
-    r = hbk_fluid_shape_check(h, shape, dims, distance, &n);
-    if (r) return r;
     float *field = n ? malloc(n * sizeof *field) : NULL;
     uint8_t *gone = h->outflow_gone ? h->outflow_gone
                                     : malloc((size_t)(h->p.max_particles + 1) * sizeof *gone);
@@ -57,19 +53,26 @@ hbk_result_t hbk_fluid_add_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *s
     return HBK_OK;
 }
 
+hbk_result_t hbk_fluid_add_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
+                                   const int32_t dims[3], const float *distance)
+{
+    HBK_FLUID_ENTER(h);
+    if (!shape) return hbk_fail(&h->msg, HBK_ERR_INVALID_ARGUMENT, "shape: must not be NULL");
+    size_t n;
+    hbk_result_t r = checked(h, shape, dims, distance, &n);
+    return r ? r : add_drain(h, shape, dims, distance, n);
+}
+
 hbk_result_t hbk_fluid_set_outflow(hbk_fluid_t *h, const hbk_fluid_obstacle_t *shape,
                                    const int32_t dims[3], const float *distance)
 {
     HBK_FLUID_ENTER(h);
-    if (shape) { /* (checked before the drains before go: a refusal leaves them) */
-        hbk_result_t r = simulating(h);
-        size_t n;
-        if (!r) r = hbk_fluid_shape_check(h, shape, dims, distance, &n);
-        if (r) return r;
-    }
+    size_t n = 0;
+    hbk_result_t r = shape ? checked(h, shape, dims, distance, &n) : HBK_OK;
+    if (r) return r; /* (checked before the drains before go: a refusal leaves them) */
     for (int32_t i = 0; i < h->drain_n; ++i) free(h->drains[i].field);
     h->drain_n = 0;
-    return shape ? hbk_fluid_add_outflow(h, shape, dims, distance) : HBK_OK;
+    return shape ? add_drain(h, shape, dims, distance, n) : HBK_OK;
 }
 
 int32_t hbk_fluid_outflow_removed(const hbk_fluid_t *h) { return h ? h->outflow_removed : 0; }

@@ -173,13 +173,10 @@ def _flat_normal(co, polys):
     _, sv, vt = np.linalg.svd(centred, full_matrices=False)
     if len(sv) < 3 or sv[2] > 1e-5 * max(size, 1e-9) * np.sqrt(len(co)):
         return None
-    area = np.zeros(3)
-    for p in polys:  # (a fan of each face: its area vector)
-        for a, b in zip(p[1:-1], p[2:]):
-            area += np.cross(co[a] - co[p[0]], co[b] - co[p[0]])
-    n = vt[2]
-    total = sum(np.linalg.norm(np.cross(co[a] - co[p[0]], co[b] - co[p[0]]))
-                for p in polys for a, b in zip(p[1:-1], p[2:]))
+    fans = np.array([(p[0], a, b) for p in polys for a, b in zip(p[1:-1], p[2:])], np.int64)
+    cross = np.cross(co[fans[:, 1]] - co[fans[:, 0]], co[fans[:, 2]] - co[fans[:, 0]])
+    area, total = cross.sum(axis=0), float(np.linalg.norm(cross, axis=1).sum())
+    n = vt[2]  # (each fan's triangle's area vector: their sum, and their sizes')
     if total <= 0.0 or abs(float(area @ n)) < 0.5 * total:
         return None  # faces facing both ways: no one side to pour from
     return n if area @ n > 0.0 else -n

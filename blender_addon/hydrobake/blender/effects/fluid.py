@@ -135,6 +135,11 @@ def _warn_unsigned(obj):
                   f"{fix} for a solid", BakeWarning)
 
 
+def _sprays(normal):
+    """Whether a Normal (one, or {frame: one}) is above 0 at some frame."""
+    return any(v > 0.0 for v in (normal.values() if isinstance(normal, dict) else [normal]))
+
+
 def _flow_objects(settings, key):
     """The objects that pour (``key`` "inflow") or drain ("outflow"): the Inflow (Outflow),
     then those of the Inflows (Outflows) collection, each shape once (a metaball family's
@@ -434,8 +439,8 @@ class FluidBlender(BlenderEffect):
             if drains:
                 got = []
                 for obj in drains:
-                    got.append((yield from cls._flow(context, settings, "Outflow", fp, frames,
-                                                     lo, hi, None, obj)))
+                    got.append((yield from cls._flow(context, settings, "Outflow", obj, fp,
+                                                     frames, lo, hi)))
                 inputs["outflow"] = got[0] if len(got) == 1 else got
             if settings.obstacles:
                 # (a metaball family's members are one surface, held by its basis)
@@ -504,29 +509,27 @@ class FluidBlender(BlenderEffect):
         normal = None  # (the Normal, read once for all the taps that spray it)
         for obj in taps:
             made = {}
-            shapes.append((yield from cls._flow(context, settings, "Inflow", fp, frames, lo, hi,
-                                                made, obj)))
+            shapes.append((yield from cls._flow(context, settings, "Inflow", obj, fp, frames, lo,
+                                                hi, made)))
             sheet = made.get("shape")
             sheet = sheet if sheet is not None and sheet.sheet else None
             # a flat sheet's Normal is one velocity, along its faces' normal (as Mantaflow's
             # planar flow): poured from its lattice, one side only
             flat = sheet.flat if sheet is not None and not animation.may_deform(obj) else None
-            velocities.append((yield from cls._inflow_velocity(context, settings, frames,
-                                                               fp["dt"], flat, obj)))
+            velocities.append((yield from cls._inflow_velocity(context, settings, obj, frames,
+                                                               fp["dt"], flat)))
             if flat is not None:
                 normals.append(0.0)
                 continue
             if normal is None:
                 normal = yield from cls._inflow_normal(context, settings, frames)
             normals.append(normal)
-            if sheet is not None and any(v > 0.0 for v in (
-                    normal.values() if isinstance(normal, dict) else [normal])):
+            if sheet is not None and _sprays(normal):
                 warnings.warn(f"Inflow: {obj.name}'s faces are open and do not lie in one "
                               "plane facing one way, so its Normal sprays from both sides of "
                               "them; flatten it for one side, or close it for a sprinkler",
                               BakeWarning)
-        sprays = any(v > 0.0 for n in normals
-                     for v in (n.values() if isinstance(n, dict) else [n]))
+        sprays = any(map(_sprays, normals))
         if len(taps) == 1:
             return {"inflow": shapes[0], "inflow_velocity": velocities[0],
                     **({"inflow_normal": normals[0]} if sprays else {})}
@@ -563,17 +566,16 @@ class FluidBlender(BlenderEffect):
         return first, path
 
     @classmethod
-    def _flow(cls, context, settings, role, fp, frames, lo, hi, made=None, obj=None):
-        """The core's inflow or outflow input (``role`` "Inflow" or "Outflow"), {frame: shape
-        or None}: None before its Start and after its End; in between its object's shape (as
-        the Fill's: a ball, a field, or its box) at the start and wherever it moves or changes
-        shape after (None where it is outside the domain)."""
+    def _flow(cls, context, settings, role, obj, fp, frames, lo, hi, made=None):
+        """The core's inflow or outflow schedule of ``obj`` (``role`` "Inflow" or "Outflow"),
+        {frame: shape or None}: None before its Start and after its End; in between its shape
+        (as the Fill's: a ball, a field, a sheet, or its box) at the start and wherever it
+        moves or changes shape after (None where it is outside the domain)."""
         key = role.lower()
         start, end = getattr(settings, f"{key}_start"), getattr(settings, f"{key}_end")
         if end < start:
             raise ValueError(f"{role} End = {end} is before {role} Start = {start}: the "
                              f"{role} would never {'pour' if key == 'inflow' else 'drain'}")
-        obj = getattr(settings, f"{key}_object") if obj is None else obj
         first, path = yield from cls._followed_shape(context, obj, role, fp, frames, lo, hi,
                                                      {} if made is None else made)
         out = {frames[0]: None} if start > frames[0] else {}
@@ -600,13 +602,13 @@ class FluidBlender(BlenderEffect):
         return got[frames[0]] if isinstance(got, dict) else got
 
     @classmethod
-    def _inflow_velocity(cls, context, settings, frames, dt, flat=None, obj=None):
+    def _inflow_velocity(cls, context, settings, obj, frames, dt, flat=None):
         """The core's inflow_velocity: the Inflow Velocity (world axes; with Local Velocity
         turned by the Inflow object's world rotation) plus Source times the object's own
         velocity (see _followed_velocity); for a flat sheet plus Normal times its faces'
         normal (``flat``, in its scaled own axes) turned into the world."""
         return (yield from cls._followed_velocity(
-            context, settings, "inflow_velocity", obj or settings.inflow_object, frames, dt,
+            context, settings, "inflow_velocity", obj, frames, dt,
             settings.inflow_local, settings.inflow_source, flat))
 
     @staticmethod

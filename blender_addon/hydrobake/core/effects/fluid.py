@@ -145,7 +145,7 @@ class FluidEffect(Effect):
         return out
 
     def _check_inflow(self, inp):
-        """The inflow inputs (fluid_inflows.Inflows), checked whole before the first frame."""
+        """The inflow inputs (fluid_flows.Inflows), checked whole before the first frame."""
         self.inflows = Inflows(inp, self.fluid, self.params["fluid"].source == 0,
                                float(inp.get("jitter", 0.0)))
         self._capped_at = None  # the first frame the inflow stopped at max_particles

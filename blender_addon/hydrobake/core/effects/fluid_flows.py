@@ -37,6 +37,21 @@ def shape_digest(shape):
         shape[4] if len(shape) > 4 else None)
 
 
+def _named(name, frame, put):
+    """put(), a refusal named "name[frame]" (the library's "name: " prefix dropped)."""
+    try:
+        put()
+    except errors.InvalidArgument as exc:
+        raise errors.InvalidArgument(
+            f"{name}[{frame}]: {str(exc).removeprefix(f'{name}: ')}") from None
+
+
+def _shapes_digest(shapes):
+    """One digest of several shapes (or Nones), in order."""
+    digests = "".join(shape_digest(sh) for sh in shapes)
+    return arrays.digest(np.frombuffer(digests.encode(), np.uint8))
+
+
 def _velocity(given, name):
     """A checked velocity (vx, vy, vz) m/s, each component within +-1000."""
     v = tuple(args.numbers(given, name, 3))
@@ -141,7 +156,8 @@ class Inflows:
             for f in sorted(tap.changes()):  # (a velocity turned into a sprinkler: none left)
                 shape, v, n = tap.at(f)
                 if shape is not None:
-                    points += self._named(name, f, lambda: self._set(((shape, v, n),)))
+                    _named(name, f, lambda: self._set(((shape, v, n),)))
+                    points += self.fluid.inflow_points
             if any(sh is not None for sh in tap.shapes.values()) and points == 0:
                 # (one frame's shape outside the box pours nothing there; every one is a
                 # mistake)
@@ -150,17 +166,8 @@ class Inflows:
                     "(is it thinner than particle_spacing, or outside?)")
         if len(self.taps) > 1:  # together, where any changes
             for f in sorted(set().union(*(t.changes() for t in self.taps))):
-                self._named("inflow", f, lambda: self._set(self._pouring(f)))
+                _named("inflow", f, lambda: self._set(self._pouring(f)))
         self.fluid.set_inflow(None)
-
-    def _named(self, name, frame, put):
-        """put(), a refusal named "name[frame]"; the inflow's points after it."""
-        try:
-            put()
-        except errors.InvalidArgument as exc:
-            raise errors.InvalidArgument(
-                f"{name}[{frame}]: {str(exc).removeprefix(f'{name}: ')}") from None
-        return self.fluid.inflow_points
 
     def _pouring(self, frame):
         """(shape, velocity, normal) of each tap pouring at ``frame``."""
@@ -228,9 +235,8 @@ class Inflows:
                     **({"inflow normal": arrays.digest(np.array([n], np.float32))}
                        if tap.normal.by_frame else {})}
         # (each tap's shape; the velocities and Normals of those pouring, by tap)
-        digests = "".join(shape_digest(shape) for shape, _, _ in pours)
         on = [(k, v, n) for k, (shape, v, n) in enumerate(pours) if shape is not None]
-        return {"inflow": arrays.digest(np.frombuffer(digests.encode(), np.uint8)),
+        return {"inflow": _shapes_digest(shape for shape, _, _ in pours),
                 "inflow velocity": arrays.digest(
                     np.array([(k,) + tuple(v) for k, v, _ in on], np.float32).reshape(-1, 4)),
                 "inflow normal": arrays.digest(
@@ -244,45 +250,38 @@ class Outflows:
     def __init__(self, inp, fluid, simulating):
         given = inp.get("outflow") or {}
         self.many = isinstance(given, list)
-        self.names = ([f"outflow[{k}]" for k in range(len(given))] if self.many
-                      else ["outflow"])
+        names = [f"outflow[{k}]" for k in range(len(given))] if self.many else ["outflow"]
         self.drains = [schedule(sh, name)
-                       for sh, name in zip(given if self.many else [given], self.names)]
+                       for sh, name in zip(given if self.many else [given], names)]
         self.keys = [sorted(d) for d in self.drains]
         self.any = any(self.drains)
         self.fluid, self._on = fluid, None
         if self.any and not simulating:
             raise errors.InvalidArgument("outflow: only the simulation (source SIMULATE) "
                                          "drains an outflow")
-        for drain, name in zip(self.drains, self.names):
+        for drain, name in zip(self.drains, names):
             for f in sorted(drain):
-                if drain[f] is None:
-                    continue
-                try:
-                    self.fluid.set_outflow(drain[f])
-                except errors.InvalidArgument as exc:
-                    raise errors.InvalidArgument(
-                        f"{name}[{f}]: {str(exc).removeprefix(f'{name}: ')}") from None
+                if drain[f] is not None:
+                    _named(name, f, lambda: self.fluid.set_outflow(drain[f]))
         self.fluid.set_outflow(None)
 
-    def _open(self, frame):
-        """The shapes of the drains open at ``frame``."""
+    def _at(self, frame):
+        """Each drain's shape at ``frame`` (None: closed)."""
         out = []
         for drain, keys in zip(self.drains, self.keys):
             key = key_at(keys, frame)
-            if key is not None and drain[key] is not None:
-                out.append(drain[key])
+            out.append(None if key is None else drain[key])
         return out
 
     def opened(self, frame):
         """Whether a drain is open at ``frame``."""
-        return bool(self._open(frame))
+        return any(sh is not None for sh in self._at(frame))
 
     def apply(self, frame):
         """Sets the library's drains as ``frame``'s step drains, where they changed."""
         key = tuple(key_at(keys, frame) for keys in self.keys)
         if key != self._on:
-            shapes = self._open(frame)
+            shapes = [sh for sh in self._at(frame) if sh is not None]
             self.fluid.set_outflow(shapes[0] if shapes else None)
             for shape in shapes[1:]:
                 self.fluid.add_outflow(shape)
@@ -292,11 +291,5 @@ class Outflows:
         """The shapes ``frame``'s step drains into (a resume must match them)."""
         if not self.any:
             return {}
-        shapes = []
-        for drain, keys in zip(self.drains, self.keys):
-            key = key_at(keys, frame)
-            shapes.append(None if key is None else drain[key])
-        if not self.many:
-            return {"outflow": shape_digest(shapes[0])}
-        digests = "".join(shape_digest(sh) for sh in shapes)
-        return {"outflow": arrays.digest(np.frombuffer(digests.encode(), np.uint8))}
+        shapes = self._at(frame)
+        return {"outflow": _shapes_digest(shapes) if self.many else shape_digest(shapes[0])}
